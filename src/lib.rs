@@ -1,0 +1,27 @@
+//! bikeproc: from the raw IMU logs of a bicycle-dynamics lab to inertias, Whipple-model
+//! eigenvalues and the sim-to-real gap.
+//!
+//! The data flow, one module per stage:
+//!
+//! ```text
+//! log ──► signal ──► spectral ──► fit ──► (inertia ──► model ──► ride ──► gap)
+//!  ▲                                                                    │
+//!  └──────────── sim (writes logs from its own physics) ────  report ◄──┘
+//! ```
+//!
+//! - [`log`]: the lab's log files → samples on the 100 Hz grid, gaps, orientations.
+//! - [`signal`]: a log or CSV → one scalar oscillation signal.
+//! - [`spectral`]: a signal → its spectrum and peaks (the fit's first guess).
+//! - [`fit`]: a signal → free-decay segment, damped-sinusoid fit, standard errors.
+//! - [`sim`]: the lab simulated from physics (never calls the estimators).
+//! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
+//! - `plot` (feature `plot`): SVG figures for the reports.
+
+pub mod fit;
+pub mod log;
+#[cfg(feature = "plot")]
+pub mod plot;
+pub mod report;
+pub mod sim;
+pub mod signal;
+pub mod spectral;

@@ -1,0 +1,831 @@
+//! Log reading: the lab's IMU log files (`../shared/formats/imu-log.md`) → [`Log`].
+//!
+//! In: the text of a `NAME.log` (orientation: Euler, Quaternion or Matrix) or `NAME_cal.log`
+//! (Calibrated) file, tab-separated or in the Spanish locale (`;` and decimal `,`).
+//! Out: every data column on the sensors' 100 Hz grid (a row's place on the grid comes from the
+//! packet counter, checked against the receiver's time stamps), the gaps left by dropped packets and
+//! corrupt rows, and per sensor its orientation as unit quaternions (rotation sensor → global).
+//!
+//! Nothing is bridged: a missing sample is simply absent from [`Log::grid_index`]. Every error names
+//! the file, the line and the column, and says what was expected.
+
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// The packet counter is an unsigned 16-bit number: it wraps from 65535 to 0.
+const COUNTER_MODULUS: u64 = 65_536;
+
+/// How an orientation file encodes each sensor's rotation, or `Calibrated` for a `_cal` file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputMode {
+    /// `Roll Pitch Yaw` in degrees, aerospace Z-Y-X sequence.
+    Euler,
+    /// `q0 q1 q2 q3`, `q0` the scalar part.
+    Quaternion,
+    /// `M11 … M33`, row by row.
+    Matrix,
+    /// `Acc_X … Mag_Z`: acceleration (m/s²), angular rate (rad/s), magnetic field (a.u.).
+    Calibrated,
+}
+
+impl OutputMode {
+    /// The per-sensor column names the mode requires, in file order.
+    pub fn channels(self) -> &'static [&'static str] {
+        match self {
+            OutputMode::Euler => &["Roll", "Pitch", "Yaw"],
+            OutputMode::Quaternion => &["q0", "q1", "q2", "q3"],
+            OutputMode::Matrix => &[
+                "M11", "M12", "M13", "M21", "M22", "M23", "M31", "M32", "M33",
+            ],
+            OutputMode::Calibrated => &[
+                "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z", "Mag_X", "Mag_Y", "Mag_Z",
+            ],
+        }
+    }
+
+    /// The name the header's `Output mode:` line uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            OutputMode::Euler => "Euler",
+            OutputMode::Quaternion => "Quaternion",
+            OutputMode::Matrix => "Matrix",
+            OutputMode::Calibrated => "Calibrated",
+        }
+    }
+
+    fn parse(s: &str) -> Option<Self> {
+        [
+            OutputMode::Euler,
+            OutputMode::Quaternion,
+            OutputMode::Matrix,
+            OutputMode::Calibrated,
+        ]
+        .into_iter()
+        .find(|m| m.name().eq_ignore_ascii_case(s))
+    }
+}
+
+/// What went wrong in a log file.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LogErrorKind {
+    Io(String),
+    Binary,
+    Empty,
+    NoColumnRow,
+    MissingKey(&'static str),
+    BadSampleRate(String),
+    UnknownMode(String),
+    UnknownSeparator,
+    MissingColumn(String),
+    DuplicateColumn(String),
+    NoSensorColumns,
+    FieldCount { expected: usize, found: usize },
+    BadNumber { column: String, text: String },
+    BadCounter(String),
+    TimeBackwards { previous_s: f64, now_s: f64 },
+    CounterBackwards { previous: u64, now: u64 },
+    CounterRepeats(u64),
+    CounterTimeMismatch { counter_samples: u64, time_samples: f64 },
+    QuaternionNorm(f64),
+    NotRotation(f64),
+    TooManyCorruptRun { run: usize, limit: usize },
+    TooManyCorrupt { corrupt: usize, rows: usize, limit_percent: f64 },
+    NoData,
+}
+
+impl fmt::Display for LogErrorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use LogErrorKind::*;
+        match self {
+            Io(e) => write!(f, "cannot read: {e}"),
+            Binary => write!(f, "binary data where text was expected (is this a log file?)"),
+            Empty => write!(f, "the file is empty"),
+            NoColumnRow => write!(f, "no row of column names after the header"),
+            MissingKey(k) => write!(f, "header line `// {k}: …` is missing"),
+            BadSampleRate(s) => write!(f, "sample rate `{s}`: expected a positive number of Hz"),
+            UnknownMode(s) => write!(
+                f,
+                "unknown output mode `{s}`: expected Euler, Quaternion, Matrix or Calibrated"
+            ),
+            UnknownSeparator => write!(
+                f,
+                "cannot tell the field separator: expected tabs, or `;` (Spanish locale)"
+            ),
+            MissingColumn(c) => write!(f, "column `{c}` is missing"),
+            DuplicateColumn(c) => write!(f, "column `{c}` appears twice"),
+            NoSensorColumns => write!(f, "no sensor columns for the output mode"),
+            FieldCount { expected, found } => {
+                write!(f, "{found} fields, expected {expected} (one per column)")
+            }
+            BadNumber { column, text } => write!(f, "`{text}` in column {column}: expected a number"),
+            BadCounter(t) => write!(f, "counter `{t}`: expected a whole number from 0 to 65535"),
+            TimeBackwards { previous_s, now_s } => write!(
+                f,
+                "time goes backwards or stands still: {now_s} s after {previous_s} s"
+            ),
+            CounterBackwards { previous, now } => {
+                write!(f, "packet counter jumps backwards from {previous} to {now}")
+            }
+            CounterRepeats(c) => write!(f, "packet counter {c} repeats"),
+            CounterTimeMismatch { counter_samples, time_samples } => write!(
+                f,
+                "counter and time disagree: the counter advances {counter_samples} samples, \
+                 the time {time_samples:.2}"
+            ),
+            QuaternionNorm(n) => write!(f, "quaternion of norm {n}: expected a unit quaternion"),
+            NotRotation(e) => write!(
+                f,
+                "not a rotation matrix (|MᵀM − I| = {e:.3e} or det < 0): expected orthonormal rows"
+            ),
+            TooManyCorruptRun { run, limit } => write!(
+                f,
+                "{run} corrupt rows (cut short or NaN) in a row: more than the limit of {limit}"
+            ),
+            TooManyCorrupt { corrupt, rows, limit_percent } => write!(
+                f,
+                "{corrupt} of {rows} rows are corrupt (cut short or NaN): more than {limit_percent} %"
+            ),
+            NoData => write!(f, "no data rows"),
+        }
+    }
+}
+
+/// An error in a log file, with where it is.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct LogError {
+    pub path: PathBuf,
+    /// 1-based line, when the error is on one.
+    pub line: Option<usize>,
+    /// 1-based character column, when the error is in one field.
+    pub column: Option<usize>,
+    pub kind: LogErrorKind,
+}
+
+impl fmt::Display for LogError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.path.display())?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+            if let Some(c) = self.column {
+                write!(f, ":{c}")?;
+            }
+        }
+        write!(f, ": {}", self.kind)
+    }
+}
+
+/// Limits on corrupt rows (cut short, or holding NaN) that are kept as gaps.
+#[derive(Debug, Clone, Copy)]
+pub struct ReadOptions {
+    /// Longest run of consecutive corrupt rows accepted (default 25 rows = 0.25 s at 100 Hz).
+    pub max_corrupt_run: usize,
+    /// Largest fraction of corrupt rows accepted, in percent (default 5 %).
+    pub max_corrupt_percent: f64,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        ReadOptions {
+            max_corrupt_run: 25,
+            max_corrupt_percent: 5.0,
+        }
+    }
+}
+
+/// One sensor of the receiver: its serial, where it is mounted, and its columns.
+#[derive(Debug, Clone)]
+pub struct Sensor {
+    pub id: String,
+    /// Free text from the header (`frame`, `handlebar`, `torsion bar`, …); empty when not given.
+    pub label: String,
+    /// Indices into [`Log::columns`], in the order of [`OutputMode::channels`].
+    pub channel_columns: Vec<usize>,
+    /// Rotation sensor frame → global frame at each kept sample (orientation files only),
+    /// sign-continuous (consecutive quaternions have a non-negative dot product).
+    pub orientation: Vec<UnitQuaternion<f64>>,
+}
+
+/// What the reader found missing: dropped packets and corrupt rows, both left as gaps.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GapReport {
+    /// Grid samples with no data (dropped packets plus corrupt rows).
+    pub missing_samples: u64,
+    /// Separate places where the grid has a hole.
+    pub gaps: usize,
+    /// The longest hole, in samples.
+    pub longest_gap_samples: u64,
+    /// Rows that were cut short or held NaN (counted in `missing_samples` too).
+    pub corrupt_rows: usize,
+    /// Line of the first corrupt row.
+    pub first_corrupt_line: Option<usize>,
+}
+
+/// A log file read onto the sensors' sample grid.
+#[derive(Debug, Clone)]
+pub struct Log {
+    pub path: PathBuf,
+    pub sample_rate_hz: f64,
+    pub mode: OutputMode,
+    /// Every `// Key: value` header line, in file order (unknown keys included).
+    pub metadata: Vec<(String, String)>,
+    /// Whether the file used `;` and decimal `,` (Spanish locale).
+    pub spanish_locale: bool,
+    /// Names of the data columns (all but `Counter` and `Time`), as written.
+    pub columns: Vec<String>,
+    /// Per data column, the value at each kept sample (Euler roll and yaw unwrapped, in degrees).
+    pub data: Vec<Vec<f64>>,
+    /// Grid position of each kept sample: samples since the first row, at `sample_rate_hz`.
+    pub grid_index: Vec<u64>,
+    pub sensors: Vec<Sensor>,
+    pub gaps: GapReport,
+    /// Things the reader tolerated and the user should know.
+    pub warnings: Vec<String>,
+}
+
+impl Log {
+    /// Reads a log file from disk.
+    pub fn open(path: &Path, options: &ReadOptions) -> Result<Log, LogError> {
+        let bytes = std::fs::read(path).map_err(|e| LogError {
+            path: path.to_path_buf(),
+            line: None,
+            column: None,
+            kind: LogErrorKind::Io(e.to_string()),
+        })?;
+        Log::parse(&bytes, path, options)
+    }
+
+    /// Parses the bytes of a log file; `path` is used in messages only. Never panics.
+    pub fn parse(bytes: &[u8], path: &Path, options: &ReadOptions) -> Result<Log, LogError> {
+        Parser::new(path, options).parse(bytes)
+    }
+
+    /// Index of a data column by exact name, or by the short name (`Roll`, `Gyr_Z`) when one
+    /// sensor has it (with a sensor id, `00300417_Gyr_Z`).
+    pub fn column_index(&self, name: &str) -> Option<usize> {
+        if let Some(i) = self.columns.iter().position(|c| c == name) {
+            return Some(i);
+        }
+        let mut found = self
+            .columns
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| short_name(c) == name);
+        match (found.next(), found.next()) {
+            (Some((i, _)), None) => Some(i),
+            _ => None,
+        }
+    }
+
+    /// A sensor by id or by its label (case-insensitive).
+    pub fn sensor(&self, key: &str) -> Option<&Sensor> {
+        self.sensors
+            .iter()
+            .find(|s| s.id == key)
+            .or_else(|| self.sensors.iter().find(|s| s.label.eq_ignore_ascii_case(key)))
+    }
+
+    /// Time of each kept sample on the sensor clock, seconds from the first row.
+    pub fn times_s(&self) -> impl Iterator<Item = f64> + '_ {
+        let dt = 1.0 / self.sample_rate_hz;
+        self.grid_index.iter().map(move |&i| i as f64 * dt)
+    }
+
+    /// Number of grid samples the log spans, kept or missing.
+    pub fn grid_len(&self) -> u64 {
+        self.grid_index.last().map_or(0, |&l| l + 1)
+    }
+
+    /// The `_cal` partner of an orientation file: `NAME.log` → `NAME_cal.log`.
+    pub fn cal_path(angles_path: &Path) -> PathBuf {
+        let stem = angles_path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        angles_path.with_file_name(format!("{stem}_cal.log"))
+    }
+}
+
+/// The channel part of a column name: `00300417_Gyr_Z` → `Gyr_Z`, `Roll` → `Roll`.
+fn short_name(column: &str) -> &str {
+    match column.split_once('_') {
+        Some((prefix, rest)) if is_sensor_id(prefix) => rest,
+        _ => column,
+    }
+}
+
+/// Sensor ids are the hardware serials: all digits or hex-like upper-case, never a channel name.
+fn is_sensor_id(s: &str) -> bool {
+    !s.is_empty()
+        && s.chars().any(|c| c.is_ascii_digit())
+        && s.chars().all(|c| c.is_ascii_digit() || c.is_ascii_uppercase())
+}
+
+struct Parser<'a> {
+    path: &'a Path,
+    options: &'a ReadOptions,
+}
+
+/// Where a field sits in its line.
+#[derive(Clone, Copy)]
+struct Field<'t> {
+    text: &'t str,
+    col: usize,
+}
+
+impl<'a> Parser<'a> {
+    fn new(path: &'a Path, options: &'a ReadOptions) -> Self {
+        Parser { path, options }
+    }
+
+    fn err(&self, line: Option<usize>, column: Option<usize>, kind: LogErrorKind) -> LogError {
+        LogError {
+            path: self.path.to_path_buf(),
+            line,
+            column,
+            kind,
+        }
+    }
+
+    fn parse(&self, bytes: &[u8]) -> Result<Log, LogError> {
+        if bytes.is_empty() {
+            return Err(self.err(None, None, LogErrorKind::Empty));
+        }
+        let text = match std::str::from_utf8(bytes) {
+            Ok(t) if !t.contains('\0') => t,
+            Ok(t) => {
+                let at = t.find('\0').unwrap_or(0);
+                return Err(self.err(Some(line_of(bytes, at)), None, LogErrorKind::Binary));
+            }
+            Err(e) => {
+                return Err(self.err(Some(line_of(bytes, e.valid_up_to())), None, LogErrorKind::Binary))
+            }
+        };
+        if text.trim().is_empty() {
+            return Err(self.err(None, None, LogErrorKind::Empty));
+        }
+
+        let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+        // Header.
+        let mut metadata = Vec::new();
+        let mut sensor_labels: Vec<(String, String)> = Vec::new();
+        let mut column_row = None;
+        for (no, line) in lines.by_ref() {
+            if let Some(rest) = line.strip_prefix("//") {
+                if let Some((k, v)) = rest.split_once(':') {
+                    let (k, v) = (k.trim().to_string(), v.trim().to_string());
+                    if let Some(id) = k.strip_prefix("Sensor ") {
+                        sensor_labels.push((id.trim().to_string(), v.clone()));
+                    }
+                    metadata.push((k, v));
+                }
+                continue;
+            }
+            if line.trim().is_empty() {
+                continue;
+            }
+            column_row = Some((no, line));
+            break;
+        }
+        let meta = |key: &str| metadata.iter().find(|(k, _)| k.eq_ignore_ascii_case(key)).map(|(_, v)| v.as_str());
+        let header_line = |key: &str| {
+            text.lines()
+                .position(|l| l.starts_with("//") && l[2..].trim_start().to_ascii_lowercase().starts_with(&key.to_ascii_lowercase()))
+                .map(|i| i + 1)
+        };
+        let rate_text = meta("Sample rate").ok_or_else(|| self.err(None, None, LogErrorKind::MissingKey("Sample rate")))?;
+        let sample_rate_hz = rate_text
+            .trim_end_matches("Hz")
+            .trim()
+            .replace(',', ".")
+            .parse::<f64>()
+            .ok()
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .ok_or_else(|| self.err(header_line("Sample rate"), None, LogErrorKind::BadSampleRate(rate_text.to_string())))?;
+        let mode_text = meta("Output mode").ok_or_else(|| self.err(None, None, LogErrorKind::MissingKey("Output mode")))?;
+        let mode = OutputMode::parse(mode_text)
+            .ok_or_else(|| self.err(header_line("Output mode"), None, LogErrorKind::UnknownMode(mode_text.to_string())))?;
+        let declared_comma = meta("Decimal separator").map(|v| v.trim() == ",");
+
+        let (col_line_no, col_line) = column_row.ok_or_else(|| self.err(None, None, LogErrorKind::NoColumnRow))?;
+        let separator = if col_line.contains('\t') {
+            '\t'
+        } else if col_line.contains(';') {
+            ';'
+        } else {
+            return Err(self.err(Some(col_line_no), None, LogErrorKind::UnknownSeparator));
+        };
+        let decimal_comma = declared_comma.unwrap_or(separator == ';');
+        let names: Vec<Field> = split_fields(col_line, separator).collect();
+        let names_text: Vec<&str> = names.iter().map(|f| f.text.trim()).collect();
+        for (i, n) in names_text.iter().enumerate() {
+            if names_text[..i].contains(n) {
+                return Err(self.err(Some(col_line_no), Some(names[i].col), LogErrorKind::DuplicateColumn(n.to_string())));
+            }
+        }
+        let find = |n: &str| names_text.iter().position(|c| *c == n);
+        let counter_col = find("Counter")
+            .ok_or_else(|| self.err(Some(col_line_no), None, LogErrorKind::MissingColumn("Counter".into())))?;
+        let time_col =
+            find("Time").ok_or_else(|| self.err(Some(col_line_no), None, LogErrorKind::MissingColumn("Time".into())))?;
+        // Data columns: everything but Counter and Time, in file order.
+        let data_fields: Vec<usize> = (0..names.len()).filter(|&i| i != counter_col && i != time_col).collect();
+        let columns: Vec<String> = data_fields.iter().map(|&i| names_text[i].to_string()).collect();
+
+        // Sensors: from the header's `Sensor <ID>` lines, else from the column prefixes.
+        let mut ids: Vec<String> = sensor_labels.iter().map(|(id, _)| id.clone()).collect();
+        if ids.is_empty() {
+            for c in &columns {
+                if let Some((p, _)) = c.split_once('_') {
+                    if is_sensor_id(p) && !ids.iter().any(|i| i == p) {
+                        ids.push(p.to_string());
+                    }
+                }
+            }
+        }
+        let channels = mode.channels();
+        let mut sensors = Vec::new();
+        let unprefixed = channels.iter().all(|ch| columns.iter().any(|c| c == ch));
+        if unprefixed && ids.len() <= 1 {
+            let id = ids.first().cloned().unwrap_or_default();
+            let label = sensor_labels.first().map(|(_, l)| l.clone()).unwrap_or_default();
+            let channel_columns = channels.iter().filter_map(|ch| columns.iter().position(|c| c == ch)).collect();
+            sensors.push(Sensor { id, label, channel_columns, orientation: Vec::new() });
+        } else {
+            if ids.is_empty() {
+                return Err(self.err(Some(col_line_no), None, LogErrorKind::NoSensorColumns));
+            }
+            for id in &ids {
+                let mut channel_columns = Vec::with_capacity(channels.len());
+                for ch in channels {
+                    let want = format!("{id}_{ch}");
+                    let i = columns
+                        .iter()
+                        .position(|c| *c == want)
+                        .ok_or_else(|| self.err(Some(col_line_no), None, LogErrorKind::MissingColumn(want.clone())))?;
+                    channel_columns.push(i);
+                }
+                let label = sensor_labels.iter().find(|(i, _)| i == id).map(|(_, l)| l.clone()).unwrap_or_default();
+                sensors.push(Sensor { id: id.clone(), label, channel_columns, orientation: Vec::new() });
+            }
+        }
+
+        // Data rows.
+        let n_fields = names.len();
+        let mut data: Vec<Vec<f64>> = vec![Vec::new(); columns.len()];
+        let mut grid_index: Vec<u64> = Vec::new();
+        let mut row_lines: Vec<usize> = Vec::new();
+        let mut gaps = GapReport::default();
+        let mut corrupt_run = 0usize;
+        let mut rows = 0usize;
+        // Last accepted row (counter, time, grid position) and the last row seen at all.
+        let mut prev: Option<(u64, f64, u64)> = None;
+        let mut values: Vec<f64> = vec![0.0; n_fields];
+        for (no, line) in lines {
+            if line.trim().is_empty() || line.starts_with("//") {
+                continue;
+            }
+            rows += 1;
+            let mut count = 0usize;
+            let mut corrupt = false;
+            let mut counter = None;
+            for (fi, field) in split_fields(line, separator).enumerate() {
+                count += 1;
+                if fi >= n_fields {
+                    return Err(self.err(
+                        Some(no),
+                        Some(field.col),
+                        LogErrorKind::FieldCount { expected: n_fields, found: split_fields(line, separator).count() },
+                    ));
+                }
+                let t = field.text.trim();
+                if fi == counter_col {
+                    match t.parse::<u64>() {
+                        Ok(c) if c < COUNTER_MODULUS => counter = Some(c),
+                        _ if is_nan_text(t) => corrupt = true,
+                        _ => return Err(self.err(Some(no), Some(field.col), LogErrorKind::BadCounter(t.to_string()))),
+                    }
+                    continue;
+                }
+                match parse_number(t, decimal_comma) {
+                    Some(v) if v.is_finite() => values[fi] = v,
+                    Some(_) => corrupt = true,
+                    None if t.is_empty() && fi + 1 == n_fields => corrupt = true,
+                    None => {
+                        return Err(self.err(
+                            Some(no),
+                            Some(field.col),
+                            LogErrorKind::BadNumber { column: names_text[fi].to_string(), text: t.to_string() },
+                        ))
+                    }
+                }
+            }
+            if count < n_fields {
+                corrupt = true;
+            }
+            if corrupt {
+                gaps.corrupt_rows += 1;
+                gaps.first_corrupt_line.get_or_insert(no);
+                corrupt_run += 1;
+                if corrupt_run > self.options.max_corrupt_run {
+                    return Err(self.err(
+                        Some(no),
+                        None,
+                        LogErrorKind::TooManyCorruptRun { run: corrupt_run, limit: self.options.max_corrupt_run },
+                    ));
+                }
+                continue;
+            }
+            corrupt_run = 0;
+            let Some(counter) = counter else { continue };
+            let time = values[time_col];
+            let grid = match prev {
+                None => 0,
+                Some((pc, pt, pg)) => {
+                    if time <= pt {
+                        return Err(self.err(
+                            Some(no),
+                            Some(field_col(line, separator, time_col)),
+                            LogErrorKind::TimeBackwards { previous_s: pt, now_s: time },
+                        ));
+                    }
+                    let step = self.grid_step(pc, counter, time - pt, sample_rate_hz).map_err(|k| {
+                        self.err(Some(no), Some(field_col(line, separator, counter_col)), k)
+                    })?;
+                    pg + step
+                }
+            };
+            if let Some((_, _, pg)) = prev {
+                let hole = grid - pg - 1;
+                if hole > 0 {
+                    gaps.gaps += 1;
+                    gaps.missing_samples += hole;
+                    gaps.longest_gap_samples = gaps.longest_gap_samples.max(hole);
+                }
+            }
+            prev = Some((counter, time, grid));
+            grid_index.push(grid);
+            row_lines.push(no);
+            for (d, &fi) in data.iter_mut().zip(&data_fields) {
+                d.push(values[fi]);
+            }
+        }
+        if grid_index.is_empty() {
+            return Err(self.err(None, None, LogErrorKind::NoData));
+        }
+        let percent = 100.0 * gaps.corrupt_rows as f64 / rows.max(1) as f64;
+        if percent > self.options.max_corrupt_percent {
+            return Err(self.err(
+                gaps.first_corrupt_line,
+                None,
+                LogErrorKind::TooManyCorrupt {
+                    corrupt: gaps.corrupt_rows,
+                    rows,
+                    limit_percent: self.options.max_corrupt_percent,
+                },
+            ));
+        }
+
+        let mut warnings = Vec::new();
+        if gaps.missing_samples > 0 {
+            warnings.push(format!(
+                "{}: {} missing samples in {} gaps (longest {} samples = {:.2} s); kept as gaps",
+                self.path.display(),
+                gaps.missing_samples,
+                gaps.gaps,
+                gaps.longest_gap_samples,
+                gaps.longest_gap_samples as f64 / sample_rate_hz
+            ));
+        }
+        if gaps.corrupt_rows > 0 {
+            warnings.push(format!(
+                "{}:{}: {} corrupt rows (cut short or NaN) kept as gaps",
+                self.path.display(),
+                gaps.first_corrupt_line.unwrap_or(0),
+                gaps.corrupt_rows
+            ));
+        }
+
+        // Orientations.
+        if mode == OutputMode::Euler {
+            for s in &sensors {
+                // Roll and yaw wrap at ±180°; pitch stays within ±90°.
+                for &ci in [s.channel_columns[0], s.channel_columns[2]].iter() {
+                    unwrap_degrees(&mut data[ci]);
+                }
+            }
+        }
+        if mode != OutputMode::Calibrated {
+            for s in &mut sensors {
+                s.orientation = orientations(mode, &data, &s.channel_columns)
+                    .map_err(|(k, i)| {
+                        let ln = row_lines[i];
+                        let line = text.lines().nth(ln - 1).unwrap_or("");
+                        // Name the sensor's first channel column in the message's position.
+                        let fi = data_fields[s.channel_columns[0]];
+                        self.err(Some(ln), Some(field_col(line, separator, fi)), k)
+                    })?;
+            }
+        }
+
+        Ok(Log {
+            path: self.path.to_path_buf(),
+            sample_rate_hz,
+            mode,
+            metadata,
+            spanish_locale: separator == ';',
+            columns,
+            data,
+            grid_index,
+            sensors,
+            gaps,
+            warnings,
+        })
+    }
+
+    /// Samples between two rows: the counter's step (mod 65536) made consistent with the time step.
+    fn grid_step(&self, prev: u64, now: u64, dt_s: f64, rate_hz: f64) -> Result<u64, LogErrorKind> {
+        let d = (now + COUNTER_MODULUS - prev) % COUNTER_MODULUS;
+        if d == 0 {
+            return Err(LogErrorKind::CounterRepeats(now));
+        }
+        let by_time = dt_s * rate_hz;
+        // Longer gaps than one counter period: add whole periods to agree with the time.
+        let wraps = ((by_time - d as f64) / COUNTER_MODULUS as f64).round().max(0.0) as u64;
+        let step = d + wraps * COUNTER_MODULUS;
+        // The receiver's clock jitters by about a millisecond and drifts a little.
+        let tolerance = 0.5 + 0.02 * by_time;
+        if (step as f64 - by_time).abs() <= tolerance {
+            return Ok(step);
+        }
+        if d > COUNTER_MODULUS / 2 && by_time < (COUNTER_MODULUS / 2) as f64 {
+            return Err(LogErrorKind::CounterBackwards { previous: prev, now });
+        }
+        Err(LogErrorKind::CounterTimeMismatch { counter_samples: step, time_samples: by_time })
+    }
+}
+
+/// 1-based line of byte offset `at`.
+fn line_of(bytes: &[u8], at: usize) -> usize {
+    1 + bytes[..at.min(bytes.len())].iter().filter(|&&b| b == b'\n').count()
+}
+
+fn split_fields(line: &str, sep: char) -> impl Iterator<Item = Field<'_>> {
+    let mut col = 1usize;
+    line.split(sep).map(move |text| {
+        let f = Field { text, col };
+        col += text.chars().count() + 1;
+        f
+    })
+}
+
+/// 1-based character column of field `index` (or the line's end when the row is cut short).
+fn field_col(line: &str, sep: char, index: usize) -> usize {
+    split_fields(line, sep)
+        .nth(index)
+        .map_or(line.chars().count() + 1, |f| f.col)
+}
+
+fn is_nan_text(t: &str) -> bool {
+    t.eq_ignore_ascii_case("nan") || t.eq_ignore_ascii_case("-nan")
+}
+
+/// A number in either locale; `None` when the text is not a number at all.
+/// NaN and infinities parse (to be treated as corrupt samples by the caller).
+fn parse_number(t: &str, decimal_comma: bool) -> Option<f64> {
+    if decimal_comma && t.contains(',') {
+        let mut buf = [0u8; 64];
+        if t.len() > buf.len() {
+            return None;
+        }
+        for (b, c) in buf.iter_mut().zip(t.bytes()) {
+            *b = if c == b',' { b'.' } else { c };
+        }
+        std::str::from_utf8(&buf[..t.len()]).ok()?.parse().ok()
+    } else {
+        // Reject forms Rust accepts but no sensor writes ("infinity" is fine to treat as corrupt).
+        t.parse().ok()
+    }
+}
+
+/// Removes the ±360° jumps of an angle that wraps at ±180°.
+pub fn unwrap_degrees(x: &mut [f64]) {
+    let mut offset = 0.0;
+    let mut prev = match x.first() {
+        Some(&p) => p,
+        None => return,
+    };
+    for v in x.iter_mut().skip(1) {
+        let raw = *v;
+        let d = raw - prev;
+        if d > 180.0 {
+            offset -= 360.0 * ((d + 180.0) / 360.0).floor();
+        } else if d < -180.0 {
+            offset += 360.0 * ((-d + 180.0) / 360.0).floor();
+        }
+        prev = raw;
+        *v = raw + offset;
+    }
+}
+
+/// Tolerance on a written quaternion's norm and a matrix's orthonormality: a sensor writing
+/// 4 decimals is off by ~1e-4; 0.05 catches a broken row without rejecting honest rounding.
+const ROTATION_TOLERANCE: f64 = 0.05;
+
+fn orientations(
+    mode: OutputMode,
+    data: &[Vec<f64>],
+    cols: &[usize],
+) -> Result<Vec<UnitQuaternion<f64>>, (LogErrorKind, usize)> {
+    let n = data.first().map_or(0, Vec::len);
+    let mut out = Vec::with_capacity(n);
+    let mut prev: Option<UnitQuaternion<f64>> = None;
+    for i in 0..n {
+        let v = |k: usize| data[cols[k]][i];
+        let mut q = match mode {
+            OutputMode::Euler => {
+                let d = std::f64::consts::PI / 180.0;
+                UnitQuaternion::from_euler_angles(v(0) * d, v(1) * d, v(2) * d)
+            }
+            OutputMode::Quaternion => {
+                let raw = Quaternion::new(v(0), v(1), v(2), v(3));
+                let norm = raw.norm();
+                if (norm - 1.0).abs() > ROTATION_TOLERANCE {
+                    return Err((LogErrorKind::QuaternionNorm(norm), i));
+                }
+                UnitQuaternion::from_quaternion(raw)
+            }
+            OutputMode::Matrix => {
+                let m = Matrix3::from_fn(|r, c| v(3 * r + c));
+                let err = (m.transpose() * m - Matrix3::identity()).abs().max();
+                if err > ROTATION_TOLERANCE || m.determinant() <= 0.0 {
+                    return Err((LogErrorKind::NotRotation(err), i));
+                }
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_eps(&m, 1e-12, 100, Rotation3::identity()))
+            }
+            OutputMode::Calibrated => return Ok(Vec::new()),
+        };
+        if let Some(p) = prev {
+            if p.coords.dot(&q.coords) < 0.0 {
+                q = UnitQuaternion::new_unchecked(-q.into_inner());
+            }
+        }
+        prev = Some(q);
+        out.push(q);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Log, LogError> {
+        Log::parse(text.as_bytes(), Path::new("t.log"), &ReadOptions::default())
+    }
+
+    const HEAD: &str = "// Sample rate: 100 Hz\n// Output mode: Euler\n// Sensor 00300417: frame\nCounter\tTime\t00300417_Roll\t00300417_Pitch\t00300417_Yaw\n";
+
+    #[test]
+    fn counter_wrap_and_drop_are_gaps() {
+        let text = format!("{HEAD}65534\t0.00\t1\t2\t3\n65535\t0.01\t1\t2\t3\n1\t0.03\t1\t2\t3\n");
+        let log = parse(&text).unwrap();
+        assert_eq!(log.grid_index, vec![0, 1, 3]);
+        assert_eq!(log.gaps.missing_samples, 1);
+        assert_eq!(log.gaps.longest_gap_samples, 1);
+    }
+
+    #[test]
+    fn gap_longer_than_counter_period_uses_time() {
+        // 65536 + 2 samples later: the counter alone says 2.
+        let t = (65_538.0f64) / 100.0;
+        let text = format!("{HEAD}10\t0.00\t1\t2\t3\n12\t{t:.3}\t1\t2\t3\n");
+        let log = parse(&text).unwrap();
+        assert_eq!(log.grid_index, vec![0, 65_538]);
+    }
+
+    #[test]
+    fn euler_unwraps_yaw() {
+        let text = format!("{HEAD}1\t0.00\t0\t0\t179\n2\t0.01\t0\t0\t-179\n3\t0.02\t0\t0\t-177\n");
+        let log = parse(&text).unwrap();
+        let yaw = &log.data[log.column_index("Yaw").unwrap()];
+        assert_eq!(yaw, &vec![179.0, 181.0, 183.0]);
+    }
+
+    #[test]
+    fn spanish_locale_detected_without_header_line() {
+        let text = "// Sample rate: 100 Hz\n// Output mode: Euler\nCounter;Time;Roll;Pitch;Yaw\n1;0,00;0,5;-1,25;3\n2;0,01;0,6;-1,5;3\n";
+        let log = parse(text).unwrap();
+        assert!(log.spanish_locale);
+        assert_eq!(log.data[1], vec![-1.25, -1.5]);
+        assert_eq!(log.sensors.len(), 1);
+    }
+
+    #[test]
+    fn error_names_line_and_column() {
+        let text = format!("{HEAD}1\t0.00\t1\tx2\t3\n");
+        let e = parse(&text).unwrap_err();
+        assert_eq!((e.line, e.column), (Some(5), Some(10)));
+        assert!(e.to_string().starts_with("t.log:5:10: `x2` in column 00300417_Pitch"), "{e}");
+    }
+}

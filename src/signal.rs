@@ -1,0 +1,328 @@
+//! Signal: one scalar oscillation on a uniform sample grid, with its gaps.
+//!
+//! In: a [`Log`] (orientation or calibrated file) or a plain CSV `time_s,value` file.
+//! Out: a [`Signal`] — the rotation angle of a pendulum test about its own dominant axis (rad),
+//! or a chosen channel as written (e.g. `Gyr_Z` in rad/s), or the CSV's values.
+//!
+//! The angle from orientations uses the rotation relative to the rest orientation, as a rotation
+//! vector in the sensor frame, projected on the principal direction of its motion. A sensor
+//! mounted with any rotation `M` on the body sees the rotation vector `Mᵀr`, whose projection on
+//! its own principal direction is the same number: the signal does not depend on how the sensor
+//! sits on the body, and it has no Euler singularity.
+
+use crate::log::{Log, LogError, OutputMode, ReadOptions};
+use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
+use std::path::{Path, PathBuf};
+
+/// A scalar signal sampled on a uniform grid; missing samples are absent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Signal {
+    /// What the values are (`rotation about dominant axis`, a column name, …).
+    pub name: String,
+    /// Unit of the values (`rad`, `rad/s`, `V`, …).
+    pub unit: String,
+    pub sample_rate_hz: f64,
+    /// Time of grid index 0, seconds.
+    pub t0_s: f64,
+    /// Grid position of each sample.
+    pub index: Vec<u64>,
+    pub values: Vec<f64>,
+}
+
+/// Errors of signal extraction.
+#[derive(Debug, thiserror::Error)]
+pub enum SignalError {
+    #[error(transparent)]
+    Log(#[from] LogError),
+    #[error("{path}: channel `{channel}` is not in this file (columns: {available})")]
+    NoChannel { path: PathBuf, channel: String, available: String },
+    #[error("{path}: channel `{channel}` needs the calibrated file {cal}, which does not exist")]
+    MissingCal { path: PathBuf, channel: String, cal: PathBuf },
+    #[error("{path}: sensor `{sensor}` is not in this file (sensors: {available})")]
+    NoSensor { path: PathBuf, sensor: String, available: String },
+    #[error("{path}: the file has {count} sensors; name one with --sensor ({available})")]
+    WhichSensor { path: PathBuf, count: usize, available: String },
+    #[error("{path}: a calibrated file has no orientation; name a channel (e.g. Gyr_Z)")]
+    NoOrientation { path: PathBuf },
+    #[error("{path}:{line}:{column}: {message}")]
+    Csv { path: PathBuf, line: u64, column: usize, message: String },
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+}
+
+impl Signal {
+    /// Times of the samples, seconds.
+    pub fn times_s(&self) -> Vec<f64> {
+        let dt = 1.0 / self.sample_rate_hz;
+        self.index.iter().map(|&i| self.t0_s + i as f64 * dt).collect()
+    }
+
+    pub fn len(&self) -> usize {
+        self.values.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+
+    /// Duration spanned, seconds.
+    pub fn duration_s(&self) -> f64 {
+        match (self.index.first(), self.index.last()) {
+            (Some(a), Some(b)) => (b - a) as f64 / self.sample_rate_hz,
+            _ => 0.0,
+        }
+    }
+
+    /// The samples whose time lies in `[start_s, end_s]`.
+    pub fn slice_time(&self, start_s: f64, end_s: f64) -> Signal {
+        let t = self.times_s();
+        let keep: Vec<usize> = (0..t.len()).filter(|&i| t[i] >= start_s && t[i] <= end_s).collect();
+        Signal {
+            name: self.name.clone(),
+            unit: self.unit.clone(),
+            sample_rate_hz: self.sample_rate_hz,
+            t0_s: self.t0_s,
+            index: keep.iter().map(|&i| self.index[i]).collect(),
+            values: keep.iter().map(|&i| self.values[i]).collect(),
+        }
+    }
+
+    /// Reads a plain CSV `time_s,value` signal (a header row, then rows). The sampling must be
+    /// uniform; the rate is taken from the median step, and a row off the grid is an error.
+    pub fn from_csv(path: &Path) -> Result<Signal, SignalError> {
+        let file = std::fs::File::open(path).map_err(|e| SignalError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Signal::from_csv_reader(file, path)
+    }
+
+    /// As [`Signal::from_csv`], from any reader; `path` names it in messages.
+    pub fn from_csv_reader<R: std::io::Read>(reader: R, path: &Path) -> Result<Signal, SignalError> {
+        let mut rdr = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).from_reader(reader);
+        let csv_err = |line: u64, column: usize, message: String| SignalError::Csv {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message,
+        };
+        let headers = rdr.headers().map_err(|e| csv_err(1, 1, e.to_string()))?.clone();
+        if headers.len() < 2 {
+            return Err(csv_err(1, 1, format!("expected the columns time_s,value, found {} column(s)", headers.len())));
+        }
+        let name = headers.get(1).unwrap_or("value").to_string();
+        let mut t = Vec::new();
+        let mut v = Vec::new();
+        let mut lines = Vec::new();
+        for rec in rdr.records() {
+            let rec = rec.map_err(|e| {
+                let line = e.position().map_or(0, |p| p.line());
+                csv_err(line, 1, e.to_string())
+            })?;
+            let line = rec.position().map_or(0, |p| p.line());
+            if rec.len() != headers.len() {
+                return Err(csv_err(line, 1, format!("{} fields, expected {}", rec.len(), headers.len())));
+            }
+            let mut col = 1;
+            let mut num = |k: usize| -> Result<f64, SignalError> {
+                let s = rec.get(k).unwrap_or("");
+                let c = col;
+                col += s.len() + 1;
+                s.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| csv_err(line, c, format!("`{s}` in column {}: expected a finite number", headers.get(k).unwrap_or("?"))))
+            };
+            t.push(num(0)?);
+            v.push(num(1)?);
+            lines.push(line);
+        }
+        if t.len() < 8 {
+            return Err(SignalError::Invalid { path: path.to_path_buf(), message: format!("only {} samples", t.len()) });
+        }
+        let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        for (i, s) in steps.iter().enumerate() {
+            if *s <= 0.0 {
+                return Err(csv_err(lines[i + 1], 1, format!("time {} s does not advance from {} s", t[i + 1], t[i])));
+            }
+        }
+        steps.sort_by(f64::total_cmp);
+        let dt = steps[steps.len() / 2];
+        let mut index = Vec::with_capacity(t.len());
+        for (i, &ti) in t.iter().enumerate() {
+            let k = (ti - t[0]) / dt;
+            let r = k.round();
+            if (k - r).abs() > 0.25 {
+                return Err(csv_err(lines[i], 1, format!("time {ti} s is off the {:.6} s sampling grid", dt)));
+            }
+            index.push(r as u64);
+        }
+        Ok(Signal {
+            name,
+            unit: String::new(),
+            sample_rate_hz: 1.0 / dt,
+            t0_s: t[0],
+            index,
+            values: v,
+        })
+    }
+}
+
+/// Which signal to take from a log.
+#[derive(Debug, Clone, Default)]
+pub enum Extract {
+    /// The rotation angle about the dominant axis of motion (orientation files).
+    #[default]
+    DominantRotation,
+    /// A channel by column name (`Gyr_Z`, `00300417_Roll`); looked up in the `_cal` file when
+    /// the orientation file does not have it.
+    Channel(String),
+}
+
+/// Opens a log or CSV file and extracts one scalar signal from it. `sensor` picks a sensor by id
+/// or label when the file has several. Returns the signal and the reader's warnings.
+pub fn load_signal(
+    path: &Path,
+    extract: &Extract,
+    sensor: Option<&str>,
+    options: &ReadOptions,
+) -> Result<(Signal, Vec<String>), SignalError> {
+    let is_csv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    if is_csv {
+        return Ok((Signal::from_csv(path)?, Vec::new()));
+    }
+    match extract {
+        Extract::DominantRotation => {
+            let log = Log::open(path, options)?;
+            let signal = dominant_rotation(&log, sensor)?;
+            Ok((signal, log.warnings))
+        }
+        Extract::Channel(name) => {
+            let log = Log::open(path, options)?;
+            if let Some(s) = channel(&log, name, sensor) {
+                return Ok((s, log.warnings));
+            }
+            if log.mode == OutputMode::Calibrated {
+                return Err(no_channel(&log, name));
+            }
+            let cal = Log::cal_path(path);
+            if !cal.exists() {
+                return Err(SignalError::MissingCal { path: path.to_path_buf(), channel: name.clone(), cal });
+            }
+            let cal_log = Log::open(&cal, options)?;
+            let s = channel(&cal_log, name, sensor).ok_or_else(|| no_channel(&cal_log, name))?;
+            let mut w = log.warnings;
+            w.extend(cal_log.warnings);
+            Ok((s, w))
+        }
+    }
+}
+
+fn no_channel(log: &Log, name: &str) -> SignalError {
+    SignalError::NoChannel {
+        path: log.path.clone(),
+        channel: name.to_string(),
+        available: log.columns.join(", "),
+    }
+}
+
+/// A column of the log as a signal, by full name or by short name within the chosen sensor.
+pub fn channel(log: &Log, name: &str, sensor: Option<&str>) -> Option<Signal> {
+    let idx = match sensor.and_then(|s| log.sensor(s)) {
+        Some(s) if !s.id.is_empty() => log.column_index(&format!("{}_{name}", s.id)).or_else(|| log.column_index(name)),
+        _ => log.column_index(name),
+    }?;
+    let unit = match log.mode {
+        OutputMode::Euler => "deg",
+        OutputMode::Calibrated if name.contains("Gyr") => "rad/s",
+        OutputMode::Calibrated if name.contains("Acc") => "m/s²",
+        _ => "",
+    };
+    Some(Signal {
+        name: log.columns[idx].clone(),
+        unit: unit.to_string(),
+        sample_rate_hz: log.sample_rate_hz,
+        t0_s: 0.0,
+        index: log.grid_index.clone(),
+        values: log.data[idx].clone(),
+    })
+}
+
+/// Picks the sensor: by key, or the only one.
+pub fn pick_sensor<'l>(log: &'l Log, key: Option<&str>) -> Result<&'l crate::log::Sensor, SignalError> {
+    let available = || {
+        log.sensors
+            .iter()
+            .map(|s| if s.label.is_empty() { s.id.clone() } else { format!("{} ({})", s.id, s.label) })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match key {
+        Some(k) => log.sensor(k).ok_or_else(|| SignalError::NoSensor {
+            path: log.path.clone(),
+            sensor: k.to_string(),
+            available: available(),
+        }),
+        None if log.sensors.len() == 1 => Ok(&log.sensors[0]),
+        None => Err(SignalError::WhichSensor { path: log.path.clone(), count: log.sensors.len(), available: available() }),
+    }
+}
+
+/// The mean of a set of nearby rotations (normalised sum of sign-aligned quaternions).
+pub fn mean_rotation(qs: &[UnitQuaternion<f64>]) -> Option<UnitQuaternion<f64>> {
+    let first = qs.first()?;
+    let mut sum = nalgebra::Vector4::zeros();
+    for q in qs {
+        let c = q.coords;
+        sum += if c.dot(&first.coords) < 0.0 { -c } else { c };
+    }
+    let n = sum.norm();
+    (n > 0.0).then(|| UnitQuaternion::from_quaternion(nalgebra::Quaternion::from(sum / n)))
+}
+
+/// Rotation of the sensor relative to its rest orientation, about the dominant axis of the motion (rad).
+///
+/// The rest orientation is the mean over the first second of the record (or its first tenth when
+/// shorter); `r(t) = log(q_rest⁻¹ q(t))` is the rotation vector in the sensor frame; the axis is the
+/// principal eigenvector of the covariance of `r`; the sign makes the axis, seen in the global
+/// frame, point along its largest global component.
+pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, SignalError> {
+    if log.mode == OutputMode::Calibrated {
+        return Err(SignalError::NoOrientation { path: log.path.clone() });
+    }
+    let s = pick_sensor(log, sensor)?;
+    let q = &s.orientation;
+    if q.len() < 8 {
+        return Err(SignalError::Invalid { path: log.path.clone(), message: format!("only {} samples", q.len()) });
+    }
+    let rest_n = (log.sample_rate_hz.round() as usize).min(q.len() / 10).max(1);
+    let rest = mean_rotation(&q[..rest_n]).ok_or_else(|| SignalError::Invalid {
+        path: log.path.clone(),
+        message: "cannot average the rest orientation".into(),
+    })?;
+    let rest_inv = rest.inverse();
+    let r: Vec<Vector3<f64>> = q.iter().map(|qi| (rest_inv * qi).scaled_axis()).collect();
+    let mean = r.iter().fold(Vector3::zeros(), |a, b| a + b) / r.len() as f64;
+    let mut cov = Matrix3::zeros();
+    for ri in &r {
+        let d = ri - mean;
+        cov += d * d.transpose();
+    }
+    let eig = SymmetricEigen::new(cov);
+    let k = eig.eigenvalues.imax();
+    let mut axis: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
+    let axis_global = rest * axis;
+    if axis_global[axis_global.iamax()] < 0.0 {
+        axis = -axis;
+    }
+    let values = r.iter().map(|ri| ri.dot(&axis)).collect();
+    let label = if s.label.is_empty() { s.id.clone() } else { s.label.clone() };
+    Ok(Signal {
+        name: format!("rotation of {label} about its dominant axis"),
+        unit: "rad".into(),
+        sample_rate_hz: log.sample_rate_hz,
+        t0_s: 0.0,
+        index: log.grid_index.clone(),
+        values,
+    })
+}
