@@ -16,7 +16,7 @@
 //! 0.8 Hz. The fit reaches the Cramér–Rao bound ([`crb_omega_variance`]) instead.
 
 use crate::signal::Signal;
-use crate::spectral::{Peak, Spectrum};
+use crate::spectral::{Peak, Spectrum, Window};
 use nalgebra::{DMatrix, DVector};
 use std::f64::consts::PI;
 
@@ -187,30 +187,30 @@ fn rss(p: &[f64], trend: bool, tau: &[f64], x: &[f64]) -> f64 {
     tau.iter().zip(x).map(|(&t, &xi)| (model(p, trend, t) - xi).powi(2)).sum()
 }
 
-/// For fixed σ and ω the model is linear in `a, b, c (, d)`: solve those by least squares.
+/// For fixed σ and ω the model is linear in `a, b, c (, d)`: solve those by least squares
+/// (normal equations, the trend's column scaled to the segment's length for conditioning).
 /// Returns the full parameter vector and the residual sum of squares.
 fn linear_step(sigma: f64, omega: f64, trend: bool, tau: &[f64], x: &[f64]) -> Option<(Vec<f64>, f64)> {
-    let ncol = if trend { 4 } else { 3 };
-    let n = tau.len();
-    let mut m = DMatrix::zeros(n, ncol);
-    for (i, &t) in tau.iter().enumerate() {
+    let span = tau.last().copied().unwrap_or(1.0).max(1e-9);
+    let mut ata = nalgebra::Matrix4::<f64>::zeros();
+    let mut atb = nalgebra::Vector4::<f64>::zeros();
+    for (&t, &xi) in tau.iter().zip(x) {
         let e = (-sigma * t).exp();
         let (s, c) = (omega * t).sin_cos();
-        m[(i, 0)] = 1.0;
-        m[(i, 1)] = e * s;
-        m[(i, 2)] = e * c;
-        if trend {
-            m[(i, 3)] = t;
-        }
+        let row = nalgebra::Vector4::new(1.0, e * s, e * c, if trend { t / span } else { 0.0 });
+        ata += row * row.transpose();
+        atb += row * xi;
     }
-    let y = DVector::from_column_slice(x);
-    let sol = m.clone().svd(true, true).solve(&y, 1e-12).ok()?;
+    if !trend {
+        ata[(3, 3)] = 1.0;
+    }
+    let sol = ata.cholesky()?.solve(&atb);
     let mut p = vec![sol[0], sol[1], sol[2], sigma, omega];
     if trend {
-        p.push(sol[3]);
+        p.push(sol[3] / span);
     }
     let r = rss(&p, trend, tau, x);
-    Some((p, r))
+    r.is_finite().then_some((p, r))
 }
 
 /// Levenberg–Marquardt on all parameters from `p0`, with Marquardt's diagonal scaling.
@@ -311,11 +311,20 @@ fn initial_guess(tau: &[f64], x: &[f64], omega0: f64, trend: bool) -> Option<Vec
     best.map(|(p, _)| p)
 }
 
-/// Fits `t, x` (times in s) with τ measured from `t[0]`, starting from `omega0` (rad/s).
+/// Fits `t, x` (times in s) with τ measured from `t[0]`, starting from `omega0` (rad/s) and a
+/// search over σ.
 pub fn fit_from_frequency(t: &[f64], x: &[f64], omega0: f64, trend: bool) -> Result<DampedFit, FitError> {
     let t_ref = *t.first().ok_or(FitError::TooShort(0))?;
     let tau: Vec<f64> = t.iter().map(|v| v - t_ref).collect();
     let p0 = initial_guess(&tau, x, omega0, trend).ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
+    fit_damped_sinusoid(&tau, x, t_ref, &p0, trend)
+}
+
+/// Fits `t, x` starting from a previous fit's σ and ω (the linear parameters solved afresh).
+fn fit_from_guess(t: &[f64], x: &[f64], sigma0: f64, omega0: f64, trend: bool) -> Result<DampedFit, FitError> {
+    let t_ref = *t.first().ok_or(FitError::TooShort(0))?;
+    let tau: Vec<f64> = t.iter().map(|v| v - t_ref).collect();
+    let (p0, _) = linear_step(sigma0, omega0, trend, &tau, x).ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
     fit_damped_sinusoid(&tau, x, t_ref, &p0, trend)
 }
 
@@ -325,11 +334,12 @@ pub struct Oscillation {
     pub fit: DampedFit,
     /// The free-decay segment fitted, seconds `[start, end]`.
     pub segment_s: (f64, f64),
-    /// The spectrum of the whole signal.
+    /// The Hann-windowed spectrum of the fitted segment.
     pub spectrum: Spectrum,
-    /// Its main peak (the fit's starting frequency).
+    /// The spectral peak the fit started from (rectangular window over the stretch of motion).
     pub main_peak: Peak,
-    /// Other significant peaks (≥ 5 % of the main one), strongest first.
+    /// Peaks of the fit residual's spectrum that stand out of its noise: other modes (the
+    /// Cardan joint's swing), strongest first.
     pub secondary_peaks: Vec<Peak>,
     /// Bayesian information criterion of the chosen model (lower is better).
     pub bic: f64,
@@ -359,29 +369,53 @@ fn moving_mean(x: &[f64], w: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Measures the free oscillation in `signal`: spectrum, free-decay segment, fit.
+/// Where the motion is: from the window of largest variance (0.5 s windows) until the variance
+/// sinks to the quiet level (4× the smallest window's) for 2 s. Returns sample indices `[begin, end]`.
+/// The largest variance is often the window that straddles the release (the held angle, then
+/// the first swing), so `begin` is the end of that window: surely inside the free decay.
+fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
+    let n = x.len();
+    let w = ((0.5 * rate_hz).round() as usize).clamp(5, n.max(5));
+    let m = moving_mean(x, w);
+    let sq: Vec<f64> = x.iter().map(|v| v * v).collect();
+    let m2 = moving_mean(&sq, w);
+    let var: Vec<f64> = m2.iter().zip(&m).map(|(a, b)| (a - b * b).max(0.0)).collect();
+    let imax = (0..n).max_by(|&a, &b| var[a].total_cmp(&var[b])).unwrap_or(0);
+    let quiet = var.iter().copied().fold(f64::INFINITY, f64::min).max(var[imax] * 1e-12);
+    // Quiet for 2 s on end: near a crest of a slow swing a 0.5 s window is briefly quiet too.
+    let sustain = (2.0 * rate_hz).round() as usize;
+    let mut run = 0;
+    let mut end = n - 1;
+    for (i, &v) in var.iter().enumerate().skip(imax) {
+        run = if v < 4.0 * quiet { run + 1 } else { 0 };
+        if run >= sustain {
+            end = (i + 1 - run + w / 2).min(n - 1);
+            break;
+        }
+    }
+    ((imax + w / 2).min(end.saturating_sub(16)), end)
+}
+
+/// Measures the free oscillation in `signal`: where it is, its frequency, the free-decay
+/// segment, the fit, other modes.
 ///
-/// The segment: the coarse start is the peak of the oscillation envelope (moving RMS over one
-/// period); a first fit from there is extended backwards until the data leave the fitted decay
-/// (the release: before it the body was held), and a quarter-window guard skips the release
-/// transient. The end is where the fitted envelope has sunk to a tenth of the noise (the tail
-/// lost in noise: the samples after it hold < 2 % of the information) or where the residual's
-/// moving RMS jumps above 3× the noise (a catch or a knock), or the record's end.
+/// 1. The stretch of motion ([`motion_stretch`]) and its rectangular-window spectrum give the
+///    starting frequency; a σ search and Levenberg–Marquardt give a first fit.
+/// 2. The segment: extended backwards until the data leave the fitted decay (the release:
+///    before it the body was held), with a guard of half a window for the release transient;
+///    ended where the fitted envelope has sunk to a tenth of the noise (the tail lost in noise:
+///    the samples after it hold < 2 % of the frequency information even at 10 dB) or where the
+///    residual's RMS over a period jumps above 3× the noise (a catch or a knock), or at the
+///    record's end. Refitted until the segment stands still.
+/// 3. With or without a linear trend, by the Bayesian information criterion ([`Trend::Auto`]).
 pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, FitError> {
     let n = signal.len();
     if n < 16 {
         return Err(FitError::TooShort(n));
     }
-    let spectrum = Spectrum::of(signal);
-    let min_f = options.min_freq_hz.unwrap_or(2.0 * spectrum.resolution_hz);
-    let peaks = spectrum.peaks(min_f, 0.05, 6);
-    let main_peak = *peaks.first().ok_or(FitError::NoPeak)?;
-    let secondary_peaks = peaks[1..].to_vec();
     let t = signal.times_s();
     let x = &signal.values;
-    let omega0 = 2.0 * PI * main_peak.freq_hz;
     let trend_for_search = options.trend != Trend::Off;
-
     let (mut i0, mut i1) = match options.segment_s {
         Some((a, b)) => {
             let i0 = t.iter().position(|&v| v >= a).unwrap_or(n);
@@ -391,73 +425,40 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
             }
             (i0, i1)
         }
-        None => {
-            let period_samples = ((signal.sample_rate_hz / main_peak.freq_hz).round() as usize).clamp(3, n);
-            let mean = moving_mean(x, period_samples);
-            let h2: Vec<f64> = x.iter().zip(&mean).map(|(a, b)| (a - b).powi(2)).collect();
-            let env = moving_mean(&h2, period_samples);
-            let imax = (0..n).max_by(|&a, &b| env[a].total_cmp(&env[b])).unwrap_or(0);
-            (imax.min(n.saturating_sub(9)), n - 1)
-        }
+        None => motion_stretch(x, signal.sample_rate_hz),
     };
+    if i1 < i0 + 16 {
+        return Err(FitError::TooShort(i1 + 1 - i0));
+    }
+    let stretch = Signal { index: signal.index[i0..=i1].to_vec(), values: x[i0..=i1].to_vec(), ..signal.clone() };
+    let stretch_spectrum = Spectrum::of(&stretch, Window::Rectangular);
+    let min_f = options.min_freq_hz.unwrap_or(2.0 * stretch_spectrum.resolution_hz);
+    let main_peak = stretch_spectrum.main_peak(min_f).ok_or(FitError::NoPeak)?;
+    let omega0 = 2.0 * PI * main_peak.freq_hz;
 
     let mut fit = fit_from_frequency(&t[i0..=i1], &x[i0..=i1], omega0, trend_for_search)?;
     if options.segment_s.is_none() {
-        let period_samples = ((signal.sample_rate_hz * 2.0 * PI / fit.omega_d().value).round() as usize).clamp(3, n);
-        for _ in 0..4 {
-            let s = fit.residual_rms;
-            // Start: walk back while a window of residuals stays within 2 s RMS.
-            let w = (period_samples / 8).max(4);
-            let mut start = i0;
-            while start >= w {
-                let lo = start - w;
-                let rms = ((lo..start).map(|k| (fit.eval(t[k]) - x[k]).powi(2)).sum::<f64>() / w as f64).sqrt();
-                if rms > 2.0 * s {
-                    break;
-                }
-                start = lo;
-            }
-            if start < i0 {
-                // Left the decay somewhere in the window before `start`: keep a guard of w/2.
-                start = if start >= w { start + w / 2 } else { start };
-            }
-            // End: lost in noise, or a catch.
-            let amp = fit.amplitude().value;
-            let sigma = fit.sigma().value;
-            let mut end = n - 1;
-            if sigma > 0.0 && amp > 0.0 {
-                let t_lost = fit.t_ref_s + (amp / (0.1 * s)).ln() / sigma;
-                if let Some(k) = t.iter().position(|&v| v > t_lost) {
-                    end = end.min(k);
-                }
-            }
-            let wr = period_samples.max(10);
-            let mut k = start;
-            while k + wr <= end {
-                let rms = ((k..k + wr).map(|j| (fit.eval(t[j]) - x[j]).powi(2)).sum::<f64>() / wr as f64).sqrt();
-                if rms > 3.0 * s {
-                    end = k + wr / 2;
-                    break;
-                }
-                k += wr / 2;
-            }
+        // After the first fit on the stretch of motion, the decay runs to the record's end.
+        i1 = n - 1;
+        fit = fit_from_guess(&t[i0..=i1], &x[i0..=i1], fit.sigma().value, fit.omega_d().value, trend_for_search)?;
+        for _ in 0..6 {
+            let (start, end) = refine_segment(&fit, &t, x, i0, signal.sample_rate_hz);
             if start == i0 && end == i1 {
                 break;
             }
             i0 = start;
-            i1 = end.max(i0 + 8).min(n - 1);
-            fit = fit_from_frequency(&t[i0..=i1], &x[i0..=i1], fit.omega_d().value, trend_for_search)?;
+            i1 = end.max(i0 + 16).min(n - 1);
+            fit = fit_from_guess(&t[i0..=i1], &x[i0..=i1], fit.sigma().value, fit.omega_d().value, trend_for_search)?;
         }
     }
     // Final model: trend or not.
-    let seg_t = &t[i0..=i1];
-    let seg_x = &x[i0..=i1];
-    let w = fit.omega_d().value;
+    let (seg_t, seg_x) = (&t[i0..=i1], &x[i0..=i1]);
+    let (sg, w) = (fit.sigma().value, fit.omega_d().value);
     fit = match options.trend {
         Trend::On => fit,
-        Trend::Off => fit_from_frequency(seg_t, seg_x, w, false)?,
+        Trend::Off => fit_from_guess(seg_t, seg_x, sg, w, false)?,
         Trend::Auto => {
-            let without = fit_from_frequency(seg_t, seg_x, w, false)?;
+            let without = fit_from_guess(seg_t, seg_x, sg, w, false)?;
             if bic(&without) <= bic(&fit) {
                 without
             } else {
@@ -469,6 +470,10 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
     if cycles < 2.0 {
         return Err(FitError::SegmentTooShort { cycles, samples: seg_t.len() });
     }
+    let segment = Signal { index: signal.index[i0..=i1].to_vec(), values: seg_x.to_vec(), ..signal.clone() };
+    let spectrum = Spectrum::of(&segment, Window::Hann);
+    let residual = Signal { values: seg_t.iter().zip(seg_x).map(|(&ti, &xi)| xi - fit.eval(ti)).collect(), ..segment };
+    let secondary_peaks = secondary_peaks(&spectrum, &Spectrum::of(&residual, Window::Hann), main_peak.freq_hz);
     Ok(Oscillation {
         bic: bic(&fit),
         fit,
@@ -477,6 +482,171 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
         main_peak,
         secondary_peaks,
     })
+}
+
+/// One step of the segment choice of [`analyse`]: the start walked back to the release, the end
+/// where the decay is lost in noise or disturbed.
+fn refine_segment(fit: &DampedFit, t: &[f64], x: &[f64], i0: usize, rate_hz: f64) -> (usize, usize) {
+    let n = t.len();
+    let s = fit.residual_rms;
+    let period_samples = ((rate_hz * 2.0 * PI / fit.omega_d().value).round() as usize).clamp(3, n);
+    let sq = |k: usize| (fit.eval(t[k]) - x[k]).powi(2);
+    let window_rms = |lo: usize, hi: usize| ((lo..hi).map(sq).sum::<f64>() / (hi - lo).max(1) as f64).sqrt();
+    let w = (period_samples / 8).max(4);
+    let mut start = i0;
+    // Forward: a segment that begins before the release (in the hold) does not fit there.
+    let limit = (i0 + 4 * period_samples).min(n.saturating_sub(w + 1));
+    while start < limit && window_rms(start, start + w) > 2.0 * s {
+        start += w / 2;
+    }
+    if start == i0 {
+        // Backward: extend while a window of residuals stays within 2 s RMS.
+        let mut left_decay = false;
+        while start > 0 {
+            let lo = start.saturating_sub(w);
+            if window_rms(lo, start) > 2.0 * s {
+                left_decay = true;
+                break;
+            }
+            start = lo;
+        }
+        if left_decay && start < i0 {
+            // The release lies in the window before `start`: skip its transient, w/2 more.
+            start += w / 2;
+        }
+    }
+    // End: lost in noise, or a catch.
+    let (amp, sigma) = (fit.amplitude().value, fit.sigma().value);
+    let mut end = n - 1;
+    if sigma > 0.0 && amp > 0.0 && s > 0.0 {
+        let t_lost = fit.t_ref_s + (amp / (0.1 * s)).ln().max(0.0) / sigma;
+        if let Some(k) = t.iter().position(|&v| v > t_lost) {
+            end = end.min(k);
+        }
+    }
+    let wr = period_samples.max(10);
+    let mut k = start;
+    while k + wr <= end {
+        if window_rms(k, k + wr) > 3.0 * s {
+            end = k + wr / 2;
+            break;
+        }
+        k += wr / 2;
+    }
+    (start, end)
+}
+
+/// Peaks of the residual's spectrum that stand 5× above its median floor and reach 2 % of the
+/// signal's main peak (−34 dB), away from the main frequency by more than 2 bins.
+fn secondary_peaks(signal_spectrum: &Spectrum, residual_spectrum: &Spectrum, main_hz: f64) -> Vec<Peak> {
+    let top = signal_spectrum.magnitude.iter().copied().fold(0.0, f64::max);
+    residual_spectrum
+        .peaks(2.0 * residual_spectrum.resolution_hz, 0.0, 8)
+        .into_iter()
+        .filter(|p| p.magnitude >= 0.02 * top && (p.freq_hz - main_hz).abs() > 2.0 * residual_spectrum.resolution_hz)
+        .take(5)
+        .collect()
+}
+
+/// What `bikeproc period` reports: the fit's results with their standard errors (SI units;
+/// the signal's own unit for amplitude and residual).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct OscillationSummary {
+    pub signal: String,
+    pub unit: String,
+    pub period_s: f64,
+    pub period_se_s: f64,
+    pub freq_hz: f64,
+    pub freq_se_hz: f64,
+    pub natural_freq_hz: f64,
+    pub natural_freq_se_hz: f64,
+    pub damping_ratio: f64,
+    pub damping_ratio_se: f64,
+    pub amplitude: f64,
+    pub amplitude_se: f64,
+    pub residual_rms: f64,
+    /// The free-decay segment fitted, `[start, end]` in seconds.
+    pub segment_s: [f64; 2],
+    pub samples: usize,
+    /// Whether a linear trend was fitted.
+    pub trend: bool,
+    /// The FFT's interpolated main peak (the lab's method, made sub-bin), Hz.
+    pub fft_peak_hz: f64,
+    /// The lab's FFT bin for this record (1 / its duration), Hz.
+    pub fft_bin_hz: f64,
+    /// Other significant spectral peaks, strongest first, Hz.
+    pub secondary_peaks_hz: Vec<f64>,
+}
+
+impl Oscillation {
+    pub fn summary(&self, signal: &Signal) -> OscillationSummary {
+        let f = &self.fit;
+        let (p, fr, fnat, z, a) = (f.period_s(), f.freq_hz(), f.natural_freq_hz(), f.damping_ratio(), f.amplitude());
+        OscillationSummary {
+            signal: signal.name.clone(),
+            unit: signal.unit.clone(),
+            period_s: p.value,
+            period_se_s: p.se,
+            freq_hz: fr.value,
+            freq_se_hz: fr.se,
+            natural_freq_hz: fnat.value,
+            natural_freq_se_hz: fnat.se,
+            damping_ratio: z.value,
+            damping_ratio_se: z.se,
+            amplitude: a.value,
+            amplitude_se: a.se,
+            residual_rms: f.residual_rms,
+            segment_s: [self.segment_s.0, self.segment_s.1],
+            samples: f.samples,
+            trend: f.trend,
+            fft_peak_hz: self.main_peak.freq_hz,
+            fft_bin_hz: 1.0 / signal.duration_s().max(f64::MIN_POSITIVE),
+            secondary_peaks_hz: self.secondary_peaks.iter().map(|p| p.freq_hz).collect(),
+        }
+    }
+}
+
+impl OscillationSummary {
+    /// The plain-text form printed by `bikeproc period`.
+    pub fn to_text(&self, source: &std::path::Path) -> String {
+        let unit = if self.unit.is_empty() { String::new() } else { format!(" {}", self.unit) };
+        let peaks = if self.secondary_peaks_hz.is_empty() {
+            "none".to_string()
+        } else {
+            self.secondary_peaks_hz.iter().map(|f| format!("{f:.4} Hz")).collect::<Vec<_>>().join(", ")
+        };
+        format!(
+            "{}: {}\n\
+             free decay       {:.2} – {:.2} s ({} samples{})\n\
+             damped period    T  = {:.6} ± {:.6} s\n\
+             damped freq      f_d = {:.6} ± {:.6} Hz\n\
+             natural freq     f_n = {:.6} ± {:.6} Hz\n\
+             damping ratio    ζ  = {:.5} ± {:.5}\n\
+             amplitude        {:.5} ± {:.5}{unit} at the segment's start\n\
+             residual RMS     {:.3e}{unit}\n\
+             FFT peak         {:.5} Hz (bin {:.5} Hz)\n\
+             secondary peaks  {peaks}\n",
+            source.display(),
+            self.signal,
+            self.segment_s[0],
+            self.segment_s[1],
+            self.samples,
+            if self.trend { ", linear trend fitted" } else { "" },
+            self.period_s,
+            self.period_se_s,
+            self.freq_hz,
+            self.freq_se_hz,
+            self.natural_freq_hz,
+            self.natural_freq_se_hz,
+            self.damping_ratio,
+            self.damping_ratio_se,
+            self.amplitude,
+            self.amplitude_se,
+            self.residual_rms,
+            self.fft_peak_hz,
+            self.fft_bin_hz,
+        )
+    }
 }
 
 /// Cramér–Rao bound on the variance of ω̂ (rad²/s²) for `x_n = A e^{−σnT} cos(ωnT + φ) + w_n`,

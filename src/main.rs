@@ -1,1 +1,312 @@
-fn main() {}
+//! The `bikeproc` command line: argument parsing, output and exit codes over the library.
+//! Exit code 0 on success, 2 when an input is malformed or cannot be analysed, 1 otherwise.
+
+use anyhow::{Context, Result};
+use bikeproc::fit::{self, FitOptions, Trend};
+use bikeproc::log::{OutputMode, ReadOptions};
+use bikeproc::signal::{self, Extract};
+use bikeproc::sim::{self, imu, pendulum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "bikeproc", version, about = "Bicycle-dynamics lab: IMU logs → inertias, eigenvalues, sim-to-real gap")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Measure the free oscillation in one log or CSV: frequency, damping, standard errors.
+    Period(PeriodArgs),
+    /// Write simulated logs from physics.
+    #[command(subcommand)]
+    Simulate(SimCommand),
+    /// Regenerate every report in reports/ from data/ and the reference signals.
+    Report(ReportArgs),
+}
+
+#[derive(Args)]
+struct PeriodArgs {
+    /// A `NAME.log` / `NAME_cal.log` file, or a CSV `time_s,value`.
+    file: PathBuf,
+    /// Fit this column instead of the rotation about the dominant axis (e.g. Gyr_Z: read from
+    /// the `_cal` file when the angles file does not have it).
+    #[arg(long)]
+    channel: Option<String>,
+    /// Which sensor, by id or label, when the log has several.
+    #[arg(long)]
+    sensor: Option<String>,
+    /// Linear trend beside the offset (gyro bias, heading drift).
+    #[arg(long, value_enum, default_value_t = TrendArg::Auto)]
+    trend: TrendArg,
+    /// Fit this time range instead of finding the free decay, seconds `START:END`.
+    #[arg(long, value_parser = parse_range)]
+    segment: Option<(f64, f64)>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum TrendArg {
+    Auto,
+    On,
+    Off,
+}
+
+#[derive(Subcommand)]
+enum SimCommand {
+    /// A body on the torsion bar (defaults: the lab's calibration rod, eqs. 65–67).
+    Torsion(TorsionArgs),
+    /// A body hung as a compound pendulum (defaults: the lab's frame, eq. 79).
+    Compound(CompoundArgs),
+}
+
+#[derive(Args)]
+struct TorsionArgs {
+    #[arg(long, default_value_t = 1.8906)]
+    inertia_kgm2: f64,
+    #[arg(long, default_value_t = 34.33)]
+    stiffness_nm_per_rad: f64,
+    #[arg(long, default_value_t = 0.004)]
+    damping_ratio: f64,
+    #[arg(long, default_value_t = 0.0)]
+    coulomb_nm: f64,
+    /// Frequency of the Cardan joint's swing mode (Hz); no swing mode when absent.
+    #[arg(long)]
+    swing_freq_hz: Option<f64>,
+    #[arg(long, default_value_t = 0.03)]
+    swing_coupling: f64,
+    #[arg(long, default_value_t = 0.02)]
+    swing_damping_ratio: f64,
+    #[arg(long, default_value_t = 1.0)]
+    swing_amplitude_deg: f64,
+    #[command(flatten)]
+    common: SimCommon,
+}
+
+#[derive(Args)]
+struct CompoundArgs {
+    #[arg(long, default_value_t = 5.48)]
+    mass_kg: f64,
+    #[arg(long, default_value_t = 0.37)]
+    pivot_to_cg_m: f64,
+    /// Inertia about the pivot (kg·m²); eq. 79's frame: 0.8796 + 5.48·0.37².
+    #[arg(long, default_value_t = 1.62982)]
+    inertia_about_pivot_kgm2: f64,
+    #[arg(long, default_value_t = 0.003)]
+    damping_ratio: f64,
+    #[arg(long, default_value_t = 0.0)]
+    coulomb_nm: f64,
+    #[command(flatten)]
+    common: SimCommon,
+}
+
+#[derive(Args)]
+struct SimCommon {
+    /// Output: `NAME.log` (its `NAME_cal.log` is written beside it).
+    #[arg(long)]
+    out: PathBuf,
+    #[arg(long, default_value_t = 8.0)]
+    amplitude_deg: f64,
+    #[arg(long, default_value_t = 3.0)]
+    rest_s: f64,
+    #[arg(long, default_value_t = 1.0)]
+    ramp_s: f64,
+    #[arg(long, default_value_t = 1.0)]
+    hold_s: f64,
+    #[arg(long, default_value_t = 60.0)]
+    duration_s: f64,
+    #[arg(long, value_enum, default_value_t = ModeArg::Euler)]
+    mode: ModeArg,
+    #[arg(long, value_enum, default_value_t = LocaleArg::Tab)]
+    locale: LocaleArg,
+    #[arg(long, value_enum, default_value_t = PrecisionArg::Sensor)]
+    precision: PrecisionArg,
+    /// White noise of the orientation output (deg, per axis).
+    #[arg(long, default_value_t = 0.05)]
+    noise_deg: f64,
+    /// A perfect link: no dropped packets, no corrupt rows, no clock jitter.
+    #[arg(long)]
+    perfect_link: bool,
+    #[arg(long, default_value = "00300417")]
+    sensor_id: String,
+    #[arg(long, default_value = "torsion bar")]
+    label: String,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ModeArg {
+    Euler,
+    Quaternion,
+    Matrix,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum LocaleArg {
+    Tab,
+    Spanish,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PrecisionArg {
+    Sensor,
+    Full,
+}
+
+#[derive(Args)]
+struct ReportArgs {
+    /// Where the reports go.
+    #[arg(long, default_value = "reports")]
+    out: PathBuf,
+    /// Where the reference material is (`../shared/reference` of the checkout).
+    #[arg(long, default_value = "../shared/reference")]
+    reference: PathBuf,
+}
+
+fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(':').ok_or("expected START:END in seconds")?;
+    let a: f64 = a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?;
+    let b: f64 = b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?;
+    if b > a {
+        Ok((a, b))
+    } else {
+        Err("END must be after START".into())
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            let input = e.chain().any(|c| {
+                c.is::<bikeproc::log::LogError>() || c.is::<signal::SignalError>() || c.is::<fit::FitError>()
+            });
+            ExitCode::from(if input { 2 } else { 1 })
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Period(a) => period(a),
+        Command::Simulate(s) => simulate(s),
+        Command::Report(r) => {
+            let written = bikeproc::report::regenerate(&r.out, &r.reference, &mut |m| eprintln!("{m}"))?;
+            eprintln!("wrote {} files under {}", written.len(), r.out.display());
+            Ok(())
+        }
+    }
+}
+
+fn period(a: PeriodArgs) -> Result<()> {
+    let extract = a.channel.clone().map_or(Extract::DominantRotation, Extract::Channel);
+    let (sig, warnings) = signal::load_signal(&a.file, &extract, a.sensor.as_deref(), &ReadOptions::default())?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    let options = FitOptions {
+        trend: match a.trend {
+            TrendArg::Auto => Trend::Auto,
+            TrendArg::On => Trend::On,
+            TrendArg::Off => Trend::Off,
+        },
+        segment_s: a.segment,
+        min_freq_hz: None,
+    };
+    let osc = fit::analyse(&sig, &options).with_context(|| format!("{}", a.file.display()))?;
+    let summary = osc.summary(&sig);
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        print!("{}", summary.to_text(&a.file));
+    }
+    Ok(())
+}
+
+fn simulate(s: SimCommand) -> Result<()> {
+    let (p, c) = match s {
+        SimCommand::Torsion(t) => (
+            pendulum::Pendulum::Torsion(pendulum::Torsion {
+                inertia_kgm2: t.inertia_kgm2,
+                stiffness_nm_per_rad: t.stiffness_nm_per_rad,
+                damping_ratio: t.damping_ratio,
+                coulomb_nm: t.coulomb_nm,
+                swing: t.swing_freq_hz.map(|f| pendulum::Swing {
+                    freq_hz: f,
+                    damping_ratio: t.swing_damping_ratio,
+                    coupling: t.swing_coupling,
+                    release_amplitude_deg: t.swing_amplitude_deg,
+                }),
+            }),
+            t.common,
+        ),
+        SimCommand::Compound(k) => (
+            pendulum::Pendulum::Compound(pendulum::Compound {
+                mass_kg: k.mass_kg,
+                pivot_to_cg_m: k.pivot_to_cg_m,
+                inertia_about_pivot_kgm2: k.inertia_about_pivot_kgm2,
+                damping_ratio: k.damping_ratio,
+                coulomb_nm: k.coulomb_nm,
+            }),
+            k.common,
+        ),
+    };
+    let release = pendulum::Release {
+        rest_s: c.rest_s,
+        ramp_s: c.ramp_s,
+        hold_s: c.hold_s,
+        amplitude_deg: c.amplitude_deg,
+        duration_s: c.duration_s,
+    };
+    let mut rng = sim::rng::Rng::new(c.seed ^ 0x5EED);
+    let mut sensor = imu::SensorModel::typical(&mut rng);
+    sensor.orientation_noise_rad = c.noise_deg.to_radians();
+    let placement = pendulum::Placement {
+        body_rest: rng.rotation(),
+        axis_heading_rad: rng.range(0.0, std::f64::consts::TAU),
+        sensor_offset_m: nalgebra::Vector3::new(0.3, 0.05, 0.02),
+    };
+    let link = if c.perfect_link { imu::LinkModel::perfect() } else { imu::LinkModel::default() };
+    let spec = imu::FileSpec {
+        mode: match c.mode {
+            ModeArg::Euler => OutputMode::Euler,
+            ModeArg::Quaternion => OutputMode::Quaternion,
+            ModeArg::Matrix => OutputMode::Matrix,
+        },
+        locale: match c.locale {
+            LocaleArg::Tab => imu::Locale::Tab,
+            LocaleArg::Spanish => imu::Locale::Spanish,
+        },
+        precision: match c.precision {
+            PrecisionArg::Sensor => imu::Precision::Sensor,
+            PrecisionArg::Full => imu::Precision::Full,
+        },
+        rate_hz: 100.0,
+        sensors: vec![(c.sensor_id.clone(), c.label.clone())],
+        first_counter: (c.seed.wrapping_mul(2654435761) % 65_536) as u16,
+        start: "2009-03-12 11:42:07".into(),
+        extra_header: vec![],
+        declare_decimal: true,
+        jitter_s: if c.perfect_link { 0.0 } else { 0.0005 },
+    };
+    let rec = sim::simulate_pendulum(&p, &release, &placement, &sensor, &link, &spec, c.seed);
+    let cal = bikeproc::log::Log::cal_path(&c.out);
+    write_atomic(&c.out, rec.angles_log.as_bytes())?;
+    write_atomic(&cal, rec.cal_log.as_bytes())?;
+    println!("{}", serde_json::to_string_pretty(&rec.truth)?);
+    eprintln!("wrote {} and {}", c.out.display(), cal.display());
+    Ok(())
+}
+
+/// Writes through a temporary file and a rename: a reader never sees half a file.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    bikeproc::report::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
+}

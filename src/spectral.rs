@@ -27,6 +27,15 @@ pub struct Spectrum {
     pub resolution_hz: f64,
 }
 
+/// The data window of a spectrum.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Window {
+    /// Periodic Hann: low leakage, for steady or slowly decaying records.
+    Hann,
+    /// No taper: for a stretch that starts inside a free decay, which tapers itself.
+    Rectangular,
+}
+
 /// A spectral peak.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Peak {
@@ -59,7 +68,7 @@ impl Spectrum {
     ///
     /// # Panics
     /// Never on data; an empty signal gives an empty spectrum.
-    pub fn of(signal: &Signal) -> Spectrum {
+    pub fn of(signal: &Signal, window: Window) -> Spectrum {
         let (Some(&first), Some(&last)) = (signal.index.first(), signal.index.last()) else {
             return Spectrum { freq_hz: vec![], magnitude: vec![], resolution_hz: f64::NAN };
         };
@@ -70,7 +79,7 @@ impl Spectrum {
         for ((&i, &v), &ti) in signal.index.iter().zip(&signal.values).zip(&t) {
             grid[(i - first) as usize] = v - (a + b * ti);
         }
-        spectrum_of_grid(&grid, signal.sample_rate_hz)
+        spectrum_of_grid(&grid, signal.sample_rate_hz, window)
     }
 
     /// Peaks, strongest first: local maxima at or above `min_freq_hz`, at least 2 unpadded bins
@@ -126,14 +135,16 @@ impl Spectrum {
     }
 }
 
-fn spectrum_of_grid(grid: &[f64], rate_hz: f64) -> Spectrum {
+fn spectrum_of_grid(grid: &[f64], rate_hz: f64, window: Window) -> Spectrum {
     let n = grid.len();
     let len = (n.next_power_of_two() * PAD_FACTOR).min(MAX_FFT_LEN).max(n);
     let mut buf: Vec<Complex<f64>> = vec![Complex::new(0.0, 0.0); len];
     let mut wsum = 0.0;
     for (i, (&x, slot)) in grid.iter().zip(buf.iter_mut()).enumerate() {
-        // Periodic Hann window.
-        let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos();
+        let w = match window {
+            Window::Hann => 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos(),
+            Window::Rectangular => 1.0,
+        };
         wsum += w;
         *slot = Complex::new(x * w, 0.0);
     }
@@ -176,7 +187,7 @@ mod tests {
                 (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
             })
             .collect();
-        let sp = spectrum_of_grid(&x, 100.0);
+        let sp = spectrum_of_grid(&x, 100.0, Window::Hann);
         let len = (sp.freq_hz.len() - 1) * 2;
         for k in [0, 1, 7, 100, 333, 512] {
             let want = naive_dft_mag(&x, len, k);
@@ -197,7 +208,7 @@ mod tests {
             index: (0..6000).collect(),
             values: x,
         };
-        let p = Spectrum::of(&sig).main_peak(0.05).unwrap();
+        let p = Spectrum::of(&sig, Window::Hann).main_peak(0.05).unwrap();
         assert!((p.freq_hz - f).abs() < 1e-4, "{}", p.freq_hz);
         assert!((p.magnitude - 1.0).abs() < 0.01, "{}", p.magnitude);
     }

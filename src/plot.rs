@@ -1,0 +1,1 @@
+//! Plots (SVG) for the reports.
