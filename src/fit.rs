@@ -492,19 +492,29 @@ fn refine_segment(fit: &DampedFit, t: &[f64], x: &[f64], i0: usize, rate_hz: f64
     let period_samples = ((rate_hz * 2.0 * PI / fit.omega_d().value).round() as usize).clamp(3, n);
     let sq = |k: usize| (fit.eval(t[k]) - x[k]).powi(2);
     let window_rms = |lo: usize, hi: usize| ((lo..hi).map(sq).sum::<f64>() / (hi - lo).max(1) as f64).sqrt();
-    let w = (period_samples / 8).max(4);
+    let w = (period_samples / 8).max(8);
+    let (amp, sigma) = (fit.amplitude().value, fit.sigma().value);
+    let envelope = |k: usize| amp * (-sigma * (t[k] - fit.t_ref_s)).exp();
     let mut start = i0;
-    // Forward: a segment that begins before the release (in the hold) does not fit there.
+    // Forward: a segment that begins in the hold before the release misfits there by a good
+    // fraction of the swing's amplitude.
     let limit = (i0 + 4 * period_samples).min(n.saturating_sub(w + 1));
-    while start < limit && window_rms(start, start + w) > 2.0 * s {
+    while start < limit {
+        let r = window_rms(start, start + w);
+        if r <= 2.0 * s || r <= 0.3 * envelope(start) {
+            break;
+        }
         start += w / 2;
     }
     if start == i0 {
-        // Backward: extend while a window of residuals stays within 2 s RMS.
+        // Backward: extend while a window fits as well as the decay's first period does
+        // (within 2×; that period's residual includes any model mismatch at full amplitude,
+        // so a slightly imperfect model does not stop the walk, the release does).
+        let reference = s.max(window_rms(i0, (i0 + period_samples).min(n)));
         let mut left_decay = false;
         while start > 0 {
             let lo = start.saturating_sub(w);
-            if window_rms(lo, start) > 2.0 * s {
+            if window_rms(lo, start) > 2.0 * reference {
                 left_decay = true;
                 break;
             }
@@ -516,7 +526,6 @@ fn refine_segment(fit: &DampedFit, t: &[f64], x: &[f64], i0: usize, rate_hz: f64
         }
     }
     // End: lost in noise, or a catch.
-    let (amp, sigma) = (fit.amplitude().value, fit.sigma().value);
     let mut end = n - 1;
     if sigma > 0.0 && amp > 0.0 && s > 0.0 {
         let t_lost = fit.t_ref_s + (amp / (0.1 * s)).ln().max(0.0) / sigma;
