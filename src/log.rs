@@ -88,7 +88,7 @@ pub enum LogErrorKind {
     CounterRepeats(u64),
     CounterTimeMismatch { counter_samples: u64, time_samples: f64 },
     QuaternionNorm(f64),
-    NotRotation(f64),
+    NotRotation { orthonormality_error: f64, det: f64 },
     TooManyCorruptRun { run: usize, limit: usize },
     TooManyCorrupt { corrupt: usize, rows: usize, limit_percent: f64 },
     NoData,
@@ -134,9 +134,10 @@ impl fmt::Display for LogErrorKind {
                  the time {time_samples:.2}"
             ),
             QuaternionNorm(n) => write!(f, "quaternion of norm {n}: expected a unit quaternion"),
-            NotRotation(e) => write!(
+            NotRotation { orthonormality_error, det } => write!(
                 f,
-                "not a rotation matrix (|MᵀM − I| = {e:.3e} or det < 0): expected orthonormal rows"
+                "not a rotation matrix (largest |MᵀM − I| = {orthonormality_error:.2e}, det = {det:.4}): \
+                 expected orthonormal rows and det = +1"
             ),
             TooManyCorruptRun { run, limit } => write!(
                 f,
@@ -233,6 +234,8 @@ pub struct Log {
     pub spanish_locale: bool,
     /// Names of the data columns (all but `Counter` and `Time`), as written.
     pub columns: Vec<String>,
+    /// Line of the row of column names.
+    pub column_row_line: usize,
     /// Per data column, the value at each kept sample (Euler roll and yaw unwrapped, in degrees).
     pub data: Vec<Vec<f64>>,
     /// Grid position of each kept sample: samples since the first row, at `sample_rate_hz`.
@@ -349,7 +352,7 @@ impl<'a> Parser<'a> {
 
     fn parse(&self, bytes: &[u8]) -> Result<Log, LogError> {
         if bytes.is_empty() {
-            return Err(self.err(None, None, LogErrorKind::Empty));
+            return Err(self.err(Some(1), None, LogErrorKind::Empty));
         }
         let text = match std::str::from_utf8(bytes) {
             Ok(t) if !t.contains('\0') => t,
@@ -362,7 +365,7 @@ impl<'a> Parser<'a> {
             }
         };
         if text.trim().is_empty() {
-            return Err(self.err(None, None, LogErrorKind::Empty));
+            return Err(self.err(Some(1), None, LogErrorKind::Empty));
         }
 
         let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
@@ -393,7 +396,9 @@ impl<'a> Parser<'a> {
                 .position(|l| l.starts_with("//") && l[2..].trim_start().to_ascii_lowercase().starts_with(&key.to_ascii_lowercase()))
                 .map(|i| i + 1)
         };
-        let rate_text = meta("Sample rate").ok_or_else(|| self.err(None, None, LogErrorKind::MissingKey("Sample rate")))?;
+        // Where the header ends: the row of column names, or the file's last line.
+        let header_end = column_row.map_or_else(|| text.lines().count().max(1), |(no, _)| no);
+        let rate_text = meta("Sample rate").ok_or_else(|| self.err(Some(header_end), None, LogErrorKind::MissingKey("Sample rate")))?;
         let sample_rate_hz = rate_text
             .trim_end_matches("Hz")
             .trim()
@@ -402,12 +407,12 @@ impl<'a> Parser<'a> {
             .ok()
             .filter(|r| r.is_finite() && *r > 0.0)
             .ok_or_else(|| self.err(header_line("Sample rate"), None, LogErrorKind::BadSampleRate(rate_text.to_string())))?;
-        let mode_text = meta("Output mode").ok_or_else(|| self.err(None, None, LogErrorKind::MissingKey("Output mode")))?;
+        let mode_text = meta("Output mode").ok_or_else(|| self.err(Some(header_end), None, LogErrorKind::MissingKey("Output mode")))?;
         let mode = OutputMode::parse(mode_text)
             .ok_or_else(|| self.err(header_line("Output mode"), None, LogErrorKind::UnknownMode(mode_text.to_string())))?;
         let declared_comma = meta("Decimal separator").map(|v| v.trim() == ",");
 
-        let (col_line_no, col_line) = column_row.ok_or_else(|| self.err(None, None, LogErrorKind::NoColumnRow))?;
+        let (col_line_no, col_line) = column_row.ok_or_else(|| self.err(Some(header_end), None, LogErrorKind::NoColumnRow))?;
         let separator = if col_line.contains('\t') {
             '\t'
         } else if col_line.contains(';') {
@@ -571,7 +576,7 @@ impl<'a> Parser<'a> {
             }
         }
         if grid_index.is_empty() {
-            return Err(self.err(None, None, LogErrorKind::NoData));
+            return Err(self.err(Some(col_line_no), None, LogErrorKind::NoData));
         }
         let percent = 100.0 * gaps.corrupt_rows as f64 / rows.max(1) as f64;
         if percent > self.options.max_corrupt_percent {
@@ -635,6 +640,7 @@ impl<'a> Parser<'a> {
             metadata,
             spanish_locale: separator == ';',
             columns,
+            column_row_line: col_line_no,
             data,
             grid_index,
             sensors,
@@ -758,8 +764,9 @@ fn orientations(
             OutputMode::Matrix => {
                 let m = Matrix3::from_fn(|r, c| v(3 * r + c));
                 let err = (m.transpose() * m - Matrix3::identity()).abs().max();
-                if err > ROTATION_TOLERANCE || m.determinant() <= 0.0 {
-                    return Err((LogErrorKind::NotRotation(err), i));
+                let det = m.determinant();
+                if err > ROTATION_TOLERANCE || det <= 0.0 {
+                    return Err((LogErrorKind::NotRotation { orthonormality_error: err, det }, i));
                 }
                 UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_eps(&m, 1e-12, 100, Rotation3::identity()))
             }

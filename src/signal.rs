@@ -34,20 +34,20 @@ pub struct Signal {
 pub enum SignalError {
     #[error(transparent)]
     Log(#[from] LogError),
-    #[error("{path}: channel `{channel}` is not in this file (columns: {available})")]
-    NoChannel { path: PathBuf, channel: String, available: String },
-    #[error("{path}: channel `{channel}` needs the calibrated file {cal}, which does not exist")]
-    MissingCal { path: PathBuf, channel: String, cal: PathBuf },
-    #[error("{path}: sensor `{sensor}` is not in this file (sensors: {available})")]
-    NoSensor { path: PathBuf, sensor: String, available: String },
-    #[error("{path}: the file has {count} sensors; name one with --sensor ({available})")]
-    WhichSensor { path: PathBuf, count: usize, available: String },
-    #[error("{path}: a calibrated file has no orientation; name a channel (e.g. Gyr_Z)")]
-    NoOrientation { path: PathBuf },
+    #[error("{path}:{line}: channel `{channel}` is not in this file (columns: {available})")]
+    NoChannel { path: PathBuf, line: usize, channel: String, available: String },
+    #[error("{path}:{line}: channel `{channel}` is not in this file and needs the calibrated file {cal}, which does not exist")]
+    MissingCal { path: PathBuf, line: usize, channel: String, cal: PathBuf },
+    #[error("{path}:{line}: sensor `{sensor}` is not in this file (sensors: {available})")]
+    NoSensor { path: PathBuf, line: usize, sensor: String, available: String },
+    #[error("{path}:{line}: the file has {count} sensors; name one with --sensor ({available})")]
+    WhichSensor { path: PathBuf, line: usize, count: usize, available: String },
+    #[error("{path}:{line}: a calibrated file has no orientation; name a channel (e.g. Gyr_Z)")]
+    NoOrientation { path: PathBuf, line: usize },
     #[error("{path}:{line}:{column}: {message}")]
     Csv { path: PathBuf, line: u64, column: usize, message: String },
-    #[error("{path}: {message}")]
-    Invalid { path: PathBuf, message: String },
+    #[error("{path}:{line}: {message}")]
+    Invalid { path: PathBuf, line: usize, message: String },
 }
 
 impl Signal {
@@ -92,6 +92,7 @@ impl Signal {
     pub fn from_csv(path: &Path) -> Result<Signal, SignalError> {
         let file = std::fs::File::open(path).map_err(|e| SignalError::Invalid {
             path: path.to_path_buf(),
+            line: 0,
             message: format!("cannot read: {e}"),
         })?;
         Signal::from_csv_reader(file, path)
@@ -138,7 +139,11 @@ impl Signal {
             lines.push(line);
         }
         if t.len() < 8 {
-            return Err(SignalError::Invalid { path: path.to_path_buf(), message: format!("only {} samples", t.len()) });
+            return Err(SignalError::Invalid {
+                path: path.to_path_buf(),
+                line: lines.last().copied().unwrap_or(1) as usize,
+                message: format!("only {} samples: too few for a signal", t.len()),
+            });
         }
         let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
         for (i, s) in steps.iter().enumerate() {
@@ -207,7 +212,7 @@ pub fn load_signal(
             }
             let cal = Log::cal_path(path);
             if !cal.exists() {
-                return Err(SignalError::MissingCal { path: path.to_path_buf(), channel: name.clone(), cal });
+                return Err(SignalError::MissingCal { path: path.to_path_buf(), line: log.column_row_line, channel: name.clone(), cal });
             }
             let cal_log = Log::open(&cal, options)?;
             let s = channel(&cal_log, name, sensor).ok_or_else(|| no_channel(&cal_log, name))?;
@@ -221,6 +226,7 @@ pub fn load_signal(
 fn no_channel(log: &Log, name: &str) -> SignalError {
     SignalError::NoChannel {
         path: log.path.clone(),
+        line: log.column_row_line,
         channel: name.to_string(),
         available: log.columns.join(", "),
     }
@@ -260,11 +266,12 @@ pub fn pick_sensor<'l>(log: &'l Log, key: Option<&str>) -> Result<&'l crate::log
     match key {
         Some(k) => log.sensor(k).ok_or_else(|| SignalError::NoSensor {
             path: log.path.clone(),
+            line: log.column_row_line,
             sensor: k.to_string(),
             available: available(),
         }),
         None if log.sensors.len() == 1 => Ok(&log.sensors[0]),
-        None => Err(SignalError::WhichSensor { path: log.path.clone(), count: log.sensors.len(), available: available() }),
+        None => Err(SignalError::WhichSensor { path: log.path.clone(), line: log.column_row_line, count: log.sensors.len(), available: available() }),
     }
 }
 
@@ -288,16 +295,21 @@ pub fn mean_rotation(qs: &[UnitQuaternion<f64>]) -> Option<UnitQuaternion<f64>> 
 /// frame, point along its largest global component.
 pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, SignalError> {
     if log.mode == OutputMode::Calibrated {
-        return Err(SignalError::NoOrientation { path: log.path.clone() });
+        return Err(SignalError::NoOrientation { path: log.path.clone(), line: log.column_row_line });
     }
     let s = pick_sensor(log, sensor)?;
     let q = &s.orientation;
     if q.len() < 8 {
-        return Err(SignalError::Invalid { path: log.path.clone(), message: format!("only {} samples", q.len()) });
+        return Err(SignalError::Invalid {
+            path: log.path.clone(),
+            line: log.column_row_line,
+            message: format!("only {} samples: too few for a signal", q.len()),
+        });
     }
     let rest_n = (log.sample_rate_hz.round() as usize).min(q.len() / 10).max(1);
     let rest = mean_rotation(&q[..rest_n]).ok_or_else(|| SignalError::Invalid {
         path: log.path.clone(),
+        line: log.column_row_line,
         message: "cannot average the rest orientation".into(),
     })?;
     let rest_inv = rest.inverse();

@@ -1,0 +1,111 @@
+//! Every malformed input in `fixtures/bad/` gets one line naming the file and the line, exit
+//! code 2, and never a panic; random bytes and random edits of valid logs never panic the reader.
+
+use bikeproc::log::{Log, OutputMode, ReadOptions};
+use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
+use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
+use proptest::prelude::*;
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn every_bad_fixture_is_one_line_with_file_and_line_and_exit_2() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/bad");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "log" || e == "csv"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 20, "only {} fixtures", files.len());
+    for f in files {
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_bikeproc"));
+        cmd.arg("period").arg(&f);
+        if name == "no_cal.log" {
+            cmd.args(["--channel", "Gyr_Z"]);
+        }
+        let out = cmd.output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
+        let lines: Vec<&str> = stderr.lines().collect();
+        assert_eq!(lines.len(), 1, "{name}: {stderr}");
+        // `error: PATH:LINE[:COL]: message`
+        let after = lines[0].split_once(&format!("{name}:")).map(|(_, r)| r).unwrap_or_else(|| panic!("{name}: {stderr}"));
+        let line_no: String = after.chars().take_while(char::is_ascii_digit).collect();
+        assert!(line_no.parse::<usize>().is_ok_and(|l| l >= 1), "{name}: no line number in {stderr}");
+        assert!(!stderr.contains("panicked"), "{name}: {stderr}");
+    }
+}
+
+/// Small valid logs in every mode and both locales, orientation and calibrated.
+fn valid_logs() -> Vec<String> {
+    let pend = Pendulum::Torsion(Torsion { inertia_kgm2: 1.0, stiffness_nm_per_rad: 20.0, damping_ratio: 0.01, coulomb_nm: 0.0, swing: None });
+    let release = Release { rest_s: 0.5, ramp_s: 0.3, hold_s: 0.2, amplitude_deg: 10.0, duration_s: 4.0 };
+    let mut out = Vec::new();
+    for (k, mode) in [OutputMode::Euler, OutputMode::Quaternion, OutputMode::Matrix].into_iter().enumerate() {
+        let mut rng = bikeproc::sim::rng::Rng::new(k as u64);
+        let placement = Placement { body_rest: rng.rotation(), axis_heading_rad: 0.0, sensor_offset_m: nalgebra::Vector3::new(0.2, 0.0, 0.0) };
+        let spec = FileSpec {
+            mode,
+            locale: if k == 1 { Locale::Spanish } else { Locale::Tab },
+            precision: Precision::Sensor,
+            rate_hz: 100.0,
+            sensors: vec![("00300417".into(), "frame".into())],
+            first_counter: 65_500,
+            start: "2009-03-12 11:42:07".into(),
+            extra_header: vec![],
+            declare_decimal: k == 1,
+            jitter_s: 0.0005,
+        };
+        let rec = bikeproc::sim::simulate_pendulum(&pend, &release, &placement, &SensorModel::typical(&mut rng), &LinkModel::default(), &spec, k as u64);
+        out.push(rec.angles_log);
+        out.push(rec.cal_log);
+    }
+    out
+}
+
+fn exercise(bytes: &[u8]) {
+    let opts = ReadOptions::default();
+    if let Ok(log) = Log::parse(bytes, Path::new("prop.log"), &opts) {
+        if let Ok(sig) = bikeproc::signal::dominant_rotation(&log, None) {
+            let _ = bikeproc::fit::analyse(&sig, &Default::default());
+        }
+        let _ = bikeproc::signal::channel(&log, "Gyr_Z", None);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
+        exercise(&bytes);
+    }
+
+    #[test]
+    fn random_edits_of_valid_logs_never_panic(
+        which in 0usize..6,
+        edits in proptest::collection::vec((0.0f64..1.0, 0usize..6, any::<u8>(), 0usize..40), 1..8),
+    ) {
+        let base = &VALID.with(|v| v[which].clone());
+        let mut bytes = base.as_bytes().to_vec();
+        for (pos, kind, byte, len) in edits {
+            let at = ((bytes.len() as f64) * pos) as usize;
+            let at = at.min(bytes.len());
+            match kind {
+                0 => { let end = (at + len).min(bytes.len()); bytes.drain(at..end); }
+                1 => bytes.insert(at, byte),
+                2 => if at < bytes.len() { bytes[at] = byte },
+                3 => { for b in "NaN".bytes().rev() { bytes.insert(at, b) } }
+                4 => { for b in "\t-1e308".bytes().rev() { bytes.insert(at, b) } }
+                _ => { let end = (at + len).min(bytes.len()); let chunk = bytes[at..end].to_vec(); for (i, b) in chunk.into_iter().enumerate() { bytes.insert(at + i, b) } }
+            }
+        }
+        exercise(&bytes);
+    }
+}
+
+thread_local! {
+    static VALID: Vec<String> = valid_logs();
+}
