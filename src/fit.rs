@@ -536,7 +536,9 @@ fn refine_segment(fit: &DampedFit, t: &[f64], x: &[f64], i0: usize, rate_hz: f64
     let wr = period_samples.max(10);
     let mut k = start;
     while k + wr <= end {
-        if window_rms(k, k + wr) > 3.0 * s {
+        // A catch or a knock is gross: 3× the noise and a good part of the swing left.
+        let r = window_rms(k, k + wr);
+        if r > 3.0 * s && r > 0.3 * envelope(k) {
             end = k + wr / 2;
             break;
         }

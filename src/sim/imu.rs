@@ -302,12 +302,14 @@ pub fn write_log(spec: &FileSpec, calibrated: bool, data: &[Vec<ImuSample>], pac
         let _ = write!(out, "{counter}");
         out.push(sep);
         fmt_num(&mut out, time, 3, spec.precision, spanish);
+        let total_fields = data.len() * mode.channels().len();
+        // A cut row always ends before its last field, whatever the mode's width.
         let mut fields_left = match packet {
-            Packet::Cut => 1 + (rng.uniform() * 3.0) as usize,
+            Packet::Cut => ((rng.uniform() * total_fields as f64) as usize).min(total_fields - 1),
             _ => usize::MAX,
         };
         let nan_at = match packet {
-            Packet::Nan => Some((rng.uniform() * (data.len() * mode.channels().len()) as f64) as usize),
+            Packet::Nan => Some((rng.uniform() * total_fields as f64) as usize),
             _ => None,
         };
         let mut field = 0usize;
