@@ -1,1 +1,135 @@
-fn main() {}
+//! Benchmarks of the measurement core: reading a one-hour two-sensor log (360,000 rows) from
+//! disk, and measuring one 60 s oscillation (spectrum, segment, fit).
+//! Run: `cargo bench --bench core`.
+
+use bikeproc::fit::{self, FitOptions};
+use bikeproc::log::{Log, OutputMode, ReadOptions};
+use bikeproc::signal::{self, Signal};
+use bikeproc::sim::imu::{self, FileSpec, LinkModel, Locale, Precision, SensorModel};
+use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
+use bikeproc::sim::rng::Rng;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+fn main() {
+    divan::main();
+}
+
+fn torsion() -> Pendulum {
+    Pendulum::Torsion(Torsion {
+        inertia_kgm2: 1.8906,
+        stiffness_nm_per_rad: 34.33,
+        damping_ratio: 0.004,
+        coulomb_nm: 0.0,
+        swing: None,
+    })
+}
+
+fn spec(sensors: usize, mode: OutputMode) -> FileSpec {
+    FileSpec {
+        mode,
+        locale: Locale::Tab,
+        precision: Precision::Sensor,
+        rate_hz: 100.0,
+        sensors: (0..sensors)
+            .map(|i| {
+                (
+                    format!("0030041{}", 7 + i),
+                    if i == 0 {
+                        "frame".into()
+                    } else {
+                        "handlebar".into()
+                    },
+                )
+            })
+            .collect(),
+        first_counter: 51_234,
+        start: "2009-03-12 11:42:07".into(),
+        extra_header: vec![],
+        declare_decimal: false,
+        jitter_s: 0.0005,
+    }
+}
+
+/// A one-hour recording of two sensors (Euler), written once to a temporary file.
+fn hour_log() -> &'static PathBuf {
+    static PATH: OnceLock<PathBuf> = OnceLock::new();
+    PATH.get_or_init(|| {
+        let mut rng = Rng::new(1);
+        let release = Release {
+            rest_s: 5.0,
+            ramp_s: 1.0,
+            hold_s: 1.0,
+            amplitude_deg: 8.0,
+            duration_s: 3600.0,
+        };
+        let placement = Placement {
+            body_rest: rng.rotation(),
+            axis_heading_rad: 0.0,
+            sensor_offset_m: nalgebra::Vector3::new(0.3, 0.0, 0.0),
+        };
+        let motion = torsion().motion(&release, &placement, 100.0);
+        let data: Vec<_> = (0..2)
+            .map(|_| SensorModel::typical(&mut rng).measure(&motion, 100.0, &mut rng))
+            .collect();
+        let packets = LinkModel::default().packets(motion.len(), 100.0, &mut rng);
+        let text = imu::write_log(
+            &spec(2, OutputMode::Euler),
+            false,
+            &data,
+            &packets,
+            None,
+            &mut rng,
+        );
+        let path = std::env::temp_dir().join("bikeproc_bench_hour.log");
+        std::fs::write(&path, text).expect("write bench log");
+        path
+    })
+}
+
+#[divan::bench(sample_count = 10)]
+fn read_one_hour_two_sensor_log(bencher: divan::Bencher) {
+    let path = hour_log();
+    bencher.bench(|| Log::open(divan::black_box(path), &ReadOptions::default()).expect("reads"));
+}
+
+fn sixty_second_signal() -> &'static Signal {
+    static SIG: OnceLock<Signal> = OnceLock::new();
+    SIG.get_or_init(|| {
+        let mut rng = Rng::new(2);
+        let release = Release {
+            rest_s: 3.0,
+            ramp_s: 1.0,
+            hold_s: 1.0,
+            amplitude_deg: 8.0,
+            duration_s: 60.0,
+        };
+        let placement = Placement {
+            body_rest: rng.rotation(),
+            axis_heading_rad: 0.0,
+            sensor_offset_m: nalgebra::Vector3::new(0.3, 0.0, 0.0),
+        };
+        let rec = bikeproc::sim::simulate_pendulum(
+            &torsion(),
+            &release,
+            &placement,
+            &SensorModel::typical(&mut rng),
+            &LinkModel::default(),
+            &spec(1, OutputMode::Quaternion),
+            2,
+        );
+        let log = Log::parse(
+            rec.angles_log.as_bytes(),
+            std::path::Path::new("bench.log"),
+            &ReadOptions::default(),
+        )
+        .expect("reads");
+        signal::dominant_rotation(&log, None).expect("signal")
+    })
+}
+
+#[divan::bench(sample_count = 50)]
+fn fit_one_60_s_signal(bencher: divan::Bencher) {
+    let sig = sixty_second_signal();
+    bencher.bench(|| fit::analyse(divan::black_box(sig), &FitOptions::default()).expect("fits"));
+}

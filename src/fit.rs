@@ -103,30 +103,45 @@ impl DampedFit {
 
     /// Damped angular frequency ω_d (rad/s).
     pub fn omega_d(&self) -> Estimate {
-        Estimate { value: self.params[OMEGA], se: self.se(OMEGA) }
+        Estimate {
+            value: self.params[OMEGA],
+            se: self.se(OMEGA),
+        }
     }
 
     /// Decay rate σ = ζωₙ (1/s).
     pub fn sigma(&self) -> Estimate {
-        Estimate { value: self.params[SIGMA], se: self.se(SIGMA) }
+        Estimate {
+            value: self.params[SIGMA],
+            se: self.se(SIGMA),
+        }
     }
 
     /// Damped frequency f_d = ω_d / 2π (Hz).
     pub fn freq_hz(&self) -> Estimate {
-        Estimate { value: self.params[OMEGA] / (2.0 * PI), se: self.se(OMEGA) / (2.0 * PI) }
+        Estimate {
+            value: self.params[OMEGA] / (2.0 * PI),
+            se: self.se(OMEGA) / (2.0 * PI),
+        }
     }
 
     /// Damped period T = 2π / ω_d (s).
     pub fn period_s(&self) -> Estimate {
         let w = self.params[OMEGA];
-        Estimate { value: 2.0 * PI / w, se: 2.0 * PI * self.se(OMEGA) / (w * w) }
+        Estimate {
+            value: 2.0 * PI / w,
+            se: 2.0 * PI * self.se(OMEGA) / (w * w),
+        }
     }
 
     /// Natural frequency fₙ = √(ω_d² + σ²) / 2π (Hz).
     pub fn natural_freq_hz(&self) -> Estimate {
         let (s, w) = (self.params[SIGMA], self.params[OMEGA]);
         let wn = s.hypot(w);
-        Estimate { value: wn / (2.0 * PI), se: self.se_sigma_omega(s / wn, w / wn) / (2.0 * PI) }
+        Estimate {
+            value: wn / (2.0 * PI),
+            se: self.se_sigma_omega(s / wn, w / wn) / (2.0 * PI),
+        }
     }
 
     /// Damping ratio ζ = σ / ωₙ.
@@ -134,7 +149,10 @@ impl DampedFit {
         let (s, w) = (self.params[SIGMA], self.params[OMEGA]);
         let wn = s.hypot(w);
         let wn3 = wn * wn * wn;
-        Estimate { value: s / wn, se: self.se_sigma_omega(w * w / wn3, -s * w / wn3) }
+        Estimate {
+            value: s / wn,
+            se: self.se_sigma_omega(w * w / wn3, -s * w / wn3),
+        }
     }
 
     /// Amplitude √(b² + c²) at the start of the segment.
@@ -142,14 +160,24 @@ impl DampedFit {
         let (b, c) = (self.params[B], self.params[C]);
         let amp = b.hypot(c);
         let cv = &self.covariance;
-        let (gb, gc) = if amp > 0.0 { (b / amp, c / amp) } else { (0.0, 0.0) };
+        let (gb, gc) = if amp > 0.0 {
+            (b / amp, c / amp)
+        } else {
+            (0.0, 0.0)
+        };
         let v = gb * gb * cv[(B, B)] + 2.0 * gb * gc * cv[(B, C)] + gc * gc * cv[(C, C)];
-        Estimate { value: amp, se: v.max(0.0).sqrt() }
+        Estimate {
+            value: amp,
+            se: v.max(0.0).sqrt(),
+        }
     }
 
     /// Offset `a` at the start of the segment, and the trend `d` per second (0 without a trend).
     pub fn offset_and_trend(&self) -> (f64, f64) {
-        (self.params[A], if self.trend { self.params[D] } else { 0.0 })
+        (
+            self.params[A],
+            if self.trend { self.params[D] } else { 0.0 },
+        )
     }
 }
 
@@ -164,7 +192,14 @@ fn model(p: &[f64], trend: bool, tau: f64) -> f64 {
 }
 
 /// Residuals `model − x` and the exact Jacobian of the model, rows per sample.
-fn residuals_and_jacobian(p: &[f64], trend: bool, tau: &[f64], x: &[f64], jac: &mut DMatrix<f64>, r: &mut DVector<f64>) {
+fn residuals_and_jacobian(
+    p: &[f64],
+    trend: bool,
+    tau: &[f64],
+    x: &[f64],
+    jac: &mut DMatrix<f64>,
+    r: &mut DVector<f64>,
+) {
     for (i, (&t, &xi)) in tau.iter().zip(x).enumerate() {
         let e = (-p[SIGMA] * t).exp();
         let (s, c) = (p[OMEGA] * t).sin_cos();
@@ -184,13 +219,22 @@ fn residuals_and_jacobian(p: &[f64], trend: bool, tau: &[f64], x: &[f64], jac: &
 }
 
 fn rss(p: &[f64], trend: bool, tau: &[f64], x: &[f64]) -> f64 {
-    tau.iter().zip(x).map(|(&t, &xi)| (model(p, trend, t) - xi).powi(2)).sum()
+    tau.iter()
+        .zip(x)
+        .map(|(&t, &xi)| (model(p, trend, t) - xi).powi(2))
+        .sum()
 }
 
 /// For fixed σ and ω the model is linear in `a, b, c (, d)`: solve those by least squares
 /// (normal equations, the trend's column scaled to the segment's length for conditioning).
 /// Returns the full parameter vector and the residual sum of squares.
-fn linear_step(sigma: f64, omega: f64, trend: bool, tau: &[f64], x: &[f64]) -> Option<(Vec<f64>, f64)> {
+fn linear_step(
+    sigma: f64,
+    omega: f64,
+    trend: bool,
+    tau: &[f64],
+    x: &[f64],
+) -> Option<(Vec<f64>, f64)> {
     let span = tau.last().copied().unwrap_or(1.0).max(1e-9);
     let mut ata = nalgebra::Matrix4::<f64>::zeros();
     let mut atb = nalgebra::Vector4::<f64>::zeros();
@@ -217,7 +261,13 @@ fn linear_step(sigma: f64, omega: f64, trend: bool, tau: &[f64], x: &[f64]) -> O
 ///
 /// `tau` is time from the segment start; the result's covariance is `s² (JᵀJ)⁻¹` with
 /// `s² = RSS / (N − p)`.
-pub fn fit_damped_sinusoid(tau: &[f64], x: &[f64], t_ref_s: f64, p0: &[f64], trend: bool) -> Result<DampedFit, FitError> {
+pub fn fit_damped_sinusoid(
+    tau: &[f64],
+    x: &[f64],
+    t_ref_s: f64,
+    p0: &[f64],
+    trend: bool,
+) -> Result<DampedFit, FitError> {
     let np = if trend { 6 } else { 5 };
     let n = tau.len();
     if n <= np + 2 {
@@ -249,7 +299,11 @@ pub fn fit_damped_sinusoid(tau: &[f64], x: &[f64], t_ref_s: f64, p0: &[f64], tre
             let delta = ch.solve(&(-&g));
             let trial: Vec<f64> = p.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
             let new_cost = rss(&trial, trend, tau, x);
-            let rel_step = delta.iter().zip(&p).map(|(d, v)| d.abs() / (v.abs() + 1e-12)).fold(0.0, f64::max);
+            let rel_step = delta
+                .iter()
+                .zip(&p)
+                .map(|(d, v)| d.abs() / (v.abs() + 1e-12))
+                .fold(0.0, f64::max);
             if new_cost.is_finite() && new_cost <= cost {
                 let gain = (cost - new_cost) / cost.max(1e-300);
                 p = trial;
@@ -313,18 +367,31 @@ fn initial_guess(tau: &[f64], x: &[f64], omega0: f64, trend: bool) -> Option<Vec
 
 /// Fits `t, x` (times in s) with τ measured from `t[0]`, starting from `omega0` (rad/s) and a
 /// search over σ.
-pub fn fit_from_frequency(t: &[f64], x: &[f64], omega0: f64, trend: bool) -> Result<DampedFit, FitError> {
+pub fn fit_from_frequency(
+    t: &[f64],
+    x: &[f64],
+    omega0: f64,
+    trend: bool,
+) -> Result<DampedFit, FitError> {
     let t_ref = *t.first().ok_or(FitError::TooShort(0))?;
     let tau: Vec<f64> = t.iter().map(|v| v - t_ref).collect();
-    let p0 = initial_guess(&tau, x, omega0, trend).ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
+    let p0 = initial_guess(&tau, x, omega0, trend)
+        .ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
     fit_damped_sinusoid(&tau, x, t_ref, &p0, trend)
 }
 
 /// Fits `t, x` starting from a previous fit's σ and ω (the linear parameters solved afresh).
-fn fit_from_guess(t: &[f64], x: &[f64], sigma0: f64, omega0: f64, trend: bool) -> Result<DampedFit, FitError> {
+fn fit_from_guess(
+    t: &[f64],
+    x: &[f64],
+    sigma0: f64,
+    omega0: f64,
+    trend: bool,
+) -> Result<DampedFit, FitError> {
     let t_ref = *t.first().ok_or(FitError::TooShort(0))?;
     let tau: Vec<f64> = t.iter().map(|v| v - t_ref).collect();
-    let (p0, _) = linear_step(sigma0, omega0, trend, &tau, x).ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
+    let (p0, _) = linear_step(sigma0, omega0, trend, &tau, x)
+        .ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
     fit_damped_sinusoid(&tau, x, t_ref, &p0, trend)
 }
 
@@ -379,9 +446,19 @@ fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
     let m = moving_mean(x, w);
     let sq: Vec<f64> = x.iter().map(|v| v * v).collect();
     let m2 = moving_mean(&sq, w);
-    let var: Vec<f64> = m2.iter().zip(&m).map(|(a, b)| (a - b * b).max(0.0)).collect();
-    let imax = (0..n).max_by(|&a, &b| var[a].total_cmp(&var[b])).unwrap_or(0);
-    let quiet = var.iter().copied().fold(f64::INFINITY, f64::min).max(var[imax] * 1e-12);
+    let var: Vec<f64> = m2
+        .iter()
+        .zip(&m)
+        .map(|(a, b)| (a - b * b).max(0.0))
+        .collect();
+    let imax = (0..n)
+        .max_by(|&a, &b| var[a].total_cmp(&var[b]))
+        .unwrap_or(0);
+    let quiet = var
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min)
+        .max(var[imax] * 1e-12);
     // Quiet for 2 s on end: near a crest of a slow swing a 0.5 s window is briefly quiet too.
     let sustain = (2.0 * rate_hz).round() as usize;
     let mut run = 0;
@@ -430,9 +507,15 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
     if i1 < i0 + 16 {
         return Err(FitError::TooShort(i1 + 1 - i0));
     }
-    let stretch = Signal { index: signal.index[i0..=i1].to_vec(), values: x[i0..=i1].to_vec(), ..signal.clone() };
+    let stretch = Signal {
+        index: signal.index[i0..=i1].to_vec(),
+        values: x[i0..=i1].to_vec(),
+        ..signal.clone()
+    };
     let stretch_spectrum = Spectrum::of(&stretch, Window::Rectangular);
-    let min_f = options.min_freq_hz.unwrap_or(2.0 * stretch_spectrum.resolution_hz);
+    let min_f = options
+        .min_freq_hz
+        .unwrap_or(2.0 * stretch_spectrum.resolution_hz);
     let main_peak = stretch_spectrum.main_peak(min_f).ok_or(FitError::NoPeak)?;
     let omega0 = 2.0 * PI * main_peak.freq_hz;
 
@@ -440,7 +523,13 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
     if options.segment_s.is_none() {
         // After the first fit on the stretch of motion, the decay runs to the record's end.
         i1 = n - 1;
-        fit = fit_from_guess(&t[i0..=i1], &x[i0..=i1], fit.sigma().value, fit.omega_d().value, trend_for_search)?;
+        fit = fit_from_guess(
+            &t[i0..=i1],
+            &x[i0..=i1],
+            fit.sigma().value,
+            fit.omega_d().value,
+            trend_for_search,
+        )?;
         for _ in 0..6 {
             let (start, end) = refine_segment(&fit, &t, x, i0, signal.sample_rate_hz);
             if start == i0 && end == i1 {
@@ -448,7 +537,13 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
             }
             i0 = start;
             i1 = end.max(i0 + 16).min(n - 1);
-            fit = fit_from_guess(&t[i0..=i1], &x[i0..=i1], fit.sigma().value, fit.omega_d().value, trend_for_search)?;
+            fit = fit_from_guess(
+                &t[i0..=i1],
+                &x[i0..=i1],
+                fit.sigma().value,
+                fit.omega_d().value,
+                trend_for_search,
+            )?;
         }
     }
     // Final model: trend or not.
@@ -468,12 +563,30 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
     };
     let cycles = (seg_t[seg_t.len() - 1] - seg_t[0]) * fit.freq_hz().value;
     if cycles < 2.0 {
-        return Err(FitError::SegmentTooShort { cycles, samples: seg_t.len() });
+        return Err(FitError::SegmentTooShort {
+            cycles,
+            samples: seg_t.len(),
+        });
     }
-    let segment = Signal { index: signal.index[i0..=i1].to_vec(), values: seg_x.to_vec(), ..signal.clone() };
+    let segment = Signal {
+        index: signal.index[i0..=i1].to_vec(),
+        values: seg_x.to_vec(),
+        ..signal.clone()
+    };
     let spectrum = Spectrum::of(&segment, Window::Hann);
-    let residual = Signal { values: seg_t.iter().zip(seg_x).map(|(&ti, &xi)| xi - fit.eval(ti)).collect(), ..segment };
-    let secondary_peaks = secondary_peaks(&spectrum, &Spectrum::of(&residual, Window::Hann), main_peak.freq_hz);
+    let residual = Signal {
+        values: seg_t
+            .iter()
+            .zip(seg_x)
+            .map(|(&ti, &xi)| xi - fit.eval(ti))
+            .collect(),
+        ..segment
+    };
+    let secondary_peaks = secondary_peaks(
+        &spectrum,
+        &Spectrum::of(&residual, Window::Hann),
+        main_peak.freq_hz,
+    );
     Ok(Oscillation {
         bic: bic(&fit),
         fit,
@@ -486,12 +599,19 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
 
 /// One step of the segment choice of [`analyse`]: the start walked back to the release, the end
 /// where the decay is lost in noise or disturbed.
-fn refine_segment(fit: &DampedFit, t: &[f64], x: &[f64], i0: usize, rate_hz: f64) -> (usize, usize) {
+fn refine_segment(
+    fit: &DampedFit,
+    t: &[f64],
+    x: &[f64],
+    i0: usize,
+    rate_hz: f64,
+) -> (usize, usize) {
     let n = t.len();
     let s = fit.residual_rms;
     let period_samples = ((rate_hz * 2.0 * PI / fit.omega_d().value).round() as usize).clamp(3, n);
     let sq = |k: usize| (fit.eval(t[k]) - x[k]).powi(2);
-    let window_rms = |lo: usize, hi: usize| ((lo..hi).map(sq).sum::<f64>() / (hi - lo).max(1) as f64).sqrt();
+    let window_rms =
+        |lo: usize, hi: usize| ((lo..hi).map(sq).sum::<f64>() / (hi - lo).max(1) as f64).sqrt();
     let w = (period_samples / 8).max(8);
     let (amp, sigma) = (fit.amplitude().value, fit.sigma().value);
     let envelope = |k: usize| amp * (-sigma * (t[k] - fit.t_ref_s)).exp();
@@ -549,12 +669,23 @@ fn refine_segment(fit: &DampedFit, t: &[f64], x: &[f64], i0: usize, rate_hz: f64
 
 /// Peaks of the residual's spectrum that stand 5× above its median floor and reach 2 % of the
 /// signal's main peak (−34 dB), away from the main frequency by more than 2 bins.
-fn secondary_peaks(signal_spectrum: &Spectrum, residual_spectrum: &Spectrum, main_hz: f64) -> Vec<Peak> {
-    let top = signal_spectrum.magnitude.iter().copied().fold(0.0, f64::max);
+fn secondary_peaks(
+    signal_spectrum: &Spectrum,
+    residual_spectrum: &Spectrum,
+    main_hz: f64,
+) -> Vec<Peak> {
+    let top = signal_spectrum
+        .magnitude
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
     residual_spectrum
         .peaks(2.0 * residual_spectrum.resolution_hz, 0.0, 8)
         .into_iter()
-        .filter(|p| p.magnitude >= 0.02 * top && (p.freq_hz - main_hz).abs() > 2.0 * residual_spectrum.resolution_hz)
+        .filter(|p| {
+            p.magnitude >= 0.02 * top
+                && (p.freq_hz - main_hz).abs() > 2.0 * residual_spectrum.resolution_hz
+        })
         .take(5)
         .collect()
 }
@@ -592,7 +723,13 @@ pub struct OscillationSummary {
 impl Oscillation {
     pub fn summary(&self, signal: &Signal) -> OscillationSummary {
         let f = &self.fit;
-        let (p, fr, fnat, z, a) = (f.period_s(), f.freq_hz(), f.natural_freq_hz(), f.damping_ratio(), f.amplitude());
+        let (p, fr, fnat, z, a) = (
+            f.period_s(),
+            f.freq_hz(),
+            f.natural_freq_hz(),
+            f.damping_ratio(),
+            f.amplitude(),
+        );
         OscillationSummary {
             signal: signal.name.clone(),
             unit: signal.unit.clone(),
@@ -620,11 +757,19 @@ impl Oscillation {
 impl OscillationSummary {
     /// The plain-text form printed by `bikeproc period`.
     pub fn to_text(&self, source: &std::path::Path) -> String {
-        let unit = if self.unit.is_empty() { String::new() } else { format!(" {}", self.unit) };
+        let unit = if self.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", self.unit)
+        };
         let peaks = if self.secondary_peaks_hz.is_empty() {
             "none".to_string()
         } else {
-            self.secondary_peaks_hz.iter().map(|f| format!("{f:.4} Hz")).collect::<Vec<_>>().join(", ")
+            self.secondary_peaks_hz
+                .iter()
+                .map(|f| format!("{f:.4} Hz"))
+                .collect::<Vec<_>>()
+                .join(", ")
         };
         format!(
             "{}: {}\n\
@@ -642,7 +787,11 @@ impl OscillationSummary {
             self.segment_s[0],
             self.segment_s[1],
             self.samples,
-            if self.trend { ", linear trend fitted" } else { "" },
+            if self.trend {
+                ", linear trend fitted"
+            } else {
+                ""
+            },
             self.period_s,
             self.period_se_s,
             self.freq_hz,
@@ -700,7 +849,15 @@ mod tests {
     use super::*;
 
     /// The exact Fisher matrix of (A, φ, ω, σ, offset), inverted numerically.
-    fn exact_crb(amplitude: f64, sigma: f64, omega: f64, phi: f64, dt: f64, n: usize, s2: f64) -> f64 {
+    fn exact_crb(
+        amplitude: f64,
+        sigma: f64,
+        omega: f64,
+        phi: f64,
+        dt: f64,
+        n: usize,
+        s2: f64,
+    ) -> f64 {
         let mut f = DMatrix::<f64>::zeros(5, 5);
         for k in 0..n {
             let t = k as f64 * dt;
@@ -726,13 +883,21 @@ mod tests {
     fn crb_matches_exact_fisher_matrix() {
         // The averaging of sin² to ½ is exact only over many cycles: the error grows with the
         // damping (the information sits in the first 1/(2πζ) cycles), 4 % at ζ = 0.05.
-        for &(f_hz, zeta, secs, tol) in &[(0.8, 0.01, 60.0, 0.01), (4.0, 0.05, 30.0, 0.05), (0.5, 0.002, 120.0, 0.01), (2.0, 0.0, 30.0, 0.001)] {
+        for &(f_hz, zeta, secs, tol) in &[
+            (0.8, 0.01, 60.0, 0.01),
+            (4.0, 0.05, 30.0, 0.05),
+            (0.5, 0.002, 120.0, 0.01),
+            (2.0, 0.0, 30.0, 0.001),
+        ] {
             let w = 2.0 * PI * f_hz;
             let sigma = zeta * w;
             let n = (secs * 100.0) as usize;
             let approx = crb_omega_variance(0.1, sigma, 0.01, n, 1e-6);
             let exact = exact_crb(0.1, sigma, w, 0.7, 0.01, n, 1e-6);
-            assert!((approx / exact - 1.0).abs() < tol, "f={f_hz} ζ={zeta}: {approx} vs {exact}");
+            assert!(
+                (approx / exact - 1.0).abs() < tol,
+                "f={f_hz} ζ={zeta}: {approx} vs {exact}"
+            );
         }
     }
 

@@ -22,6 +22,6 @@ pub mod log;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod report;
-pub mod sim;
 pub mod signal;
+pub mod sim;
 pub mod spectral;

@@ -80,17 +80,42 @@ pub enum LogErrorKind {
     MissingColumn(String),
     DuplicateColumn(String),
     NoSensorColumns,
-    FieldCount { expected: usize, found: usize },
-    BadNumber { column: String, text: String },
+    FieldCount {
+        expected: usize,
+        found: usize,
+    },
+    BadNumber {
+        column: String,
+        text: String,
+    },
     BadCounter(String),
-    TimeBackwards { previous_s: f64, now_s: f64 },
-    CounterBackwards { previous: u64, now: u64 },
+    TimeBackwards {
+        previous_s: f64,
+        now_s: f64,
+    },
+    CounterBackwards {
+        previous: u64,
+        now: u64,
+    },
     CounterRepeats(u64),
-    CounterTimeMismatch { counter_samples: u64, time_samples: f64 },
+    CounterTimeMismatch {
+        counter_samples: u64,
+        time_samples: f64,
+    },
     QuaternionNorm(f64),
-    NotRotation { orthonormality_error: f64, det: f64 },
-    TooManyCorruptRun { run: usize, limit: usize },
-    TooManyCorrupt { corrupt: usize, rows: usize, limit_percent: f64 },
+    NotRotation {
+        orthonormality_error: f64,
+        det: f64,
+    },
+    TooManyCorruptRun {
+        run: usize,
+        limit: usize,
+    },
+    TooManyCorrupt {
+        corrupt: usize,
+        rows: usize,
+        limit_percent: f64,
+    },
     NoData,
 }
 
@@ -282,10 +307,11 @@ impl Log {
 
     /// A sensor by id or by its label (case-insensitive).
     pub fn sensor(&self, key: &str) -> Option<&Sensor> {
-        self.sensors
-            .iter()
-            .find(|s| s.id == key)
-            .or_else(|| self.sensors.iter().find(|s| s.label.eq_ignore_ascii_case(key)))
+        self.sensors.iter().find(|s| s.id == key).or_else(|| {
+            self.sensors
+                .iter()
+                .find(|s| s.label.eq_ignore_ascii_case(key))
+        })
     }
 
     /// Time of each kept sample on the sensor clock, seconds from the first row.
@@ -321,7 +347,8 @@ fn short_name(column: &str) -> &str {
 fn is_sensor_id(s: &str) -> bool {
     !s.is_empty()
         && s.chars().any(|c| c.is_ascii_digit())
-        && s.chars().all(|c| c.is_ascii_digit() || c.is_ascii_uppercase())
+        && s.chars()
+            .all(|c| c.is_ascii_digit() || c.is_ascii_uppercase())
 }
 
 struct Parser<'a> {
@@ -361,14 +388,21 @@ impl<'a> Parser<'a> {
                 return Err(self.err(Some(line_of(bytes, at)), None, LogErrorKind::Binary));
             }
             Err(e) => {
-                return Err(self.err(Some(line_of(bytes, e.valid_up_to())), None, LogErrorKind::Binary))
+                return Err(self.err(
+                    Some(line_of(bytes, e.valid_up_to())),
+                    None,
+                    LogErrorKind::Binary,
+                ))
             }
         };
         if text.trim().is_empty() {
             return Err(self.err(Some(1), None, LogErrorKind::Empty));
         }
 
-        let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
         // Header.
         let mut metadata = Vec::new();
         let mut sensor_labels: Vec<(String, String)> = Vec::new();
@@ -390,15 +424,32 @@ impl<'a> Parser<'a> {
             column_row = Some((no, line));
             break;
         }
-        let meta = |key: &str| metadata.iter().find(|(k, _)| k.eq_ignore_ascii_case(key)).map(|(_, v)| v.as_str());
+        let meta = |key: &str| {
+            metadata
+                .iter()
+                .find(|(k, _)| k.eq_ignore_ascii_case(key))
+                .map(|(_, v)| v.as_str())
+        };
         let header_line = |key: &str| {
             text.lines()
-                .position(|l| l.starts_with("//") && l[2..].trim_start().to_ascii_lowercase().starts_with(&key.to_ascii_lowercase()))
+                .position(|l| {
+                    l.starts_with("//")
+                        && l[2..]
+                            .trim_start()
+                            .to_ascii_lowercase()
+                            .starts_with(&key.to_ascii_lowercase())
+                })
                 .map(|i| i + 1)
         };
         // Where the header ends: the row of column names, or the file's last line.
         let header_end = column_row.map_or_else(|| text.lines().count().max(1), |(no, _)| no);
-        let rate_text = meta("Sample rate").ok_or_else(|| self.err(Some(header_end), None, LogErrorKind::MissingKey("Sample rate")))?;
+        let rate_text = meta("Sample rate").ok_or_else(|| {
+            self.err(
+                Some(header_end),
+                None,
+                LogErrorKind::MissingKey("Sample rate"),
+            )
+        })?;
         let sample_rate_hz = rate_text
             .trim_end_matches("Hz")
             .trim()
@@ -406,13 +457,31 @@ impl<'a> Parser<'a> {
             .parse::<f64>()
             .ok()
             .filter(|r| r.is_finite() && *r > 0.0)
-            .ok_or_else(|| self.err(header_line("Sample rate"), None, LogErrorKind::BadSampleRate(rate_text.to_string())))?;
-        let mode_text = meta("Output mode").ok_or_else(|| self.err(Some(header_end), None, LogErrorKind::MissingKey("Output mode")))?;
-        let mode = OutputMode::parse(mode_text)
-            .ok_or_else(|| self.err(header_line("Output mode"), None, LogErrorKind::UnknownMode(mode_text.to_string())))?;
+            .ok_or_else(|| {
+                self.err(
+                    header_line("Sample rate"),
+                    None,
+                    LogErrorKind::BadSampleRate(rate_text.to_string()),
+                )
+            })?;
+        let mode_text = meta("Output mode").ok_or_else(|| {
+            self.err(
+                Some(header_end),
+                None,
+                LogErrorKind::MissingKey("Output mode"),
+            )
+        })?;
+        let mode = OutputMode::parse(mode_text).ok_or_else(|| {
+            self.err(
+                header_line("Output mode"),
+                None,
+                LogErrorKind::UnknownMode(mode_text.to_string()),
+            )
+        })?;
         let declared_comma = meta("Decimal separator").map(|v| v.trim() == ",");
 
-        let (col_line_no, col_line) = column_row.ok_or_else(|| self.err(Some(header_end), None, LogErrorKind::NoColumnRow))?;
+        let (col_line_no, col_line) = column_row
+            .ok_or_else(|| self.err(Some(header_end), None, LogErrorKind::NoColumnRow))?;
         let separator = if col_line.contains('\t') {
             '\t'
         } else if col_line.contains(';') {
@@ -425,17 +494,36 @@ impl<'a> Parser<'a> {
         let names_text: Vec<&str> = names.iter().map(|f| f.text.trim()).collect();
         for (i, n) in names_text.iter().enumerate() {
             if names_text[..i].contains(n) {
-                return Err(self.err(Some(col_line_no), Some(names[i].col), LogErrorKind::DuplicateColumn(n.to_string())));
+                return Err(self.err(
+                    Some(col_line_no),
+                    Some(names[i].col),
+                    LogErrorKind::DuplicateColumn(n.to_string()),
+                ));
             }
         }
         let find = |n: &str| names_text.iter().position(|c| *c == n);
-        let counter_col = find("Counter")
-            .ok_or_else(|| self.err(Some(col_line_no), None, LogErrorKind::MissingColumn("Counter".into())))?;
-        let time_col =
-            find("Time").ok_or_else(|| self.err(Some(col_line_no), None, LogErrorKind::MissingColumn("Time".into())))?;
+        let counter_col = find("Counter").ok_or_else(|| {
+            self.err(
+                Some(col_line_no),
+                None,
+                LogErrorKind::MissingColumn("Counter".into()),
+            )
+        })?;
+        let time_col = find("Time").ok_or_else(|| {
+            self.err(
+                Some(col_line_no),
+                None,
+                LogErrorKind::MissingColumn("Time".into()),
+            )
+        })?;
         // Data columns: everything but Counter and Time, in file order.
-        let data_fields: Vec<usize> = (0..names.len()).filter(|&i| i != counter_col && i != time_col).collect();
-        let columns: Vec<String> = data_fields.iter().map(|&i| names_text[i].to_string()).collect();
+        let data_fields: Vec<usize> = (0..names.len())
+            .filter(|&i| i != counter_col && i != time_col)
+            .collect();
+        let columns: Vec<String> = data_fields
+            .iter()
+            .map(|&i| names_text[i].to_string())
+            .collect();
 
         // Sensors: from the header's `Sensor <ID>` lines, else from the column prefixes.
         let mut ids: Vec<String> = sensor_labels.iter().map(|(id, _)| id.clone()).collect();
@@ -453,9 +541,20 @@ impl<'a> Parser<'a> {
         let unprefixed = channels.iter().all(|ch| columns.iter().any(|c| c == ch));
         if unprefixed && ids.len() <= 1 {
             let id = ids.first().cloned().unwrap_or_default();
-            let label = sensor_labels.first().map(|(_, l)| l.clone()).unwrap_or_default();
-            let channel_columns = channels.iter().filter_map(|ch| columns.iter().position(|c| c == ch)).collect();
-            sensors.push(Sensor { id, label, channel_columns, orientation: Vec::new() });
+            let label = sensor_labels
+                .first()
+                .map(|(_, l)| l.clone())
+                .unwrap_or_default();
+            let channel_columns = channels
+                .iter()
+                .filter_map(|ch| columns.iter().position(|c| c == ch))
+                .collect();
+            sensors.push(Sensor {
+                id,
+                label,
+                channel_columns,
+                orientation: Vec::new(),
+            });
         } else {
             if ids.is_empty() {
                 return Err(self.err(Some(col_line_no), None, LogErrorKind::NoSensorColumns));
@@ -464,14 +563,26 @@ impl<'a> Parser<'a> {
                 let mut channel_columns = Vec::with_capacity(channels.len());
                 for ch in channels {
                     let want = format!("{id}_{ch}");
-                    let i = columns
-                        .iter()
-                        .position(|c| *c == want)
-                        .ok_or_else(|| self.err(Some(col_line_no), None, LogErrorKind::MissingColumn(want.clone())))?;
+                    let i = columns.iter().position(|c| *c == want).ok_or_else(|| {
+                        self.err(
+                            Some(col_line_no),
+                            None,
+                            LogErrorKind::MissingColumn(want.clone()),
+                        )
+                    })?;
                     channel_columns.push(i);
                 }
-                let label = sensor_labels.iter().find(|(i, _)| i == id).map(|(_, l)| l.clone()).unwrap_or_default();
-                sensors.push(Sensor { id: id.clone(), label, channel_columns, orientation: Vec::new() });
+                let label = sensor_labels
+                    .iter()
+                    .find(|(i, _)| i == id)
+                    .map(|(_, l)| l.clone())
+                    .unwrap_or_default();
+                sensors.push(Sensor {
+                    id: id.clone(),
+                    label,
+                    channel_columns,
+                    orientation: Vec::new(),
+                });
             }
         }
 
@@ -500,7 +611,10 @@ impl<'a> Parser<'a> {
                     return Err(self.err(
                         Some(no),
                         Some(field.col),
-                        LogErrorKind::FieldCount { expected: n_fields, found: split_fields(line, separator).count() },
+                        LogErrorKind::FieldCount {
+                            expected: n_fields,
+                            found: split_fields(line, separator).count(),
+                        },
                     ));
                 }
                 let t = field.text.trim();
@@ -508,7 +622,13 @@ impl<'a> Parser<'a> {
                     match t.parse::<u64>() {
                         Ok(c) if c < COUNTER_MODULUS => counter = Some(c),
                         _ if is_nan_text(t) => corrupt = true,
-                        _ => return Err(self.err(Some(no), Some(field.col), LogErrorKind::BadCounter(t.to_string()))),
+                        _ => {
+                            return Err(self.err(
+                                Some(no),
+                                Some(field.col),
+                                LogErrorKind::BadCounter(t.to_string()),
+                            ))
+                        }
                     }
                     continue;
                 }
@@ -520,7 +640,10 @@ impl<'a> Parser<'a> {
                         return Err(self.err(
                             Some(no),
                             Some(field.col),
-                            LogErrorKind::BadNumber { column: names_text[fi].to_string(), text: t.to_string() },
+                            LogErrorKind::BadNumber {
+                                column: names_text[fi].to_string(),
+                                text: t.to_string(),
+                            },
                         ))
                     }
                 }
@@ -536,7 +659,10 @@ impl<'a> Parser<'a> {
                     return Err(self.err(
                         Some(no),
                         None,
-                        LogErrorKind::TooManyCorruptRun { run: corrupt_run, limit: self.options.max_corrupt_run },
+                        LogErrorKind::TooManyCorruptRun {
+                            run: corrupt_run,
+                            limit: self.options.max_corrupt_run,
+                        },
                     ));
                 }
                 continue;
@@ -551,12 +677,17 @@ impl<'a> Parser<'a> {
                         return Err(self.err(
                             Some(no),
                             Some(field_col(line, separator, time_col)),
-                            LogErrorKind::TimeBackwards { previous_s: pt, now_s: time },
+                            LogErrorKind::TimeBackwards {
+                                previous_s: pt,
+                                now_s: time,
+                            },
                         ));
                     }
-                    let step = self.grid_step(pc, counter, time - pt, sample_rate_hz).map_err(|k| {
-                        self.err(Some(no), Some(field_col(line, separator, counter_col)), k)
-                    })?;
+                    let step = self
+                        .grid_step(pc, counter, time - pt, sample_rate_hz)
+                        .map_err(|k| {
+                            self.err(Some(no), Some(field_col(line, separator, counter_col)), k)
+                        })?;
                     pg + step
                 }
             };
@@ -622,8 +753,8 @@ impl<'a> Parser<'a> {
         }
         if mode != OutputMode::Calibrated {
             for s in &mut sensors {
-                s.orientation = orientations(mode, &data, &s.channel_columns)
-                    .map_err(|(k, i)| {
+                s.orientation =
+                    orientations(mode, &data, &s.channel_columns).map_err(|(k, i)| {
                         let ln = row_lines[i];
                         let line = text.lines().nth(ln - 1).unwrap_or("");
                         // Name the sensor's first channel column in the message's position.
@@ -657,7 +788,9 @@ impl<'a> Parser<'a> {
         }
         let by_time = dt_s * rate_hz;
         // Longer gaps than one counter period: add whole periods to agree with the time.
-        let wraps = ((by_time - d as f64) / COUNTER_MODULUS as f64).round().max(0.0) as u64;
+        let wraps = ((by_time - d as f64) / COUNTER_MODULUS as f64)
+            .round()
+            .max(0.0) as u64;
         let step = d + wraps * COUNTER_MODULUS;
         // The receiver's clock jitters by about a millisecond and drifts a little.
         let tolerance = 0.5 + 0.02 * by_time;
@@ -665,15 +798,24 @@ impl<'a> Parser<'a> {
             return Ok(step);
         }
         if d > COUNTER_MODULUS / 2 && by_time < (COUNTER_MODULUS / 2) as f64 {
-            return Err(LogErrorKind::CounterBackwards { previous: prev, now });
+            return Err(LogErrorKind::CounterBackwards {
+                previous: prev,
+                now,
+            });
         }
-        Err(LogErrorKind::CounterTimeMismatch { counter_samples: step, time_samples: by_time })
+        Err(LogErrorKind::CounterTimeMismatch {
+            counter_samples: step,
+            time_samples: by_time,
+        })
     }
 }
 
 /// 1-based line of byte offset `at`.
 fn line_of(bytes: &[u8], at: usize) -> usize {
-    1 + bytes[..at.min(bytes.len())].iter().filter(|&&b| b == b'\n').count()
+    1 + bytes[..at.min(bytes.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
 }
 
 fn split_fields(line: &str, sep: char) -> impl Iterator<Item = Field<'_>> {
@@ -738,6 +880,8 @@ pub fn unwrap_degrees(x: &mut [f64]) {
 /// 4 decimals is off by ~1e-4; 0.05 catches a broken row without rejecting honest rounding.
 const ROTATION_TOLERANCE: f64 = 0.05;
 
+// Each sample reads one value from several columns: an index loop says that best.
+#[allow(clippy::needless_range_loop)]
 fn orientations(
     mode: OutputMode,
     data: &[Vec<f64>],
@@ -766,9 +910,20 @@ fn orientations(
                 let err = (m.transpose() * m - Matrix3::identity()).abs().max();
                 let det = m.determinant();
                 if err > ROTATION_TOLERANCE || det <= 0.0 {
-                    return Err((LogErrorKind::NotRotation { orthonormality_error: err, det }, i));
+                    return Err((
+                        LogErrorKind::NotRotation {
+                            orthonormality_error: err,
+                            det,
+                        },
+                        i,
+                    ));
                 }
-                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_eps(&m, 1e-12, 100, Rotation3::identity()))
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_eps(
+                    &m,
+                    1e-12,
+                    100,
+                    Rotation3::identity(),
+                ))
             }
             OutputMode::Calibrated => return Ok(Vec::new()),
         };
@@ -833,6 +988,10 @@ mod tests {
         let text = format!("{HEAD}1\t0.00\t1\tx2\t3\n");
         let e = parse(&text).unwrap_err();
         assert_eq!((e.line, e.column), (Some(5), Some(10)));
-        assert!(e.to_string().starts_with("t.log:5:10: `x2` in column 00300417_Pitch"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("t.log:5:10: `x2` in column 00300417_Pitch"),
+            "{e}"
+        );
     }
 }

@@ -11,7 +11,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "bikeproc", version, about = "Bicycle-dynamics lab: IMU logs → inertias, eigenvalues, sim-to-real gap")]
+#[command(
+    name = "bikeproc",
+    version,
+    about = "Bicycle-dynamics lab: IMU logs → inertias, eigenvalues, sim-to-real gap"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -171,8 +175,14 @@ struct ReportArgs {
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s.split_once(':').ok_or("expected START:END in seconds")?;
-    let a: f64 = a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?;
-    let b: f64 = b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?;
+    let a: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{a}` is not a number"))?;
+    let b: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{b}` is not a number"))?;
     if b > a {
         Ok((a, b))
     } else {
@@ -187,7 +197,9 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e:#}");
             let input = e.chain().any(|c| {
-                c.is::<bikeproc::log::LogError>() || c.is::<signal::SignalError>() || c.is::<fit::FitError>()
+                c.is::<bikeproc::log::LogError>()
+                    || c.is::<signal::SignalError>()
+                    || c.is::<fit::FitError>()
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
@@ -199,7 +211,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Period(a) => period(a),
         Command::Simulate(s) => simulate(s),
         Command::Report(r) => {
-            let written = bikeproc::report::regenerate(&r.out, &r.reference, &mut |m| eprintln!("{m}"))?;
+            let written =
+                bikeproc::report::regenerate(&r.out, &r.reference, &mut |m| eprintln!("{m}"))?;
             eprintln!("wrote {} files under {}", written.len(), r.out.display());
             Ok(())
         }
@@ -207,8 +220,16 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn period(a: PeriodArgs) -> Result<()> {
-    let extract = a.channel.clone().map_or(Extract::DominantRotation, Extract::Channel);
-    let (sig, warnings) = signal::load_signal(&a.file, &extract, a.sensor.as_deref(), &ReadOptions::default())?;
+    let extract = a
+        .channel
+        .clone()
+        .map_or(Extract::DominantRotation, Extract::Channel);
+    let (sig, warnings) = signal::load_signal(
+        &a.file,
+        &extract,
+        a.sensor.as_deref(),
+        &ReadOptions::default(),
+    )?;
     for w in &warnings {
         eprintln!("warning: {w}");
     }
@@ -274,7 +295,11 @@ fn simulate(s: SimCommand) -> Result<()> {
         axis_heading_rad: rng.range(0.0, std::f64::consts::TAU),
         sensor_offset_m: nalgebra::Vector3::new(0.3, 0.05, 0.02),
     };
-    let link = if c.perfect_link { imu::LinkModel::perfect() } else { imu::LinkModel::default() };
+    let link = if c.perfect_link {
+        imu::LinkModel::perfect()
+    } else {
+        imu::LinkModel::default()
+    };
     let spec = imu::FileSpec {
         mode: match c.mode {
             ModeArg::Euler => OutputMode::Euler,
@@ -308,5 +333,6 @@ fn simulate(s: SimCommand) -> Result<()> {
 
 /// Writes through a temporary file and a rename: a reader never sees half a file.
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    bikeproc::report::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
+    bikeproc::report::write_atomic(path, bytes)
+        .with_context(|| format!("writing {}", path.display()))
 }

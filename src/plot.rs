@@ -1,1 +1,320 @@
-//! Plots (SVG) for the reports.
+//! Plots (feature `plot`), at the side of the pipeline: numbers in, SVG text out.
+//!
+//! Figures for the reports: a signal with its fitted curve, a spectrum with its peaks. Text is
+//! laid out with the bundled DejaVu Sans (`assets/fonts`, Bitstream Vera licence), so an SVG
+//! does not depend on the fonts of the machine that drew it. Nothing here computes a result.
+
+use crate::fit::Oscillation;
+use crate::signal::Signal;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::sync::Once;
+
+static FONT: Once = Once::new();
+const FONT_NAME: &str = "DejaVu Sans";
+const WIDTH: u32 = 900;
+const HEIGHT: u32 = 420;
+
+/// A plotting failure (a drawing-backend error; never expected with in-memory SVG).
+#[derive(Debug, thiserror::Error)]
+#[error("plot: {0}")]
+pub struct PlotError(String);
+
+fn register_font() {
+    FONT.call_once(|| {
+        // The bytes are a valid TrueType font checked in with the sources; a failure here is
+        // a broken checkout, and text would then fall back to no glyph metrics.
+        let _ = plotters::style::register_font(
+            FONT_NAME,
+            FontStyle::Normal,
+            include_bytes!("../assets/fonts/DejaVuSans.ttf"),
+        );
+    });
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy)]
+pub enum Mark {
+    Line,
+    Dots,
+}
+
+/// One named series of points.
+#[derive(Debug, Clone)]
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    pub color: RGBColor,
+    pub mark: Mark,
+}
+
+/// A tick label without "-0.000".
+fn tick(v: f64, decimals: usize) -> String {
+    let s = format!("{v:.decimals$}");
+    if s.starts_with('-') && s[1..].bytes().all(|b| b == b'0' || b == b'.') {
+        s[1..].to_string()
+    } else {
+        s
+    }
+}
+
+/// Decimals that resolve a tick step of `span / 8`.
+fn decimals_for(span: f64) -> usize {
+    if !(span.is_finite() && span > 0.0) {
+        return 2;
+    }
+    (2.0 - (span / 8.0).log10().floor()).clamp(0.0, 8.0) as usize
+}
+
+/// Keeps at most two points (min and max) per horizontal pixel, in order: the drawn picture is
+/// the same, the file is small.
+pub fn decimate(points: &[(f64, f64)], x_range: (f64, f64), columns: usize) -> Vec<(f64, f64)> {
+    if points.len() <= 2 * columns {
+        return points.to_vec();
+    }
+    let (x0, x1) = x_range;
+    let width = (x1 - x0).max(f64::MIN_POSITIVE);
+    let mut out = Vec::with_capacity(2 * columns + 2);
+    let mut i = 0;
+    while i < points.len() {
+        let col = (((points[i].0 - x0) / width) * columns as f64).floor();
+        let mut j = i;
+        let (mut lo, mut hi) = (i, i);
+        while j < points.len() && (((points[j].0 - x0) / width) * columns as f64).floor() == col {
+            if points[j].1 < points[lo].1 {
+                lo = j;
+            }
+            if points[j].1 > points[hi].1 {
+                hi = j;
+            }
+            j += 1;
+        }
+        let (a, b) = if lo <= hi { (lo, hi) } else { (hi, lo) };
+        out.push(points[a]);
+        if b != a {
+            out.push(points[b]);
+        }
+        i = j;
+    }
+    out
+}
+
+/// An x–y chart of several series with a legend; `log_y` for spectra.
+pub fn chart(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    log_y: bool,
+) -> Result<String, PlotError> {
+    register_font();
+    let pts = series.iter().flat_map(|s| s.points.iter());
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for &(x, y) in pts {
+        if x.is_finite() && y.is_finite() && (!log_y || y > 0.0) {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+    }
+    if x0.partial_cmp(&x1) != Some(std::cmp::Ordering::Less) {
+        (x0, x1) = (0.0, 1.0);
+    }
+    if y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
+        (y0, y1) = if log_y { (1e-6, 1.0) } else { (-1.0, 1.0) };
+    }
+    let err = |e: &dyn std::fmt::Display| PlotError(e.to_string());
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let font = (FONT_NAME, 16).into_font();
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(title, font)
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(74);
+        let xd = decimals_for(x1 - x0);
+        if log_y {
+            let (ly0, ly1) = (y0.max(y1 * 1e-6), y1 * 2.0);
+            let mut chart = builder
+                .build_cartesian_2d(x0..x1, (ly0..ly1).log_scale())
+                .map_err(|e| err(&e))?;
+            chart
+                .configure_mesh()
+                .x_desc(x_label)
+                .y_desc(y_label)
+                .label_style((FONT_NAME, 12))
+                .x_label_formatter(&|v| tick(*v, xd))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .draw()
+                .map_err(|e| err(&e))?;
+            draw_series(&mut chart, series, (x0, x1), |y| y > 0.0)?;
+        } else {
+            let pad = 0.05 * (y1 - y0);
+            let yd = decimals_for(y1 - y0);
+            let mut chart = builder
+                .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
+                .map_err(|e| err(&e))?;
+            chart
+                .configure_mesh()
+                .x_desc(x_label)
+                .y_desc(y_label)
+                .label_style((FONT_NAME, 12))
+                .x_label_formatter(&|v| tick(*v, xd))
+                .y_label_formatter(&|v| tick(*v, yd))
+                .draw()
+                .map_err(|e| err(&e))?;
+            draw_series(&mut chart, series, (x0, x1), |_| true)?;
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg)
+}
+
+fn draw_series<
+    'a,
+    DB: DrawingBackend + 'a,
+    CT: plotters::coord::CoordTranslate<From = (f64, f64)>,
+>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    series: &[Series],
+    x_range: (f64, f64),
+    keep: impl Fn(f64) -> bool,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: &dyn std::fmt::Display| PlotError(e.to_string());
+    for s in series {
+        let pts: Vec<(f64, f64)> = decimate(&s.points, x_range, WIDTH as usize)
+            .into_iter()
+            .filter(|p| keep(p.1) && p.1.is_finite())
+            .collect();
+        let color = s.color;
+        let anno = match s.mark {
+            Mark::Line => chart
+                .draw_series(LineSeries::new(pts, color.stroke_width(1)))
+                .map_err(|e| err(&e))?,
+            Mark::Dots => chart
+                .draw_series(pts.into_iter().map(|p| Circle::new(p, 2, color.filled())))
+                .map_err(|e| err(&e))?,
+        };
+        anno.label(s.name.clone()).legend(move |(x, y)| {
+            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+        });
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT_NAME, 12))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(&e))
+}
+
+/// The signal (grey) and the fitted damped sinusoid over the free-decay segment (red).
+pub fn fit_svg(signal: &Signal, osc: &Oscillation, title: &str) -> Result<String, PlotError> {
+    let t = signal.times_s();
+    let data: Vec<(f64, f64)> = t
+        .iter()
+        .copied()
+        .zip(signal.values.iter().copied())
+        .collect();
+    let (a, b) = osc.segment_s;
+    let fitted: Vec<(f64, f64)> = t
+        .iter()
+        .filter(|&&ti| ti >= a && ti <= b)
+        .map(|&ti| (ti, osc.fit.eval(ti)))
+        .collect();
+    let unit = if signal.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", signal.unit)
+    };
+    chart(
+        title,
+        "time (s)",
+        &format!("signal{unit}"),
+        &[
+            Series {
+                name: "measured".into(),
+                points: data,
+                color: RGBColor(120, 120, 120),
+                mark: Mark::Line,
+            },
+            Series {
+                name: "fitted damped sinusoid".into(),
+                points: fitted,
+                color: RGBColor(200, 30, 30),
+                mark: Mark::Line,
+            },
+        ],
+        false,
+    )
+}
+
+/// The Hann spectrum of the fitted segment up to 4× the main frequency, with the peaks marked.
+pub fn spectrum_svg(osc: &Oscillation, title: &str) -> Result<String, PlotError> {
+    let f_max = 4.0 * osc.fit.freq_hz().value;
+    let sp = &osc.spectrum;
+    let pts: Vec<(f64, f64)> = sp
+        .freq_hz
+        .iter()
+        .zip(&sp.magnitude)
+        .filter(|(f, _)| **f <= f_max && **f > 0.0)
+        .map(|(f, m)| (*f, *m))
+        .collect();
+    let mut marks = vec![(osc.fit.freq_hz().value, osc.main_peak.magnitude)];
+    marks.extend(osc.secondary_peaks.iter().map(|p| (p.freq_hz, p.magnitude)));
+    chart(
+        title,
+        "frequency (Hz)",
+        "amplitude",
+        &[
+            Series {
+                name: "Hann-windowed spectrum of the fitted segment".into(),
+                points: pts,
+                color: RGBColor(30, 60, 200),
+                mark: Mark::Line,
+            },
+            Series {
+                name: "fitted frequency and other peaks".into(),
+                points: marks,
+                color: RGBColor(200, 30, 30),
+                mark: Mark::Dots,
+            },
+        ],
+        true,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_never_show_negative_zero() {
+        assert_eq!(tick(-0.0001, 3), "0.000");
+        assert_eq!(tick(-0.5, 1), "-0.5");
+    }
+
+    #[test]
+    fn decimation_keeps_extremes_in_order() {
+        let pts: Vec<(f64, f64)> = (0..10_000)
+            .map(|i| (i as f64, ((i * 7919) % 101) as f64))
+            .collect();
+        let d = decimate(&pts, (0.0, 10_000.0), 100);
+        assert!(d.len() <= 200);
+        assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
+        assert_eq!(d.iter().map(|p| p.1).fold(f64::MIN, f64::max), 100.0);
+        assert_eq!(d.iter().map(|p| p.1).fold(f64::MAX, f64::min), 0.0);
+    }
+}

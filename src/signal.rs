@@ -35,26 +35,58 @@ pub enum SignalError {
     #[error(transparent)]
     Log(#[from] LogError),
     #[error("{path}:{line}: channel `{channel}` is not in this file (columns: {available})")]
-    NoChannel { path: PathBuf, line: usize, channel: String, available: String },
+    NoChannel {
+        path: PathBuf,
+        line: usize,
+        channel: String,
+        available: String,
+    },
     #[error("{path}:{line}: channel `{channel}` is not in this file and needs the calibrated file {cal}, which does not exist")]
-    MissingCal { path: PathBuf, line: usize, channel: String, cal: PathBuf },
+    MissingCal {
+        path: PathBuf,
+        line: usize,
+        channel: String,
+        cal: PathBuf,
+    },
     #[error("{path}:{line}: sensor `{sensor}` is not in this file (sensors: {available})")]
-    NoSensor { path: PathBuf, line: usize, sensor: String, available: String },
+    NoSensor {
+        path: PathBuf,
+        line: usize,
+        sensor: String,
+        available: String,
+    },
     #[error("{path}:{line}: the file has {count} sensors; name one with --sensor ({available})")]
-    WhichSensor { path: PathBuf, line: usize, count: usize, available: String },
+    WhichSensor {
+        path: PathBuf,
+        line: usize,
+        count: usize,
+        available: String,
+    },
     #[error("{path}:{line}: a calibrated file has no orientation; name a channel (e.g. Gyr_Z)")]
     NoOrientation { path: PathBuf, line: usize },
     #[error("{path}:{line}:{column}: {message}")]
-    Csv { path: PathBuf, line: u64, column: usize, message: String },
+    Csv {
+        path: PathBuf,
+        line: u64,
+        column: usize,
+        message: String,
+    },
     #[error("{path}:{line}: {message}")]
-    Invalid { path: PathBuf, line: usize, message: String },
+    Invalid {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
 }
 
 impl Signal {
     /// Times of the samples, seconds.
     pub fn times_s(&self) -> Vec<f64> {
         let dt = 1.0 / self.sample_rate_hz;
-        self.index.iter().map(|&i| self.t0_s + i as f64 * dt).collect()
+        self.index
+            .iter()
+            .map(|&i| self.t0_s + i as f64 * dt)
+            .collect()
     }
 
     pub fn len(&self) -> usize {
@@ -76,7 +108,9 @@ impl Signal {
     /// The samples whose time lies in `[start_s, end_s]`.
     pub fn slice_time(&self, start_s: f64, end_s: f64) -> Signal {
         let t = self.times_s();
-        let keep: Vec<usize> = (0..t.len()).filter(|&i| t[i] >= start_s && t[i] <= end_s).collect();
+        let keep: Vec<usize> = (0..t.len())
+            .filter(|&i| t[i] >= start_s && t[i] <= end_s)
+            .collect();
         Signal {
             name: self.name.clone(),
             unit: self.unit.clone(),
@@ -99,17 +133,33 @@ impl Signal {
     }
 
     /// As [`Signal::from_csv`], from any reader; `path` names it in messages.
-    pub fn from_csv_reader<R: std::io::Read>(reader: R, path: &Path) -> Result<Signal, SignalError> {
-        let mut rdr = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).from_reader(reader);
+    pub fn from_csv_reader<R: std::io::Read>(
+        reader: R,
+        path: &Path,
+    ) -> Result<Signal, SignalError> {
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .trim(csv::Trim::All)
+            .from_reader(reader);
         let csv_err = |line: u64, column: usize, message: String| SignalError::Csv {
             path: path.to_path_buf(),
             line,
             column,
             message,
         };
-        let headers = rdr.headers().map_err(|e| csv_err(1, 1, e.to_string()))?.clone();
+        let headers = rdr
+            .headers()
+            .map_err(|e| csv_err(1, 1, e.to_string()))?
+            .clone();
         if headers.len() < 2 {
-            return Err(csv_err(1, 1, format!("expected the columns time_s,value, found {} column(s)", headers.len())));
+            return Err(csv_err(
+                1,
+                1,
+                format!(
+                    "expected the columns time_s,value, found {} column(s)",
+                    headers.len()
+                ),
+            ));
         }
         let name = headers.get(1).unwrap_or("value").to_string();
         let mut t = Vec::new();
@@ -122,7 +172,11 @@ impl Signal {
             })?;
             let line = rec.position().map_or(0, |p| p.line());
             if rec.len() != headers.len() {
-                return Err(csv_err(line, 1, format!("{} fields, expected {}", rec.len(), headers.len())));
+                return Err(csv_err(
+                    line,
+                    1,
+                    format!("{} fields, expected {}", rec.len(), headers.len()),
+                ));
             }
             let mut col = 1;
             let mut num = |k: usize| -> Result<f64, SignalError> {
@@ -132,7 +186,16 @@ impl Signal {
                 s.parse::<f64>()
                     .ok()
                     .filter(|x| x.is_finite())
-                    .ok_or_else(|| csv_err(line, c, format!("`{s}` in column {}: expected a finite number", headers.get(k).unwrap_or("?"))))
+                    .ok_or_else(|| {
+                        csv_err(
+                            line,
+                            c,
+                            format!(
+                                "`{s}` in column {}: expected a finite number",
+                                headers.get(k).unwrap_or("?")
+                            ),
+                        )
+                    })
             };
             t.push(num(0)?);
             v.push(num(1)?);
@@ -148,7 +211,11 @@ impl Signal {
         let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
         for (i, s) in steps.iter().enumerate() {
             if *s <= 0.0 {
-                return Err(csv_err(lines[i + 1], 1, format!("time {} s does not advance from {} s", t[i + 1], t[i])));
+                return Err(csv_err(
+                    lines[i + 1],
+                    1,
+                    format!("time {} s does not advance from {} s", t[i + 1], t[i]),
+                ));
             }
         }
         steps.sort_by(f64::total_cmp);
@@ -158,7 +225,11 @@ impl Signal {
             let k = (ti - t[0]) / dt;
             let r = k.round();
             if (k - r).abs() > 0.25 {
-                return Err(csv_err(lines[i], 1, format!("time {ti} s is off the {:.6} s sampling grid", dt)));
+                return Err(csv_err(
+                    lines[i],
+                    1,
+                    format!("time {ti} s is off the {:.6} s sampling grid", dt),
+                ));
             }
             index.push(r as u64);
         }
@@ -192,7 +263,9 @@ pub fn load_signal(
     sensor: Option<&str>,
     options: &ReadOptions,
 ) -> Result<(Signal, Vec<String>), SignalError> {
-    let is_csv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    let is_csv = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     if is_csv {
         return Ok((Signal::from_csv(path)?, Vec::new()));
     }
@@ -212,7 +285,12 @@ pub fn load_signal(
             }
             let cal = Log::cal_path(path);
             if !cal.exists() {
-                return Err(SignalError::MissingCal { path: path.to_path_buf(), line: log.column_row_line, channel: name.clone(), cal });
+                return Err(SignalError::MissingCal {
+                    path: path.to_path_buf(),
+                    line: log.column_row_line,
+                    channel: name.clone(),
+                    cal,
+                });
             }
             let cal_log = Log::open(&cal, options)?;
             let s = channel(&cal_log, name, sensor).ok_or_else(|| no_channel(&cal_log, name))?;
@@ -235,7 +313,9 @@ fn no_channel(log: &Log, name: &str) -> SignalError {
 /// A column of the log as a signal, by full name or by short name within the chosen sensor.
 pub fn channel(log: &Log, name: &str, sensor: Option<&str>) -> Option<Signal> {
     let idx = match sensor.and_then(|s| log.sensor(s)) {
-        Some(s) if !s.id.is_empty() => log.column_index(&format!("{}_{name}", s.id)).or_else(|| log.column_index(name)),
+        Some(s) if !s.id.is_empty() => log
+            .column_index(&format!("{}_{name}", s.id))
+            .or_else(|| log.column_index(name)),
         _ => log.column_index(name),
     }?;
     let unit = match log.mode {
@@ -255,11 +335,20 @@ pub fn channel(log: &Log, name: &str, sensor: Option<&str>) -> Option<Signal> {
 }
 
 /// Picks the sensor: by key, or the only one.
-pub fn pick_sensor<'l>(log: &'l Log, key: Option<&str>) -> Result<&'l crate::log::Sensor, SignalError> {
+pub fn pick_sensor<'l>(
+    log: &'l Log,
+    key: Option<&str>,
+) -> Result<&'l crate::log::Sensor, SignalError> {
     let available = || {
         log.sensors
             .iter()
-            .map(|s| if s.label.is_empty() { s.id.clone() } else { format!("{} ({})", s.id, s.label) })
+            .map(|s| {
+                if s.label.is_empty() {
+                    s.id.clone()
+                } else {
+                    format!("{} ({})", s.id, s.label)
+                }
+            })
             .collect::<Vec<_>>()
             .join(", ")
     };
@@ -271,7 +360,12 @@ pub fn pick_sensor<'l>(log: &'l Log, key: Option<&str>) -> Result<&'l crate::log
             available: available(),
         }),
         None if log.sensors.len() == 1 => Ok(&log.sensors[0]),
-        None => Err(SignalError::WhichSensor { path: log.path.clone(), line: log.column_row_line, count: log.sensors.len(), available: available() }),
+        None => Err(SignalError::WhichSensor {
+            path: log.path.clone(),
+            line: log.column_row_line,
+            count: log.sensors.len(),
+            available: available(),
+        }),
     }
 }
 
@@ -295,7 +389,10 @@ pub fn mean_rotation(qs: &[UnitQuaternion<f64>]) -> Option<UnitQuaternion<f64>> 
 /// frame, point along its largest global component.
 pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, SignalError> {
     if log.mode == OutputMode::Calibrated {
-        return Err(SignalError::NoOrientation { path: log.path.clone(), line: log.column_row_line });
+        return Err(SignalError::NoOrientation {
+            path: log.path.clone(),
+            line: log.column_row_line,
+        });
     }
     let s = pick_sensor(log, sensor)?;
     let q = &s.orientation;
@@ -306,7 +403,9 @@ pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, Sign
             message: format!("only {} samples: too few for a signal", q.len()),
         });
     }
-    let rest_n = (log.sample_rate_hz.round() as usize).min(q.len() / 10).max(1);
+    let rest_n = (log.sample_rate_hz.round() as usize)
+        .min(q.len() / 10)
+        .max(1);
     let rest = mean_rotation(&q[..rest_n]).ok_or_else(|| SignalError::Invalid {
         path: log.path.clone(),
         line: log.column_row_line,
@@ -328,7 +427,11 @@ pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, Sign
         axis = -axis;
     }
     let values = r.iter().map(|ri| ri.dot(&axis)).collect();
-    let label = if s.label.is_empty() { s.id.clone() } else { s.label.clone() };
+    let label = if s.label.is_empty() {
+        s.id.clone()
+    } else {
+        s.label.clone()
+    };
     Ok(Signal {
         name: format!("rotation of {label} about its dominant axis"),
         unit: "rad".into(),

@@ -70,7 +70,11 @@ impl Spectrum {
     /// Never on data; an empty signal gives an empty spectrum.
     pub fn of(signal: &Signal, window: Window) -> Spectrum {
         let (Some(&first), Some(&last)) = (signal.index.first(), signal.index.last()) else {
-            return Spectrum { freq_hz: vec![], magnitude: vec![], resolution_hz: f64::NAN };
+            return Spectrum {
+                freq_hz: vec![],
+                magnitude: vec![],
+                resolution_hz: f64::NAN,
+            };
         };
         let n = (last - first + 1) as usize;
         let t = signal.times_s();
@@ -94,7 +98,12 @@ impl Spectrum {
         sorted.sort_by(f64::total_cmp);
         let floor = 5.0 * sorted[sorted.len() / 2];
         let mut candidates: Vec<Peak> = (1..m.len() - 1)
-            .filter(|&k| m[k] > m[k - 1] && m[k] >= m[k + 1] && self.freq_hz[k] >= min_freq_hz && m[k] > floor)
+            .filter(|&k| {
+                m[k] > m[k - 1]
+                    && m[k] >= m[k + 1]
+                    && self.freq_hz[k] >= min_freq_hz
+                    && m[k] > floor
+            })
             .map(|k| self.interpolate(k))
             .collect();
         candidates.sort_by(|p, q| q.magnitude.total_cmp(&p.magnitude));
@@ -105,7 +114,10 @@ impl Spectrum {
                     break;
                 }
             }
-            if out.iter().all(|q| (q.freq_hz - p.freq_hz).abs() >= 2.0 * self.resolution_hz) {
+            if out
+                .iter()
+                .all(|q| (q.freq_hz - p.freq_hz).abs() >= 2.0 * self.resolution_hz)
+            {
                 out.push(p);
                 if out.len() == max_count {
                     break;
@@ -123,15 +135,29 @@ impl Spectrum {
     /// Gaussian interpolation: a parabola through the logarithms of three bins.
     fn interpolate(&self, k: usize) -> Peak {
         let df = self.freq_hz[1] - self.freq_hz[0];
-        let (a, b, c) = (self.magnitude[k - 1], self.magnitude[k], self.magnitude[k + 1]);
+        let (a, b, c) = (
+            self.magnitude[k - 1],
+            self.magnitude[k],
+            self.magnitude[k + 1],
+        );
         if a <= 0.0 || b <= 0.0 || c <= 0.0 {
-            return Peak { freq_hz: self.freq_hz[k], magnitude: b };
+            return Peak {
+                freq_hz: self.freq_hz[k],
+                magnitude: b,
+            };
         }
         let (la, lb, lc) = (a.ln(), b.ln(), c.ln());
         let den = la - 2.0 * lb + lc;
-        let delta = if den < 0.0 { 0.5 * (la - lc) / den } else { 0.0 };
+        let delta = if den < 0.0 {
+            0.5 * (la - lc) / den
+        } else {
+            0.0
+        };
         let mag = (lb - 0.25 * (la - lc) * delta).exp();
-        Peak { freq_hz: self.freq_hz[k] + delta * df, magnitude: mag }
+        Peak {
+            freq_hz: self.freq_hz[k] + delta * df,
+            magnitude: mag,
+        }
     }
 }
 
@@ -183,7 +209,9 @@ mod tests {
         let mut s = 12345u64;
         let x: Vec<f64> = (0..100)
             .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
             })
             .collect();
@@ -191,7 +219,10 @@ mod tests {
         let len = (sp.freq_hz.len() - 1) * 2;
         for k in [0, 1, 7, 100, 333, 512] {
             let want = naive_dft_mag(&x, len, k);
-            assert!((sp.magnitude[k] - want).abs() < 1e-12 * (1.0 + want), "bin {k}");
+            assert!(
+                (sp.magnitude[k] - want).abs() < 1e-12 * (1.0 + want),
+                "bin {k}"
+            );
         }
     }
 
@@ -199,7 +230,9 @@ mod tests {
     fn interpolated_peak_is_sub_bin() {
         // 0.8003 Hz for 60 s at 100 Hz: the lab's bin is 0.0167 Hz; interpolation does far better.
         let f = 0.8003;
-        let x: Vec<f64> = (0..6000).map(|i| (2.0 * std::f64::consts::PI * f * i as f64 / 100.0 + 0.3).cos()).collect();
+        let x: Vec<f64> = (0..6000)
+            .map(|i| (2.0 * std::f64::consts::PI * f * i as f64 / 100.0 + 0.3).cos())
+            .collect();
         let sig = Signal {
             name: "x".into(),
             unit: "".into(),

@@ -31,21 +31,50 @@ fn every_bad_fixture_is_one_line_with_file_and_line_and_exit_2() {
         let lines: Vec<&str> = stderr.lines().collect();
         assert_eq!(lines.len(), 1, "{name}: {stderr}");
         // `error: PATH:LINE[:COL]: message`
-        let after = lines[0].split_once(&format!("{name}:")).map(|(_, r)| r).unwrap_or_else(|| panic!("{name}: {stderr}"));
+        let after = lines[0]
+            .split_once(&format!("{name}:"))
+            .map(|(_, r)| r)
+            .unwrap_or_else(|| panic!("{name}: {stderr}"));
         let line_no: String = after.chars().take_while(char::is_ascii_digit).collect();
-        assert!(line_no.parse::<usize>().is_ok_and(|l| l >= 1), "{name}: no line number in {stderr}");
+        assert!(
+            line_no.parse::<usize>().is_ok_and(|l| l >= 1),
+            "{name}: no line number in {stderr}"
+        );
         assert!(!stderr.contains("panicked"), "{name}: {stderr}");
     }
 }
 
 /// Small valid logs in every mode and both locales, orientation and calibrated.
 fn valid_logs() -> Vec<String> {
-    let pend = Pendulum::Torsion(Torsion { inertia_kgm2: 1.0, stiffness_nm_per_rad: 20.0, damping_ratio: 0.01, coulomb_nm: 0.0, swing: None });
-    let release = Release { rest_s: 0.5, ramp_s: 0.3, hold_s: 0.2, amplitude_deg: 10.0, duration_s: 4.0 };
+    let pend = Pendulum::Torsion(Torsion {
+        inertia_kgm2: 1.0,
+        stiffness_nm_per_rad: 20.0,
+        damping_ratio: 0.01,
+        coulomb_nm: 0.0,
+        swing: None,
+    });
+    let release = Release {
+        rest_s: 0.5,
+        ramp_s: 0.3,
+        hold_s: 0.2,
+        amplitude_deg: 10.0,
+        duration_s: 4.0,
+    };
     let mut out = Vec::new();
-    for (k, mode) in [OutputMode::Euler, OutputMode::Quaternion, OutputMode::Matrix].into_iter().enumerate() {
+    for (k, mode) in [
+        OutputMode::Euler,
+        OutputMode::Quaternion,
+        OutputMode::Matrix,
+    ]
+    .into_iter()
+    .enumerate()
+    {
         let mut rng = bikeproc::sim::rng::Rng::new(k as u64);
-        let placement = Placement { body_rest: rng.rotation(), axis_heading_rad: 0.0, sensor_offset_m: nalgebra::Vector3::new(0.2, 0.0, 0.0) };
+        let placement = Placement {
+            body_rest: rng.rotation(),
+            axis_heading_rad: 0.0,
+            sensor_offset_m: nalgebra::Vector3::new(0.2, 0.0, 0.0),
+        };
         let spec = FileSpec {
             mode,
             locale: if k == 1 { Locale::Spanish } else { Locale::Tab },
@@ -58,7 +87,15 @@ fn valid_logs() -> Vec<String> {
             declare_decimal: k == 1,
             jitter_s: 0.0005,
         };
-        let rec = bikeproc::sim::simulate_pendulum(&pend, &release, &placement, &SensorModel::typical(&mut rng), &LinkModel::default(), &spec, k as u64);
+        let rec = bikeproc::sim::simulate_pendulum(
+            &pend,
+            &release,
+            &placement,
+            &SensorModel::typical(&mut rng),
+            &LinkModel::default(),
+            &spec,
+            k as u64,
+        );
         out.push(rec.angles_log);
         out.push(rec.cal_log);
     }

@@ -34,27 +34,55 @@ fn pendulum() -> (Pendulum, Release) {
             stiffness_nm_per_rad: 34.33,
             damping_ratio: 0.006,
             coulomb_nm: 0.0,
-            swing: Some(Swing { freq_hz: 1.3, damping_ratio: 0.02, coupling: 0.02, release_amplitude_deg: 1.0 }),
+            swing: Some(Swing {
+                freq_hz: 1.3,
+                damping_ratio: 0.02,
+                coupling: 0.02,
+                release_amplitude_deg: 1.0,
+            }),
         }),
-        Release { rest_s: 2.0, ramp_s: 0.8, hold_s: 0.7, amplitude_deg: 6.0, duration_s: 30.0 },
+        Release {
+            rest_s: 2.0,
+            ramp_s: 0.8,
+            hold_s: 0.7,
+            amplitude_deg: 6.0,
+            duration_s: 30.0,
+        },
     )
 }
 
 fn read(text: &str) -> Log {
-    Log::parse(text.as_bytes(), Path::new("sim.log"), &ReadOptions::default()).unwrap()
+    Log::parse(
+        text.as_bytes(),
+        Path::new("sim.log"),
+        &ReadOptions::default(),
+    )
+    .unwrap()
 }
 
 #[test]
 fn frequency_does_not_depend_on_the_sensor_mounting() {
     let (pend, release) = pendulum();
     let mut rng = Rng::new(2024);
-    let placement = Placement { body_rest: rng.rotation(), axis_heading_rad: 0.4, sensor_offset_m: nalgebra::Vector3::new(0.1, 0.3, 0.0) };
+    let placement = Placement {
+        body_rest: rng.rotation(),
+        axis_heading_rad: 0.4,
+        sensor_offset_m: nalgebra::Vector3::new(0.1, 0.3, 0.0),
+    };
     let mut freqs = Vec::new();
     for _ in 0..20 {
         // The same motion, no sensor noise; only the mounting changes (what the log holds is
         // then the same rotation seen from another sensor frame).
         let sensor = SensorModel::ideal(rng.rotation());
-        let rec = simulate_pendulum(&pend, &release, &placement, &sensor, &LinkModel::perfect(), &spec(OutputMode::Quaternion, Locale::Tab, Precision::Full), 7);
+        let rec = simulate_pendulum(
+            &pend,
+            &release,
+            &placement,
+            &sensor,
+            &LinkModel::perfect(),
+            &spec(OutputMode::Quaternion, Locale::Tab, Precision::Full),
+            7,
+        );
         let sig = signal::dominant_rotation(&read(&rec.angles_log), None).unwrap();
         let osc = fit::analyse(&sig, &FitOptions::default()).unwrap();
         freqs.push(osc.fit.freq_hz().value);
@@ -72,28 +100,64 @@ fn frequency_does_not_depend_on_the_sensor_mounting() {
 fn every_mode_and_locale_reads_to_the_same_signal() {
     let (pend, release) = pendulum();
     let mut rng = Rng::new(99);
-    let placement = Placement { body_rest: rng.rotation(), axis_heading_rad: 1.0, sensor_offset_m: nalgebra::Vector3::new(0.1, 0.3, 0.0) };
+    let placement = Placement {
+        body_rest: rng.rotation(),
+        axis_heading_rad: 1.0,
+        sensor_offset_m: nalgebra::Vector3::new(0.1, 0.3, 0.0),
+    };
     let sensor = SensorModel::typical(&mut rng);
     let link = LinkModel::default();
     let mut signals: Vec<(String, Signal)> = Vec::new();
     let mut gyros: Vec<Signal> = Vec::new();
-    for mode in [OutputMode::Euler, OutputMode::Quaternion, OutputMode::Matrix] {
+    for mode in [
+        OutputMode::Euler,
+        OutputMode::Quaternion,
+        OutputMode::Matrix,
+    ] {
         for locale in [Locale::Tab, Locale::Spanish] {
-            let rec = simulate_pendulum(&pend, &release, &placement, &sensor, &link, &spec(mode, locale, Precision::Full), 11);
+            let rec = simulate_pendulum(
+                &pend,
+                &release,
+                &placement,
+                &sensor,
+                &link,
+                &spec(mode, locale, Precision::Full),
+                11,
+            );
             let log = read(&rec.angles_log);
             assert_eq!(log.spanish_locale, locale == Locale::Spanish);
-            assert!(log.gaps.missing_samples > 0, "the link should have dropped packets");
-            signals.push((format!("{mode:?}/{locale:?}"), signal::dominant_rotation(&log, None).unwrap()));
+            assert!(
+                log.gaps.missing_samples > 0,
+                "the link should have dropped packets"
+            );
+            signals.push((
+                format!("{mode:?}/{locale:?}"),
+                signal::dominant_rotation(&log, None).unwrap(),
+            ));
             gyros.push(signal::channel(&read(&rec.cal_log), "Gyr_X", None).unwrap());
         }
     }
     let (ref_name, reference) = &signals[0];
     for (name, s) in &signals[1..] {
-        assert!(s.index == reference.index, "{name}: different gaps than {ref_name}");
-        let worst = s.values.iter().zip(&reference.values).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        assert!(worst < 1e-9, "{name} differs from {ref_name} by {worst:e} rad");
+        assert!(
+            s.index == reference.index,
+            "{name}: different gaps than {ref_name}"
+        );
+        let worst = s
+            .values
+            .iter()
+            .zip(&reference.values)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-9,
+            "{name} differs from {ref_name} by {worst:e} rad"
+        );
     }
     for g in &gyros[1..] {
-        assert!(g.values == gyros[0].values && g.index == gyros[0].index, "the gyro differs between locales");
+        assert!(
+            g.values == gyros[0].values && g.index == gyros[0].index,
+            "the gyro differs between locales"
+        );
     }
 }

@@ -52,7 +52,13 @@ fn trial(seed: u64) -> Trial {
         coulomb_nm: 0.0,
         swing: None,
     });
-    let release = Release { rest_s: 2.0, ramp_s: 1.0, hold_s: 1.0, amplitude_deg: 10.0, duration_s };
+    let release = Release {
+        rest_s: 2.0,
+        ramp_s: 1.0,
+        hold_s: 1.0,
+        amplitude_deg: 10.0,
+        duration_s,
+    };
     let truth = pend.truth(&release);
     let wd = 2.0 * std::f64::consts::PI * truth.damped_freq_hz;
     let theta0 = truth.amplitude_rad;
@@ -60,7 +66,11 @@ fn trial(seed: u64) -> Trial {
     let body_heading = rng.range(0.0, std::f64::consts::TAU);
     // For the gyro the lab mounts the sensor with z roughly along the bar (within 3°).
     let placement = Placement {
-        body_rest: if use_gyro { UnitQuaternion::from_axis_angle(&Vector3::z_axis(), body_heading) } else { rng.rotation() },
+        body_rest: if use_gyro {
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), body_heading)
+        } else {
+            rng.rotation()
+        },
         axis_heading_rad: 0.0,
         sensor_offset_m: Vector3::new(0.25, 0.0, 0.05),
     };
@@ -69,18 +79,47 @@ fn trial(seed: u64) -> Trial {
     }
     // Signal amplitude of the fitted channel and the noise that gives the drawn SNR = A²/(2s²).
     let tilt_cos = (placement.body_rest * sensor.mounting * Vector3::z()).z;
-    let amp = if use_gyro { theta0 * wn * wn / wd * tilt_cos } else { theta0 };
+    let amp = if use_gyro {
+        theta0 * wn * wn / wd * tilt_cos
+    } else {
+        theta0
+    };
     let s = amp / (2.0 * 10f64.powf(snr_db / 10.0)).sqrt();
     if use_gyro {
         sensor.gyro_noise_rad_per_s = s;
     } else {
         sensor.orientation_noise_rad = s;
     }
-    let mode = [OutputMode::Euler, OutputMode::Quaternion, OutputMode::Matrix][(seed % 3) as usize];
-    let locale = if seed % 5 == 0 { Locale::Spanish } else { Locale::Tab };
-    let rec = simulate_pendulum(&pend, &release, &placement, &sensor, &LinkModel::default(), &spec(mode, locale, Precision::Sensor), seed);
-    let text = if use_gyro { &rec.cal_log } else { &rec.angles_log };
-    let log = Log::parse(text.as_bytes(), Path::new("sim.log"), &ReadOptions::default()).expect("simulated log reads");
+    let mode = [
+        OutputMode::Euler,
+        OutputMode::Quaternion,
+        OutputMode::Matrix,
+    ][(seed % 3) as usize];
+    let locale = if seed % 5 == 0 {
+        Locale::Spanish
+    } else {
+        Locale::Tab
+    };
+    let rec = simulate_pendulum(
+        &pend,
+        &release,
+        &placement,
+        &sensor,
+        &LinkModel::default(),
+        &spec(mode, locale, Precision::Sensor),
+        seed,
+    );
+    let text = if use_gyro {
+        &rec.cal_log
+    } else {
+        &rec.angles_log
+    };
+    let log = Log::parse(
+        text.as_bytes(),
+        Path::new("sim.log"),
+        &ReadOptions::default(),
+    )
+    .expect("simulated log reads");
     let sig = if use_gyro {
         signal::channel(&log, "Gyr_Z", None).expect("gyro channel")
     } else {
@@ -100,7 +139,10 @@ fn trial(seed: u64) -> Trial {
     let n = ((duration_s - truth.release_s) * 100.0) as usize;
     let crb = crb_omega_variance(amp, zeta * wn, 0.01, n, s * s);
     // The gyro sees ω·sin: its phase and the angle's differ, not the bound.
-    Trial { crb_normalized: (est.value - wd) / crb.sqrt(), se_normalized: (est.value - wd) / est.se }
+    Trial {
+        crb_normalized: (est.value - wd) / crb.sqrt(),
+        se_normalized: (est.value - wd) / est.se,
+    }
 }
 
 fn mean_std(x: &[f64]) -> (f64, f64) {
@@ -128,5 +170,8 @@ fn frequency_is_unbiased_efficient_and_its_se_honest() {
     // Efficient: the scatter is within 1.5× the Cramér–Rao bound (std of ω̂/√CRB ≤ 1.5).
     assert!(std <= 1.5, "std/CRB = {std}");
     // Honest: the reported standard error is within ±30 % of the observed scatter.
-    assert!((0.7..=1.3).contains(&se_std), "scatter / reported se = {se_std}");
+    assert!(
+        (0.7..=1.3).contains(&se_std),
+        "scatter / reported se = {se_std}"
+    );
 }

@@ -69,7 +69,9 @@ impl SensorModel {
             heading_walk_rad_per_sqrt_s: 0.002 * deg,
             gyro_noise_rad_per_s: 0.005,
             gyro_bias_rad_per_s: Vector3::new(rng.normal(), rng.normal(), rng.normal()) * 0.3 * deg,
-            gyro_bias_drift_rad_per_s2: Vector3::new(rng.normal(), rng.normal(), rng.normal()) * 0.003 * deg,
+            gyro_bias_drift_rad_per_s2: Vector3::new(rng.normal(), rng.normal(), rng.normal())
+                * 0.003
+                * deg,
             gyro_bias_walk: 0.0005 * deg,
             acc_noise_mps2: 0.02,
             mag_noise: 0.003,
@@ -81,7 +83,11 @@ impl SensorModel {
     pub fn measure(&self, motion: &[BodySample], rate_hz: f64, rng: &mut Rng) -> Vec<ImuSample> {
         let dt = 1.0 / rate_hz;
         let up = Vector3::z();
-        let field = Vector3::new(self.magnetic_dip_rad.cos(), 0.0, -self.magnetic_dip_rad.sin());
+        let field = Vector3::new(
+            self.magnetic_dip_rad.cos(),
+            0.0,
+            -self.magnetic_dip_rad.sin(),
+        );
         let mut heading_walk = 0.0;
         let mut bias_walk = Vector3::zeros();
         motion
@@ -92,15 +98,23 @@ impl SensorModel {
                 let sensor = b.orientation * self.mounting;
                 let inv = sensor.inverse();
                 heading_walk += self.heading_walk_rad_per_sqrt_s * dt.sqrt() * rng.normal();
-                bias_walk += Vector3::new(rng.normal(), rng.normal(), rng.normal()) * (self.gyro_bias_walk * dt.sqrt());
-                let heading = UnitQuaternion::from_axis_angle(&nalgebra::Vector3::z_axis(), self.heading_drift_rad_per_s * t + heading_walk);
+                bias_walk += Vector3::new(rng.normal(), rng.normal(), rng.normal())
+                    * (self.gyro_bias_walk * dt.sqrt());
+                let heading = UnitQuaternion::from_axis_angle(
+                    &nalgebra::Vector3::z_axis(),
+                    self.heading_drift_rad_per_s * t + heading_walk,
+                );
                 let orientation = heading * sensor * rng.small_rotation(self.orientation_noise_rad);
-                let noise3 = |rng: &mut Rng, s: f64| Vector3::new(rng.normal(), rng.normal(), rng.normal()) * s;
-                let bias = self.gyro_bias_rad_per_s + self.gyro_bias_drift_rad_per_s2 * t + bias_walk;
+                let noise3 = |rng: &mut Rng, s: f64| {
+                    Vector3::new(rng.normal(), rng.normal(), rng.normal()) * s
+                };
+                let bias =
+                    self.gyro_bias_rad_per_s + self.gyro_bias_drift_rad_per_s2 * t + bias_walk;
                 ImuSample {
                     orientation,
                     gyr: inv * b.omega_global + bias + noise3(rng, self.gyro_noise_rad_per_s),
-                    acc: inv * (b.accel_global + up * GRAVITY_MPS2) + noise3(rng, self.acc_noise_mps2),
+                    acc: inv * (b.accel_global + up * GRAVITY_MPS2)
+                        + noise3(rng, self.acc_noise_mps2),
                     mag: inv * field + noise3(rng, self.mag_noise),
                 }
             })
@@ -169,14 +183,22 @@ pub struct LinkModel {
 
 impl Default for LinkModel {
     fn default() -> Self {
-        LinkModel { drop_probability: 0.003, bursts_per_minute: 0.5, corrupt_probability: 0.0005 }
+        LinkModel {
+            drop_probability: 0.003,
+            bursts_per_minute: 0.5,
+            corrupt_probability: 0.0005,
+        }
     }
 }
 
 impl LinkModel {
     /// A perfect link.
     pub fn perfect() -> LinkModel {
-        LinkModel { drop_probability: 0.0, bursts_per_minute: 0.0, corrupt_probability: 0.0 }
+        LinkModel {
+            drop_probability: 0.0,
+            bursts_per_minute: 0.0,
+            corrupt_probability: 0.0,
+        }
     }
 
     /// The fate of each of `n` packets at `rate_hz`. The first and last are always delivered.
@@ -198,7 +220,11 @@ impl LinkModel {
             if v < self.drop_probability {
                 out[i] = Packet::Dropped;
             } else if v < self.drop_probability + self.corrupt_probability {
-                out[i] = if rng.uniform() < 0.5 { Packet::Nan } else { Packet::Cut };
+                out[i] = if rng.uniform() < 0.5 {
+                    Packet::Nan
+                } else {
+                    Packet::Cut
+                };
             }
             i += 1;
         }
@@ -233,7 +259,9 @@ fn fmt_num(out: &mut String, v: f64, decimals: usize, precision: Precision, comm
         Precision::Sensor => {
             let _ = write!(out, "{v:.decimals$}");
             // No "-0.000": a sensor writes 0.000.
-            if out[start..].starts_with('-') && out[start + 1..].bytes().all(|b| b == b'0' || b == b'.') {
+            if out[start..].starts_with('-')
+                && out[start + 1..].bytes().all(|b| b == b'0' || b == b'.')
+            {
                 out.remove(start);
             }
         }
@@ -252,12 +280,29 @@ fn fmt_num(out: &mut String, v: f64, decimals: usize, precision: Precision, comm
 /// Writes one file (`mode` from `spec`, or Calibrated) for `data[sensor][sample]`.
 ///
 /// `sync` adds the reed-switch column (one value per sample) to an orientation file.
-pub fn write_log(spec: &FileSpec, calibrated: bool, data: &[Vec<ImuSample>], packets: &[Packet], sync: Option<&[u8]>, rng: &mut Rng) -> String {
-    let mode = if calibrated { OutputMode::Calibrated } else { spec.mode };
+pub fn write_log(
+    spec: &FileSpec,
+    calibrated: bool,
+    data: &[Vec<ImuSample>],
+    packets: &[Packet],
+    sync: Option<&[u8]>,
+    rng: &mut Rng,
+) -> String {
+    let mode = if calibrated {
+        OutputMode::Calibrated
+    } else {
+        spec.mode
+    };
     let spanish = spec.locale == Locale::Spanish;
     let sep = if spanish { ';' } else { '\t' };
-    let mut out = String::with_capacity(packets.len() * 16 * (1 + data.len() * mode.channels().len()));
-    let _ = writeln!(out, "// Receiver: Xbus Master, {} sensor{}, Bluetooth", data.len(), if data.len() == 1 { "" } else { "s" });
+    let mut out =
+        String::with_capacity(packets.len() * 16 * (1 + data.len() * mode.channels().len()));
+    let _ = writeln!(
+        out,
+        "// Receiver: Xbus Master, {} sensor{}, Bluetooth",
+        data.len(),
+        if data.len() == 1 { "" } else { "s" }
+    );
     let _ = writeln!(out, "// Sample rate: {} Hz", spec.rate_hz);
     let _ = writeln!(out, "// Output mode: {}", mode.name());
     for (id, label) in &spec.sensors {
@@ -293,7 +338,8 @@ pub fn write_log(spec: &FileSpec, calibrated: bool, data: &[Vec<ImuSample>], pac
     let mut values: Vec<f64> = Vec::with_capacity(9);
     for (n, &packet) in packets.iter().enumerate() {
         // Jitter is drawn for every sample so that the files do not depend on which are dropped.
-        let jitter = (rng.normal() * spec.jitter_s).clamp(-3.0 * spec.jitter_s, 3.0 * spec.jitter_s);
+        let jitter =
+            (rng.normal() * spec.jitter_s).clamp(-3.0 * spec.jitter_s, 3.0 * spec.jitter_s);
         if packet == Packet::Dropped {
             continue;
         }
@@ -350,7 +396,11 @@ pub fn write_log(spec: &FileSpec, calibrated: bool, data: &[Vec<ImuSample>], pac
                 if nan_at == Some(field) {
                     out.push_str("NaN");
                 } else {
-                    let d = if mode == OutputMode::Calibrated && (3..6).contains(&k) { 5 } else { decimals };
+                    let d = if mode == OutputMode::Calibrated && (3..6).contains(&k) {
+                        5
+                    } else {
+                        decimals
+                    };
                     fmt_num(&mut out, v, d, spec.precision, spanish);
                 }
                 field += 1;

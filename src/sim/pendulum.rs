@@ -117,21 +117,43 @@ impl Pendulum {
                         let w2 = 2.0 * PI * s.freq_hz;
                         let k12 = s.coupling * w1 * w2;
                         let a = Matrix4::new(
-                            0.0, 1.0, 0.0, 0.0,
-                            -w1 * w1, -2.0 * t.damping_ratio * w1, -k12, 0.0,
-                            0.0, 0.0, 0.0, 1.0,
-                            -k12, 0.0, -w2 * w2, -2.0 * s.damping_ratio * w2,
+                            0.0,
+                            1.0,
+                            0.0,
+                            0.0,
+                            -w1 * w1,
+                            -2.0 * t.damping_ratio * w1,
+                            -k12,
+                            0.0,
+                            0.0,
+                            0.0,
+                            0.0,
+                            1.0,
+                            -k12,
+                            0.0,
+                            -w2 * w2,
+                            -2.0 * s.damping_ratio * w2,
                         );
                         // The eigenvalue nearest the uncoupled torsion mode.
-                        let target = nalgebra::Complex::new(-t.damping_ratio * w1, w1 * (1.0 - t.damping_ratio.powi(2)).sqrt());
+                        let target = nalgebra::Complex::new(
+                            -t.damping_ratio * w1,
+                            w1 * (1.0 - t.damping_ratio.powi(2)).sqrt(),
+                        );
                         let ev = a.complex_eigenvalues();
-                        let l = ev.iter().min_by(|x, y| (*x - target).norm().total_cmp(&(*y - target).norm())).copied().unwrap_or(target);
+                        let l = ev
+                            .iter()
+                            .min_by(|x, y| (*x - target).norm().total_cmp(&(*y - target).norm()))
+                            .copied()
+                            .unwrap_or(target);
                         (l.norm(), -l.re / l.norm())
                     }
                     _ => (w1, t.damping_ratio),
                 }
             }
-            Pendulum::Compound(c) => ((c.mass_kg * GRAVITY_MPS2 * c.pivot_to_cg_m / c.inertia_about_pivot_kgm2).sqrt(), c.damping_ratio),
+            Pendulum::Compound(c) => (
+                (c.mass_kg * GRAVITY_MPS2 * c.pivot_to_cg_m / c.inertia_about_pivot_kgm2).sqrt(),
+                c.damping_ratio,
+            ),
         };
         PendulumTruth {
             damped_freq_hz: wn * (1.0 - zeta * zeta).sqrt() / (2.0 * PI),
@@ -149,7 +171,9 @@ impl Pendulum {
         match self {
             Pendulum::Torsion(t) => {
                 let w1 = (t.stiffness_nm_per_rad / t.inertia_kgm2).sqrt();
-                let mut th = -w1 * w1 * y[0] - 2.0 * t.damping_ratio * w1 * y[1] - t.coulomb_nm / t.inertia_kgm2 * dry(y[1]);
+                let mut th = -w1 * w1 * y[0]
+                    - 2.0 * t.damping_ratio * w1 * y[1]
+                    - t.coulomb_nm / t.inertia_kgm2 * dry(y[1]);
                 let mut al = 0.0;
                 if let Some(s) = &t.swing {
                     let w2 = 2.0 * PI * s.freq_hz;
@@ -161,7 +185,9 @@ impl Pendulum {
             }
             Pendulum::Compound(c) => {
                 let w2 = c.mass_kg * GRAVITY_MPS2 * c.pivot_to_cg_m / c.inertia_about_pivot_kgm2;
-                let th = -w2 * y[0].sin() - 2.0 * c.damping_ratio * w2.sqrt() * y[1] - c.coulomb_nm / c.inertia_about_pivot_kgm2 * dry(y[1]);
+                let th = -w2 * y[0].sin()
+                    - 2.0 * c.damping_ratio * w2.sqrt() * y[1]
+                    - c.coulomb_nm / c.inertia_about_pivot_kgm2 * dry(y[1]);
                 [y[1], th, 0.0, 0.0]
             }
         }
@@ -174,7 +200,9 @@ impl Pendulum {
         let t_release = release.rest_s + release.ramp_s + release.hold_s;
         let theta0 = release.amplitude_deg.to_radians();
         let swing_rate0 = match self {
-            Pendulum::Torsion(Torsion { swing: Some(s), .. }) => s.release_amplitude_deg.to_radians() * 2.0 * PI * s.freq_hz,
+            Pendulum::Torsion(Torsion { swing: Some(s), .. }) => {
+                s.release_amplitude_deg.to_radians() * 2.0 * PI * s.freq_hz
+            }
             _ => 0.0,
         };
         const SUBSTEPS: usize = 10;
@@ -200,16 +228,28 @@ impl Pendulum {
         out
     }
 
-    fn kinematics(&self, place: &Placement, ang: f64, rate: f64, acc: f64, swing: [f64; 3]) -> BodySample {
+    fn kinematics(
+        &self,
+        place: &Placement,
+        ang: f64,
+        rate: f64,
+        acc: f64,
+        swing: [f64; 3],
+    ) -> BodySample {
         let z = Vector3::z_axis();
-        let u = Vector3::new(place.axis_heading_rad.cos(), place.axis_heading_rad.sin(), 0.0);
+        let u = Vector3::new(
+            place.axis_heading_rad.cos(),
+            place.axis_heading_rad.sin(),
+            0.0,
+        );
         let (orientation, omega, alpha) = match self {
             Pendulum::Torsion(_) => {
                 let rz = UnitQuaternion::from_axis_angle(&z, ang);
                 let u_now = rz * u;
                 let ru = UnitQuaternion::from_scaled_axis(u * swing[0]);
                 let omega = z.into_inner() * rate + u_now * swing[1];
-                let alpha = z.into_inner() * acc + u_now * swing[2] + z.cross(&u_now) * (rate * swing[1]);
+                let alpha =
+                    z.into_inner() * acc + u_now * swing[2] + z.cross(&u_now) * (rate * swing[1]);
                 (rz * ru * place.body_rest, omega, alpha)
             }
             Pendulum::Compound(_) => {
@@ -230,7 +270,11 @@ impl Pendulum {
 /// Returns angle, rate and acceleration.
 fn hand(t: f64, r: &Release, theta0: f64) -> (f64, f64, f64) {
     if t < r.rest_s || r.ramp_s <= 0.0 {
-        return if t < r.rest_s { (0.0, 0.0, 0.0) } else { (theta0, 0.0, 0.0) };
+        return if t < r.rest_s {
+            (0.0, 0.0, 0.0)
+        } else {
+            (theta0, 0.0, 0.0)
+        };
     }
     let u = (t - r.rest_s) / r.ramp_s;
     if u >= 1.0 {
@@ -245,7 +289,9 @@ fn hand(t: f64, r: &Release, theta0: f64) -> (f64, f64, f64) {
 
 /// One classical Runge–Kutta step.
 pub fn rk4<const N: usize, F: Fn(&[f64; N]) -> [f64; N]>(f: F, y: &[f64; N], h: f64) -> [f64; N] {
-    let add = |a: &[f64; N], b: &[f64; N], s: f64| -> [f64; N] { std::array::from_fn(|i| a[i] + s * b[i]) };
+    let add = |a: &[f64; N], b: &[f64; N], s: f64| -> [f64; N] {
+        std::array::from_fn(|i| a[i] + s * b[i])
+    };
     let k1 = f(y);
     let k2 = f(&add(y, &k1, 0.5 * h));
     let k3 = f(&add(y, &k2, 0.5 * h));
@@ -260,15 +306,32 @@ mod tests {
     #[test]
     fn free_decay_matches_closed_form() {
         // Linear, viscous only: θ(t) = θ0 e^{−σt}(cos ω_d t + σ/ω_d sin ω_d t).
-        let p = Pendulum::Torsion(Torsion { inertia_kgm2: 1.0, stiffness_nm_per_rad: 25.0, damping_ratio: 0.02, coulomb_nm: 0.0, swing: None });
-        let rel = Release { rest_s: 0.0, ramp_s: 0.0, hold_s: 0.0, amplitude_deg: 10.0, duration_s: 20.0 };
-        let place = Placement { body_rest: UnitQuaternion::identity(), axis_heading_rad: 0.0, sensor_offset_m: Vector3::new(0.2, 0.0, 0.0) };
+        let p = Pendulum::Torsion(Torsion {
+            inertia_kgm2: 1.0,
+            stiffness_nm_per_rad: 25.0,
+            damping_ratio: 0.02,
+            coulomb_nm: 0.0,
+            swing: None,
+        });
+        let rel = Release {
+            rest_s: 0.0,
+            ramp_s: 0.0,
+            hold_s: 0.0,
+            amplitude_deg: 10.0,
+            duration_s: 20.0,
+        };
+        let place = Placement {
+            body_rest: UnitQuaternion::identity(),
+            axis_heading_rad: 0.0,
+            sensor_offset_m: Vector3::new(0.2, 0.0, 0.0),
+        };
         let m = p.motion(&rel, &place, 100.0);
         let (w, z) = (5.0f64, 0.02);
         let (s, wd) = (z * w, w * (1.0 - z * z).sqrt());
         for (k, b) in m.iter().enumerate().step_by(97) {
             let t = k as f64 / 100.0;
-            let want = 10f64.to_radians() * (-s * t).exp() * ((wd * t).cos() + s / wd * (wd * t).sin());
+            let want =
+                10f64.to_radians() * (-s * t).exp() * ((wd * t).cos() + s / wd * (wd * t).sin());
             let got = b.orientation.scaled_axis().z;
             assert!((got - want).abs() < 1e-9, "t={t}: {got} vs {want}");
         }
