@@ -580,11 +580,13 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
             .zip(seg_x)
             .map(|(&ti, &xi)| xi - fit.eval(ti))
             .collect(),
-        ..segment
+        ..segment.clone()
     };
+    // Rectangular windows: a second mode decays early in the segment, where Hann's taper would
+    // hide it; the residual has no step at its start.
     let secondary_peaks = secondary_peaks(
-        &spectrum,
-        &Spectrum::of(&residual, Window::Hann),
+        &Spectrum::of(&segment, Window::Rectangular),
+        &Spectrum::of(&residual, Window::Rectangular),
         main_peak.freq_hz,
     );
     Ok(Oscillation {
@@ -668,7 +670,7 @@ fn refine_segment(
 }
 
 /// Peaks of the residual's spectrum that stand 5× above its median floor and reach 2 % of the
-/// signal's main peak (−34 dB), away from the main frequency by more than 2 bins.
+/// signal's main peak (−34 dB), away from the main frequency and each other.
 fn secondary_peaks(
     signal_spectrum: &Spectrum,
     residual_spectrum: &Spectrum,
@@ -679,15 +681,22 @@ fn secondary_peaks(
         .iter()
         .copied()
         .fold(0.0, f64::max);
-    residual_spectrum
-        .peaks(2.0 * residual_spectrum.resolution_hz, 0.0, 8)
-        .into_iter()
-        .filter(|p| {
-            p.magnitude >= 0.02 * top
-                && (p.freq_hz - main_hz).abs() > 2.0 * residual_spectrum.resolution_hz
-        })
-        .take(5)
-        .collect()
+    // Apart from the main frequency and from each other by 2 bins and 5 %: a decaying mode's
+    // peak ripples under a rectangular window.
+    let apart = |a: f64, b: f64| {
+        (a - b).abs() > (2.0 * residual_spectrum.resolution_hz).max(0.05 * a.max(b))
+    };
+    let mut out: Vec<Peak> = Vec::new();
+    for p in residual_spectrum.peaks(2.0 * residual_spectrum.resolution_hz, 0.0, 12) {
+        if p.magnitude >= 0.02 * top
+            && apart(p.freq_hz, main_hz)
+            && out.iter().all(|q| apart(p.freq_hz, q.freq_hz))
+        {
+            out.push(p);
+        }
+    }
+    out.truncate(5);
+    out
 }
 
 /// What `bikeproc period` reports: the fit's results with their standard errors (SI units;
