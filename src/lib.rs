@@ -13,11 +13,13 @@
 //! - [`signal`]: a log or CSV → one scalar oscillation signal.
 //! - [`spectral`]: a signal → its spectrum and peaks (the fit's first guess).
 //! - [`fit`]: a signal → free-decay segment, damped-sinusoid fit, standard errors.
+//! - [`inertia`]: test folders → bar stiffness, moments, tensors (with standard errors).
 //! - [`sim`]: the lab simulated from physics (never calls the estimators).
 //! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
 //! - `plot` (feature `plot`): SVG figures for the reports.
 
 pub mod fit;
+pub mod inertia;
 pub mod log;
 #[cfg(feature = "plot")]
 pub mod plot;
@@ -25,3 +27,4 @@ pub mod report;
 pub mod signal;
 pub mod sim;
 pub mod spectral;
+pub mod uncertainty;

@@ -3,6 +3,7 @@
 
 use anyhow::{Context, Result};
 use bikeproc::fit::{self, FitOptions, Trend};
+use bikeproc::inertia::{self, manifest::Kind, text};
 use bikeproc::log::{OutputMode, ReadOptions};
 use bikeproc::signal::{self, Extract};
 use bikeproc::sim::{self, imu, pendulum};
@@ -25,6 +26,12 @@ struct Cli {
 enum Command {
     /// Measure the free oscillation in one log or CSV: frequency, damping, standard errors.
     Period(PeriodArgs),
+    /// Calibrate the torsion bar with the steel rod (and the empty fixture); writes
+    /// DIR/calibration.toml for the other commands.
+    CalibrateBar(CalibrateArgs),
+    /// Moments and inertia tensors from a folder of torsion or compound-pendulum tests, or
+    /// refresh the inertias of a bicycle file (--bike).
+    Inertia(InertiaArgs),
     /// Write simulated logs from physics.
     #[command(subcommand)]
     Simulate(SimCommand),
@@ -54,6 +61,30 @@ struct PeriodArgs {
     json: bool,
 }
 
+#[derive(Args)]
+struct CalibrateArgs {
+    /// The bar-calibration folder (its manifest.toml and logs).
+    #[arg(default_value = "data/bar_calibration")]
+    dir: PathBuf,
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct InertiaArgs {
+    /// A test folder (manifest.toml and its logs).
+    #[arg(required_unless_present = "bike")]
+    dir: Option<PathBuf>,
+    /// The tensor from these orientations only, e.g. 1,2,4.
+    #[arg(long, value_delimiter = ',')]
+    orientations: Vec<String>,
+    /// Refresh the inertias of this bicycle file from the test folders it names.
+    #[arg(long, conflicts_with = "dir")]
+    bike: Option<PathBuf>,
+    #[arg(long)]
+    json: bool,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum TrendArg {
     Auto,
@@ -67,6 +98,12 @@ enum SimCommand {
     Torsion(TorsionArgs),
     /// A body hung as a compound pendulum (defaults: the lab's frame, eq. 79).
     Compound(CompoundArgs),
+    /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
+    Campaign {
+        /// Folder to write into.
+        #[arg(long, default_value = "data")]
+        out: PathBuf,
+    },
 }
 
 #[derive(Args)]
@@ -209,6 +246,8 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Period(a) => period(a),
+        Command::CalibrateBar(a) => calibrate_bar(a),
+        Command::Inertia(a) => inertia_cmd(a),
         Command::Simulate(s) => simulate(s),
         Command::Report(r) => {
             let written =
@@ -252,8 +291,76 @@ fn period(a: PeriodArgs) -> Result<()> {
     Ok(())
 }
 
+fn calibrate_bar(a: CalibrateArgs) -> Result<()> {
+    let cal = inertia::calibrate_bar(&a.dir)?;
+    let out = a.dir.join(inertia::CALIBRATION_FILE);
+    write_atomic(&out, cal.to_toml().as_bytes())?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&text::calibration_json(&cal))?);
+    } else {
+        print!("{}", text::calibration_text(&cal));
+    }
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
+
+fn inertia_cmd(a: InertiaArgs) -> Result<()> {
+    if let Some(bike_path) = a.bike {
+        let mut bike = inertia::bike::LabBike::load(&bike_path)?;
+        let dir = bike_path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let warnings = bike.refresh(&dir)?;
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        write_atomic(&bike_path, bike.to_toml().as_bytes())?;
+        if a.json {
+            println!("{}", serde_json::to_string_pretty(&bike)?);
+        } else {
+            print!("{}", bike.to_toml());
+        }
+        eprintln!("refreshed the inertias of {}", bike_path.display());
+        return Ok(());
+    }
+    let dir = a.dir.unwrap_or_default();
+    let m = inertia::manifest::Manifest::load(&dir)?;
+    match m.kind {
+        Kind::Torsion => {
+            let r = inertia::torsion(&dir, &a.orientations)?;
+            for w in &r.tensor.warnings {
+                eprintln!("warning: {w}");
+            }
+            if a.json {
+                println!("{}", serde_json::to_string_pretty(&text::torsion_json(&r))?);
+            } else {
+                print!("{}", text::torsion_text(&r));
+            }
+        }
+        Kind::Compound => {
+            let r = inertia::compound(&dir)?;
+            if a.json {
+                println!("{}", serde_json::to_string_pretty(&text::compound_json(&r))?);
+            } else {
+                print!("{}", text::compound_text(&r));
+            }
+        }
+        Kind::BarCalibration | Kind::EmptyFixture => {
+            anyhow::bail!(inertia::InertiaError::Invalid {
+                path: dir.join(inertia::manifest::MANIFEST),
+                message: "a bar-calibration or empty-fixture folder: use `bikeproc calibrate-bar`".into()
+            })
+        }
+    }
+    Ok(())
+}
+
 fn simulate(s: SimCommand) -> Result<()> {
     let (p, c) = match s {
+        SimCommand::Campaign { out } => {
+            let files = sim::campaign::lab_campaign();
+            sim::campaign::write_files(&out, &files).with_context(|| format!("writing under {}", out.display()))?;
+            eprintln!("wrote {} files under {}", files.len(), out.display());
+            return Ok(());
+        }
         SimCommand::Torsion(t) => (
             pendulum::Pendulum::Torsion(pendulum::Torsion {
                 inertia_kgm2: t.inertia_kgm2,

@@ -1,0 +1,286 @@
+//! Test manifests: what the lab did and wrote down for the tests in one folder
+//! (`DIR/manifest.toml`, format version 1). SI units, the unit in every key's name.
+//!
+//! ```toml
+//! version = 1
+//! kind = "torsion"              # bar_calibration | torsion | compound | empty_fixture
+//! body = "frame"
+//! mass_kg = 5.48
+//! calibration = "../bar_calibration/calibration.toml"   # torsion: the bar's stiffness
+//! # Uncertainties of what was written down (defaults shown): scale, tape, photographs.
+//! mass_se_kg = 0.02
+//! distance_se_m = 0.005
+//! axis_angle_se_deg = 1.0
+//!
+//! [[test]]                      # one orientation (torsion) or plane (compound)
+//! name = "1"
+//! logs = ["frame_1a.log", "frame_1b.log"]   # repeats
+//! axis = [0.7964, 0.0, -0.6048] # torsion: the bar's axis in body coordinates (unit vector)
+//! weights_kg = 3.231            # torsion: added weights, as point masses …
+//! weights_distance_m = 0.37     # … at this distance from the bar's axis
+//! cg_distance_m = 0.2           # torsion: the body's centre of gravity from the bar's axis
+//! # compound: pivot_to_cg_m = 0.37 and moment = "iyy" (or "ixx_izz": a wheel across its plane)
+//! ```
+//!
+//! A `bar_calibration` manifest has `[rod]` (`mass_kg`, `diameter_m`, `length_m`), `[bar]`
+//! (`shear_modulus_pa`, `diameter_m`, `length_m`), optionally `fixture = "../empty_fixture"`,
+//! and its `[[test]]`s. An `empty_fixture` manifest has tests of the bare Cardan joint and clamp,
+//! with calibration weights (`weights_kg`, `weights_distance_m`, and their own
+//! `weights_distance_se_m` when machined).
+
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The manifest's file name in a test folder.
+pub const MANIFEST: &str = "manifest.toml";
+
+/// What a folder's tests are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    BarCalibration,
+    Torsion,
+    Compound,
+    EmptyFixture,
+}
+
+/// Which inertia a compound-pendulum test gives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Moment {
+    /// About the body's y axis (swinging in its plane).
+    Iyy,
+    /// A wheel swinging across its plane: I_xx = I_zz (eq. 83).
+    IxxIzz,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rod {
+    pub mass_kg: f64,
+    pub diameter_m: f64,
+    pub length_m: f64,
+    /// Scale resolution for the rod (default 0.02 kg, like the bodies).
+    pub mass_se_kg: Option<f64>,
+    /// Calliper on the rod (default 0.0001 m).
+    pub dimension_se_m: Option<f64>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bar {
+    pub shear_modulus_pa: f64,
+    pub diameter_m: f64,
+    pub length_m: f64,
+}
+
+/// One orientation or plane, with its repeats.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Test {
+    pub name: String,
+    pub logs: Vec<PathBuf>,
+    pub axis: Option<[f64; 3]>,
+    pub weights_kg: Option<f64>,
+    pub weights_distance_m: Option<f64>,
+    pub weights_distance_se_m: Option<f64>,
+    pub cg_distance_m: Option<f64>,
+    pub pivot_to_cg_m: Option<f64>,
+    pub moment: Option<Moment>,
+    /// A channel to fit instead of the rotation about the dominant axis (e.g. `Gyr_Z`).
+    pub channel: Option<String>,
+    /// The sensor, by id or label, when the logs have several.
+    pub sensor: Option<String>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    pub version: u32,
+    pub kind: Kind,
+    pub body: Option<String>,
+    pub mass_kg: Option<f64>,
+    pub calibration: Option<PathBuf>,
+    pub fixture: Option<PathBuf>,
+    pub mass_se_kg: Option<f64>,
+    pub distance_se_m: Option<f64>,
+    pub axis_angle_se_deg: Option<f64>,
+    pub rod: Option<Rod>,
+    pub bar: Option<Bar>,
+    #[serde(rename = "test")]
+    pub tests: Vec<Test>,
+    /// Free text: who, when, what was odd.
+    pub notes: Option<String>,
+    /// Where the manifest was read from (set by [`Manifest::load`]).
+    #[serde(skip)]
+    pub dir: PathBuf,
+}
+
+/// A problem with a manifest, naming the file, the line when known, and the key.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+pub struct ManifestError {
+    pub path: PathBuf,
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+/// Unit suffixes people write, and the SI suffix bikeproc takes instead.
+const UNIT_HINTS: &[(&str, &str)] = &[
+    ("_g", "_kg"),
+    ("_mm", "_m"),
+    ("_cm", "_m"),
+    ("_gpa", "_pa"),
+    ("_mpa", "_pa"),
+    ("_rad", "_deg"),
+    ("_kgmm2", "_kgm2"),
+];
+
+impl Manifest {
+    /// Reads `DIR/manifest.toml` (or the file itself when `path` is a file) and checks it.
+    pub fn load(path: &Path) -> Result<Manifest, ManifestError> {
+        let file = if path.is_dir() { path.join(MANIFEST) } else { path.to_path_buf() };
+        let dir = file.parent().map(Path::to_path_buf).unwrap_or_default();
+        let text = std::fs::read_to_string(&file).map_err(|e| ManifestError {
+            path: file.clone(),
+            line: None,
+            message: format!("cannot read the test manifest: {e}"),
+        })?;
+        let mut m: Manifest = toml::from_str(&text).map_err(|e| {
+            let line = e.span().map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count());
+            let mut message = e.message().trim().to_string();
+            if let Some(key) = message.strip_prefix("unknown field `").and_then(|r| r.split('`').next()) {
+                if let Some((bad, good)) = UNIT_HINTS.iter().find(|(bad, _)| key.ends_with(bad)) {
+                    let want = format!("{}{good}", &key[..key.len() - bad.len()]);
+                    message = format!("`{key}`: wrong unit; bikeproc takes SI units, write `{want}`");
+                } else {
+                    message = format!("unknown key `{key}` ({})", message.lines().next().unwrap_or(""));
+                }
+            }
+            ManifestError { path: file.clone(), line, message: message.replace('\n', " ") }
+        })?;
+        m.dir = dir;
+        m.check(&file, &text)?;
+        Ok(m)
+    }
+
+    fn check(&self, file: &Path, text: &str) -> Result<(), ManifestError> {
+        // Line of the first occurrence of `needle` after the `[[test]]` holding test `name`.
+        let line_of = |needle: &str, test: Option<&str>| -> Option<usize> {
+            let start = test
+                .and_then(|n| text.find(&format!("name = \"{n}\"")))
+                .unwrap_or(0);
+            text[start..].find(needle).map(|i| 1 + text[..start + i].matches('\n').count())
+        };
+        let err = |key: &str, test: Option<&str>, message: String| ManifestError {
+            path: file.to_path_buf(),
+            line: line_of(key, test),
+            message,
+        };
+        if self.version != 1 {
+            return Err(err("version", None, format!("`version = {}`: this bikeproc reads manifest version 1", self.version)));
+        }
+        if self.tests.is_empty() {
+            return Err(err("kind", None, "no `[[test]]`: a manifest lists at least one test".into()));
+        }
+        let positive = |key: &str, v: Option<f64>, test: Option<&str>| -> Result<f64, ManifestError> {
+            match v {
+                None => Err(err(
+                    if test.is_some() { "name" } else { "kind" },
+                    test,
+                    format!("missing key `{key}`{}", test.map(|t| format!(" in test \"{t}\"")).unwrap_or_default()),
+                )),
+                Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+                Some(x) => Err(err(key, test, format!("`{key} = {x}`: expected a positive number"))),
+            }
+        };
+        let non_negative = |key: &str, v: Option<f64>, test: &str| -> Result<(), ManifestError> {
+            match v {
+                Some(x) if !(x.is_finite() && x >= 0.0) => Err(err(key, Some(test), format!("`{key} = {x}`: expected zero or more"))),
+                _ => Ok(()),
+            }
+        };
+        match self.kind {
+            Kind::BarCalibration => {
+                let rod = self.rod.as_ref().ok_or_else(|| err("kind", None, "missing table `[rod]` (mass_kg, diameter_m, length_m)".into()))?;
+                positive("rod.mass_kg", Some(rod.mass_kg), None)?;
+                positive("rod.diameter_m", Some(rod.diameter_m), None)?;
+                positive("rod.length_m", Some(rod.length_m), None)?;
+                if let Some(bar) = &self.bar {
+                    positive("bar.shear_modulus_pa", Some(bar.shear_modulus_pa), None)?;
+                    positive("bar.diameter_m", Some(bar.diameter_m), None)?;
+                    positive("bar.length_m", Some(bar.length_m), None)?;
+                }
+            }
+            Kind::Torsion | Kind::Compound => {
+                positive("mass_kg", self.mass_kg, None)?;
+                if self.body.is_none() {
+                    return Err(err("kind", None, "missing key `body` (frame, handlebar, rear_wheel, front_wheel, …)".into()));
+                }
+            }
+            Kind::EmptyFixture => {}
+        }
+        if self.kind == Kind::Torsion && self.calibration.is_none() {
+            return Err(err("kind", None, "missing key `calibration`: the bar calibration file (written by `bikeproc calibrate-bar`)".into()));
+        }
+        for t in &self.tests {
+            let n = Some(t.name.as_str());
+            if t.logs.is_empty() {
+                return Err(err("logs", n, format!("test \"{}\": `logs` is empty", t.name)));
+            }
+            for log in &t.logs {
+                let p = self.dir.join(log);
+                if !p.is_file() {
+                    return Err(err(&log.display().to_string(), n, format!("test \"{}\": log {} does not exist", t.name, p.display())));
+                }
+            }
+            match self.kind {
+                Kind::Torsion => {
+                    let axis = t.axis.ok_or_else(|| err("name", n, format!("missing key `axis` in test \"{}\"", t.name)))?;
+                    let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+                    if (len - 1.0).abs() > 1e-3 {
+                        return Err(err("axis", n, format!("test \"{}\": `axis` {axis:?} has length {len:.4}; expected a unit vector (within 0.001)", t.name)));
+                    }
+                    if axis[1].abs() > 1e-3 {
+                        return Err(err("axis", n, format!("test \"{}\": `axis` {axis:?} leaves the body's xz plane of symmetry; the tensor solve (eq. 69) takes axes (x, 0, z)", t.name)));
+                    }
+                    if t.cg_distance_m.is_none() {
+                        return Err(err("name", n, format!("missing key `cg_distance_m` in test \"{}\"", t.name)));
+                    }
+                    non_negative("cg_distance_m", t.cg_distance_m, &t.name)?;
+                    non_negative("weights_kg", t.weights_kg, &t.name)?;
+                    non_negative("weights_distance_m", t.weights_distance_m, &t.name)?;
+                }
+                Kind::Compound => {
+                    positive("pivot_to_cg_m", t.pivot_to_cg_m, n)?;
+                    if t.moment.is_none() {
+                        return Err(err("name", n, format!("missing key `moment` in test \"{}\" (iyy or ixx_izz)", t.name)));
+                    }
+                }
+                Kind::EmptyFixture => {
+                    non_negative("weights_kg", t.weights_kg, &t.name)?;
+                    non_negative("weights_distance_m", t.weights_distance_m, &t.name)?;
+                }
+                Kind::BarCalibration => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// The path of a log named in the manifest.
+    pub fn log_path(&self, log: &Path) -> PathBuf {
+        self.dir.join(log)
+    }
+
+    pub fn mass_se_kg(&self) -> f64 {
+        self.mass_se_kg.unwrap_or(0.02)
+    }
+
+    pub fn distance_se_m(&self) -> f64 {
+        self.distance_se_m.unwrap_or(0.005)
+    }
+
+    pub fn axis_angle_se_rad(&self) -> f64 {
+        self.axis_angle_se_deg.unwrap_or(1.0).to_radians()
+    }
+}

@@ -1,0 +1,396 @@
+//! The lab's pendulum campaign, simulated: a world whose physics gives the published
+//! frequencies (Tables 1, 4; eqs. 66, 79–91), recorded as the lab recorded it (weights,
+//! distances and axes of Tables 2, 5 and eqs. 73, 75), written as log pairs and manifests.
+//!
+//! The world: a bar of stiffness `k` that makes the rod (its inertia from its dimensions, eq.
+//! 65) swing at 0.6782 Hz together with a light fixture (Cardan joint and clamp, 1.5e-4 kg·m²);
+//! each torsion test's system inertia is what makes it swing at the published frequency; each
+//! compound test's inertia about the pivot likewise, swinging with the full `sin θ`. Repeats
+//! differ by a re-clamping spread of 0.05–0.2 % in frequency (the lab's FFT peaks agreed to
+//! about that), release angles and noise. Nothing here calls an estimator.
+
+use super::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
+use super::pendulum::{Compound, Pendulum, Placement, Release, Swing, Torsion};
+use super::rng::Rng;
+use crate::log::OutputMode;
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Files of a simulated campaign: path relative to its folder → contents.
+pub type Files = Vec<(PathBuf, String)>;
+
+/// Gravity of the simulated world (m/s²), as in eq. 92.
+pub const GRAVITY_MPS2: f64 = 9.81;
+
+/// The rod of eq. 65.
+pub const ROD: (f64, f64, f64) = (22.31, 59.95e-3, 1.007);
+/// The fixture's true inertia about the bar's axis (kg·m²).
+pub const FIXTURE_INERTIA_KGM2: f64 = 1.5e-4;
+/// The empty-fixture test's calibration weights: 1.000 kg at 0.100 m on a machined arm (±0.5 mm).
+pub const FIXTURE_WEIGHTS: (f64, f64, f64) = (1.0, 0.100, 0.0005);
+
+/// The bar's true stiffness: the rod and fixture at the published 0.6782 Hz (eq. 66).
+pub fn true_stiffness() -> f64 {
+    let (m, d, l) = ROD;
+    let i_rod = m * (3.0 * (d / 2.0).powi(2) + l * l) / 12.0;
+    4.0 * PI * PI * 0.6782f64.powi(2) * (i_rod + FIXTURE_INERTIA_KGM2)
+}
+
+/// One recording to simulate.
+struct Shot {
+    file: String,
+    pendulum: Pendulum,
+    release: Release,
+    mode: OutputMode,
+    locale: Locale,
+    label: &'static str,
+    sensor_id: &'static str,
+}
+
+fn spec(shot: &Shot, seed: u64) -> FileSpec {
+    FileSpec {
+        mode: shot.mode,
+        locale: shot.locale,
+        precision: Precision::Sensor,
+        rate_hz: 100.0,
+        sensors: vec![(shot.sensor_id.to_string(), shot.label.to_string())],
+        first_counter: (seed.wrapping_mul(40_503) % 65_536) as u16,
+        start: format!("2009-03-{:02} {:02}:{:02}:{:02}", 10 + seed % 8, 9 + seed % 8, (seed * 7) % 60, (seed * 13) % 60),
+        extra_header: vec![],
+        declare_decimal: seed % 2 == 0,
+        jitter_s: 0.0005,
+    }
+}
+
+fn record(shot: &Shot, seed: u64) -> (String, String) {
+    let mut rng = Rng::new(seed);
+    let sensor = SensorModel::typical(&mut rng);
+    let placement = Placement {
+        body_rest: rng.rotation(),
+        axis_heading_rad: rng.range(0.0, 2.0 * PI),
+        sensor_offset_m: nalgebra::Vector3::new(rng.range(0.1, 0.35), rng.range(-0.05, 0.05), rng.range(-0.1, 0.1)),
+    };
+    let rec = super::simulate_pendulum(&shot.pendulum, &shot.release, &placement, &sensor, &LinkModel::default(), &spec(shot, seed), seed);
+    (rec.angles_log, rec.cal_log)
+}
+
+fn release(rng: &mut Rng, duration_s: f64, amplitude_deg: (f64, f64)) -> Release {
+    Release {
+        rest_s: rng.range(2.0, 4.0),
+        ramp_s: rng.range(0.6, 1.2),
+        hold_s: rng.range(0.4, 1.0),
+        amplitude_deg: rng.range(amplitude_deg.0, amplitude_deg.1),
+        duration_s,
+    }
+}
+
+/// A torsion test of the lab's (system) inertia making it swing at `freq_hz`, with the Cardan
+/// joint's swing lightly coupled.
+fn torsion_at(freq_hz: f64, rng: &mut Rng) -> Pendulum {
+    let k = true_stiffness();
+    Pendulum::Torsion(Torsion {
+        inertia_kgm2: k / (2.0 * PI * freq_hz).powi(2),
+        stiffness_nm_per_rad: k,
+        damping_ratio: rng.range(0.002, 0.006),
+        coulomb_nm: 0.0,
+        swing: Some(Swing { freq_hz: rng.range(1.1, 1.6) * freq_hz.max(0.8), damping_ratio: 0.03, coupling: 0.01, release_amplitude_deg: 0.5 }),
+    })
+}
+
+fn compound_at(mass_kg: f64, pivot_to_cg_m: f64, freq_hz: f64, rng: &mut Rng) -> Pendulum {
+    Pendulum::Compound(Compound {
+        mass_kg,
+        pivot_to_cg_m,
+        inertia_about_pivot_kgm2: mass_kg * GRAVITY_MPS2 * pivot_to_cg_m / (2.0 * PI * freq_hz).powi(2),
+        damping_ratio: rng.range(0.002, 0.005),
+        coulomb_nm: 0.0,
+    })
+}
+
+/// A folder's tests: (name, published frequency, repeats, manifest lines of the test).
+struct FolderTest {
+    name: &'static str,
+    freq_hz: f64,
+    repeats: usize,
+    lines: String,
+}
+
+/// Writes one folder: its logs and manifest. `make` builds the pendulum for a frequency.
+#[allow(clippy::too_many_arguments)]
+fn folder(
+    files: &mut Files,
+    dir: &str,
+    header: &str,
+    tests: &[FolderTest],
+    make: &dyn Fn(f64, &mut Rng) -> Pendulum,
+    duration_s: f64,
+    amplitude_deg: (f64, f64),
+    label: &'static str,
+    seed: &mut u64,
+    style: &dyn Fn(usize) -> (OutputMode, Locale),
+) {
+    let mut manifest = String::from(header);
+    let mut count = 0;
+    for t in tests {
+        let mut rng = Rng::new(*seed ^ 0xC0FFEE);
+        // Repeats spread symmetrically about the published frequency: re-clamping.
+        let spread = rng.range(0.0005, 0.002);
+        let mut logs = Vec::new();
+        for r in 0..t.repeats {
+            let offset = if t.repeats == 1 { 0.0 } else { spread * (2.0 * r as f64 / (t.repeats - 1) as f64 - 1.0) };
+            let f = t.freq_hz * (1.0 + offset);
+            let (mode, locale) = style(count);
+            count += 1;
+            let shot = Shot {
+                file: format!("{dir}_{}{}.log", t.name, (b'a' + r as u8) as char),
+                pendulum: make(f, &mut rng),
+                release: release(&mut rng, duration_s, amplitude_deg),
+                mode,
+                locale,
+                label,
+                sensor_id: "00300417",
+            };
+            *seed += 1;
+            let (angles, cal) = record(&shot, *seed);
+            files.push((PathBuf::from(dir).join(&shot.file), angles));
+            files.push((PathBuf::from(dir).join(shot.file.replace(".log", "_cal.log")), cal));
+            logs.push(format!("\"{}\"", shot.file));
+        }
+        let _ = write!(manifest, "\n[[test]]\nname = \"{}\"\nlogs = [{}]\n{}", t.name, logs.join(", "), t.lines);
+    }
+    files.push((PathBuf::from(dir).join("manifest.toml"), manifest));
+}
+
+const PUBLISHED: &str = "# The lab's figures are in seed §5.3; this folder was simulated to reproduce them.\n";
+
+/// The whole campaign (seed §5.3), deterministic.
+pub fn lab_campaign() -> Files {
+    let mut files = Files::new();
+    let mut seed = 2009u64;
+    let tab = |_: usize| (OutputMode::Euler, Locale::Tab);
+    // Bar calibration and empty fixture.
+    folder(
+        &mut files,
+        "bar_calibration",
+        &format!(
+            "# Torsion-bar calibration with the steel rod hung by its middle (seed §5.3.3.2).\n{PUBLISHED}version = 1\nkind = \"bar_calibration\"\nfixture = \"../empty_fixture\"\n\n[rod]\nmass_kg = {}\ndiameter_m = {}\nlength_m = {}\n\n[bar]\nshear_modulus_pa = 72e9\ndiameter_m = 0.010\nlength_m = 1.99\n",
+            ROD.0, ROD.1, ROD.2
+        ),
+        &[FolderTest { name: "rod", freq_hz: 0.6782, repeats: 3, lines: String::new() }],
+        &|f, rng| torsion_at(f, rng),
+        60.0,
+        (6.0, 10.0),
+        "torsion bar",
+        &mut seed,
+        &|i| if i == 2 { (OutputMode::Quaternion, Locale::Tab) } else { (OutputMode::Euler, Locale::Tab) },
+    );
+    let k = true_stiffness();
+    let (wm, wr, wse) = FIXTURE_WEIGHTS;
+    let fix_f = (k / (FIXTURE_INERTIA_KGM2 + wm * wr * wr)).sqrt() / (2.0 * PI);
+    folder(
+        &mut files,
+        "empty_fixture",
+        &format!("# The bare Cardan joint and clamp on the bar, with calibration weights on a machined arm.\n# (Not in the seed: the lab neglected the fixture's inertia.)\nversion = 1\nkind = \"empty_fixture\"\n# The calibration weights are weighed on a fine scale.\nmass_se_kg = 0.001\n"),
+        &[FolderTest { name: "empty", freq_hz: fix_f, repeats: 2, lines: format!("weights_kg = {wm}\nweights_distance_m = {wr}\nweights_distance_se_m = {wse}\n") }],
+        &|f, rng| torsion_at(f, rng),
+        30.0,
+        (4.0, 6.0),
+        "fixture",
+        &mut seed,
+        &tab,
+    );
+    // Frame torsion: Tables 1–2, eq. 73.
+    let frame = [
+        ("1", 0.8003, 3.231, 0.37, 0.2, [0.7964, 0.0, -0.6048]),
+        ("2", 0.7485, 3.231, 0.385, 0.18, [-0.4097, 0.0, 0.9122]),
+        ("3", 0.8695, 3.720, 0.205, 0.09, [-0.3768, 0.0, 0.9263]),
+        ("4", 1.2160, 3.720, 0.17, 0.16, [0.9097, 0.0, 0.4153]),
+    ];
+    let torsion_tests = |rows: &[(&'static str, f64, f64, f64, f64, [f64; 3])]| -> Vec<FolderTest> {
+        rows.iter()
+            .map(|&(name, f, wm, wr, cg, ax)| FolderTest {
+                name,
+                freq_hz: f,
+                repeats: 2,
+                lines: format!("axis = [{}, {}, {}]\nweights_kg = {wm}\nweights_distance_m = {wr}\ncg_distance_m = {cg}\n", ax[0], ax[1], ax[2]),
+            })
+            .collect()
+    };
+    let torsion_header = |body: &str, mass: f64, what: &str| {
+        format!("# {what}\n{PUBLISHED}version = 1\nkind = \"torsion\"\nbody = \"{body}\"\nmass_kg = {mass}\ncalibration = \"../bar_calibration/calibration.toml\"\nmass_se_kg = 0.02\ndistance_se_m = 0.005\naxis_angle_se_deg = 1.0\n")
+    };
+    folder(
+        &mut files,
+        "frame_torsion",
+        &torsion_header("frame", 5.48, "Torsion tests of the frame in four orientations (seed §5.3.3.4, Tables 1–3, eq. 73); tests 2 and 3 share an orientation."),
+        &torsion_tests(&frame),
+        &|f, rng| torsion_at(f, rng),
+        40.0,
+        (5.0, 9.0),
+        "frame",
+        &mut seed,
+        &|i| match i {
+            3 => (OutputMode::Matrix, Locale::Tab),
+            5 => (OutputMode::Quaternion, Locale::Spanish),
+            _ => (OutputMode::Euler, Locale::Tab),
+        },
+    );
+    let handlebar = [("1", 4.659, 0.0, 0.0, 0.015, [-0.0106, 0.0, 0.9999]), ("2", 1.392, 2.246, 0.17, 0.16, [-0.9993, 0.0, 0.0376])];
+    folder(
+        &mut files,
+        "handlebar_torsion",
+        &torsion_header("handlebar", 2.96, "Torsion tests of the handlebar in two orientations (seed §5.3.3.5, Tables 4–6, eq. 75); I_xz = −I_zz (eq. 74)."),
+        &torsion_tests(&handlebar),
+        &|f, rng| torsion_at(f, rng),
+        40.0,
+        (5.0, 9.0),
+        "handlebar",
+        &mut seed,
+        &|i| if i == 1 { (OutputMode::Euler, Locale::Spanish) } else { (OutputMode::Euler, Locale::Tab) },
+    );
+    // Compound pendulums: eqs. 79–91.
+    let compound_header = |body: &str, mass: f64, what: &str| {
+        format!("# {what}\n{PUBLISHED}version = 1\nkind = \"compound\"\nbody = \"{body}\"\nmass_kg = {mass}\nmass_se_kg = 0.02\ndistance_se_m = 0.005\n")
+    };
+    let ct = |name: &'static str, f: f64, l: f64, moment: &str, repeats: usize| FolderTest { name, freq_hz: f, repeats, lines: format!("pivot_to_cg_m = {l}\nmoment = \"{moment}\"\n") };
+    for (dir, body, mass, l, what, tests) in [
+        ("frame_compound", "frame", 5.48, 0.37, "The frame as a compound pendulum (seed §5.3.4.2, eqs. 79–80).", vec![ct("yy", 0.556, 0.37, "iyy", 3)]),
+        ("handlebar_compound", "handlebar", 2.96, 0.14, "The handlebar as a compound pendulum (seed §5.3.4.3, eqs. 81–82).", vec![ct("yy", 0.6905, 0.14, "iyy", 2)]),
+        (
+            "rear_wheel_compound",
+            "rear_wheel",
+            2.52,
+            0.354,
+            "The rear wheel hung from its rim, in and across its plane (seed §5.3.4.4, eqs. 83–87).",
+            vec![ct("in_plane", 0.7007, 0.354, "iyy", 2), ct("across", 0.7405, 0.354, "ixx_izz", 2)],
+        ),
+        (
+            "front_wheel_compound",
+            "front_wheel",
+            1.96,
+            0.354,
+            "The front wheel hung from its rim, in and across its plane (seed §5.3.4.5, eqs. 88–91).",
+            vec![ct("in_plane", 0.6876, 0.354, "iyy", 2), ct("across", 0.7605, 0.354, "ixx_izz", 2)],
+        ),
+    ] {
+        let label = match body {
+            "frame" => "frame",
+            "handlebar" => "handlebar",
+            _ => "wheel",
+        };
+        folder(
+            &mut files,
+            dir,
+            &compound_header(body, mass, what),
+            &tests,
+            &move |f, rng| compound_at(mass, l, f, rng),
+            30.0,
+            (2.5, 4.0),
+            label,
+            &mut seed,
+            &|i| if i == 1 { (OutputMode::Quaternion, Locale::Tab) } else { (OutputMode::Euler, Locale::Tab) },
+        );
+    }
+    files.push(("lab_bike_seed.toml".into(), crate::inertia::bike::LabBike::seed().to_toml()));
+    files.push(("lab_bike.toml".into(), crate::inertia::bike::LabBike::lab_template().to_toml()));
+    files.push(("README.md".into(), DATA_README.into()));
+    files.sort_by(|a, b| a.0.cmp(&b.0));
+    files
+}
+
+const DATA_README: &str = "# data/: the lab's campaign, simulated
+
+The lab's raw files are not available, so this campaign was simulated from physics
+(`bikeproc simulate campaign --out data`, deterministic) to reproduce the published figures of
+the seed's §5.3: the bar calibration (eqs. 64–67), the frame's and handlebar's torsion tests
+(Tables 1–6), the compound-pendulum tests (eqs. 79–91), plus an empty-fixture test the lab did
+not make. Every folder holds its logs (`NAME.log` and `NAME_cal.log`, the acquisition side's
+format) and a `manifest.toml` saying what the lab did and wrote down.
+
+Derived files, regenerated by the commands and checked against them by the tests:
+
+- `bar_calibration/calibration.toml`: `bikeproc calibrate-bar`
+- `lab_bike.toml`: the bicycle with its measured inertias, `bikeproc inertia --bike data/lab_bike.toml`
+- `lab_bike_seed.toml`: the bicycle exactly as published (eq. 92, Parametros.m)
+
+To rebuild all of it: `bikeproc simulate campaign --out data && bikeproc calibrate-bar &&
+bikeproc inertia --bike data/lab_bike.toml`.
+";
+
+/// A random body's torsion campaign with a known true tensor, recorded with errors at the
+/// manifest's stated uncertainties (mass ±20 g, distances ±5 mm, axis angles ±1°).
+pub struct RandomCampaign {
+    pub files: Files,
+    /// True (I_xx, I_xz, I_zz) about the centre of gravity (kg·m²).
+    pub truth: [f64; 3],
+    /// The calibration file's text (stiffness recorded with a 0.1 % standard error).
+    pub calibration: String,
+}
+
+/// Builds a random torsion campaign (3 or 4 well-spread orientations, 2 repeats of 30 s each).
+pub fn random_torsion_campaign(seed: u64) -> RandomCampaign {
+    let mut rng = Rng::new(seed);
+    let mass = rng.range(2.0, 8.0);
+    let (p1, p2) = (rng.range(0.05, 1.0), rng.range(0.05, 1.0));
+    let phi = rng.range(0.0, PI);
+    let (c, s) = (phi.cos(), phi.sin());
+    let truth = [p1 * c * c + p2 * s * s, (p1 - p2) * c * s, p1 * s * s + p2 * c * c];
+    let k = true_stiffness();
+    let n = if rng.uniform() < 0.5 { 3 } else { 4 };
+    let start = rng.range(0.0, PI);
+    let mut manifest = format!("version = 1\nkind = \"torsion\"\nbody = \"random body\"\nmass_kg = {:.3}\ncalibration = \"calibration.toml\"\n", mass + 0.02 * rng.normal());
+    let mut files = Files::new();
+    for i in 0..n {
+        let ang = start + PI * (i as f64 + rng.range(-0.15, 0.15)) / n as f64;
+        let axis = [ang.cos(), 0.0, ang.sin()];
+        let i_cg = truth[0] * axis[0] * axis[0] + 2.0 * truth[1] * axis[0] * axis[2] + truth[2] * axis[2] * axis[2];
+        let (wm, wr, cg) = (rng.range(0.0, 4.0), rng.range(0.1, 0.4), rng.range(0.02, 0.3));
+        let i_sys = i_cg + mass * cg * cg + wm * wr * wr + FIXTURE_INERTIA_KGM2;
+        let mut logs = Vec::new();
+        for r in 0..2 {
+            let name = format!("o{i}{}.log", (b'a' + r as u8) as char);
+            let shot = Shot {
+                file: name.clone(),
+                pendulum: Pendulum::Torsion(Torsion { inertia_kgm2: i_sys, stiffness_nm_per_rad: k, damping_ratio: rng.range(0.002, 0.01), coulomb_nm: 0.0, swing: None }),
+                release: release(&mut rng, 30.0, (4.0, 10.0)),
+                mode: OutputMode::Quaternion,
+                locale: Locale::Tab,
+                label: "body",
+                sensor_id: "00300417",
+            };
+            let (angles, _cal) = record(&shot, seed.wrapping_mul(1000) + (2 * i + r) as u64);
+            files.push((PathBuf::from(&name), angles));
+            logs.push(format!("\"{name}\""));
+        }
+        let da = rng.normal() * 1f64.to_radians();
+        let rec_axis = [(ang + da).cos(), 0.0, (ang + da).sin()];
+        let _ = write!(
+            manifest,
+            "\n[[test]]\nname = \"{i}\"\nlogs = [{}]\naxis = [{:.6}, 0.0, {:.6}]\nweights_kg = {:.3}\nweights_distance_m = {:.4}\ncg_distance_m = {:.4}\n",
+            logs.join(", "),
+            rec_axis[0],
+            rec_axis[2],
+            (wm + 0.02 * rng.normal()).max(0.0),
+            wr + 0.005 * rng.normal(),
+            (cg + 0.005 * rng.normal()).abs()
+        );
+    }
+    files.push(("manifest.toml".into(), manifest));
+    let k_se = 0.001 * k;
+    let fix_se = 2e-5;
+    let calibration = format!(
+        "version = 1\nstiffness_nm_per_rad = {}\nstiffness_se_nm_per_rad = {k_se}\nfixture_inertia_kgm2 = {}\nfixture_inertia_se_kgm2 = {fix_se}\nstiffness_fixture_correlation = 0.0\nfreq_hz = 0.6782\nfreq_se_hz = 1e-5\nrod_inertia_kgm2 = 1.8903\nrod_inertia_se_kgm2 = 1e-4\n",
+        k + k_se * rng.normal(),
+        FIXTURE_INERTIA_KGM2 + fix_se * rng.normal()
+    );
+    RandomCampaign { files, truth, calibration }
+}
+
+/// Writes files under `root`, each through a temporary file and a rename.
+pub fn write_files(root: &std::path::Path, files: &Files) -> std::io::Result<()> {
+    for (rel, text) in files {
+        crate::report::write_atomic(&root.join(rel), text.as_bytes())?;
+    }
+    Ok(())
+}
