@@ -208,6 +208,9 @@ struct ReportArgs {
     /// Where the reference material is (`../shared/reference` of the checkout).
     #[arg(long, default_value = "../shared/reference")]
     reference: PathBuf,
+    /// The lab's data (the simulated campaign).
+    #[arg(long, default_value = "data")]
+    data: PathBuf,
 }
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
@@ -237,6 +240,8 @@ fn main() -> ExitCode {
                 c.is::<bikeproc::log::LogError>()
                     || c.is::<signal::SignalError>()
                     || c.is::<fit::FitError>()
+                    || c.is::<inertia::InertiaError>()
+                    || c.is::<inertia::manifest::ManifestError>()
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
@@ -250,8 +255,9 @@ fn run(cli: Cli) -> Result<()> {
         Command::Inertia(a) => inertia_cmd(a),
         Command::Simulate(s) => simulate(s),
         Command::Report(r) => {
-            let written =
-                bikeproc::report::regenerate(&r.out, &r.reference, &mut |m| eprintln!("{m}"))?;
+            let written = bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| {
+                eprintln!("{m}")
+            })?;
             eprintln!("wrote {} files under {}", written.len(), r.out.display());
             Ok(())
         }
@@ -296,7 +302,10 @@ fn calibrate_bar(a: CalibrateArgs) -> Result<()> {
     let out = a.dir.join(inertia::CALIBRATION_FILE);
     write_atomic(&out, cal.to_toml().as_bytes())?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&text::calibration_json(&cal))?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&text::calibration_json(&cal))?
+        );
     } else {
         print!("{}", text::calibration_text(&cal));
     }
@@ -307,7 +316,10 @@ fn calibrate_bar(a: CalibrateArgs) -> Result<()> {
 fn inertia_cmd(a: InertiaArgs) -> Result<()> {
     if let Some(bike_path) = a.bike {
         let mut bike = inertia::bike::LabBike::load(&bike_path)?;
-        let dir = bike_path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let dir = bike_path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
         let warnings = bike.refresh(&dir)?;
         for w in &warnings {
             eprintln!("warning: {w}");
@@ -338,7 +350,10 @@ fn inertia_cmd(a: InertiaArgs) -> Result<()> {
         Kind::Compound => {
             let r = inertia::compound(&dir)?;
             if a.json {
-                println!("{}", serde_json::to_string_pretty(&text::compound_json(&r))?);
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&text::compound_json(&r))?
+                );
             } else {
                 print!("{}", text::compound_text(&r));
             }
@@ -346,7 +361,8 @@ fn inertia_cmd(a: InertiaArgs) -> Result<()> {
         Kind::BarCalibration | Kind::EmptyFixture => {
             anyhow::bail!(inertia::InertiaError::Invalid {
                 path: dir.join(inertia::manifest::MANIFEST),
-                message: "a bar-calibration or empty-fixture folder: use `bikeproc calibrate-bar`".into()
+                message: "a bar-calibration or empty-fixture folder: use `bikeproc calibrate-bar`"
+                    .into()
             })
         }
     }
@@ -357,7 +373,8 @@ fn simulate(s: SimCommand) -> Result<()> {
     let (p, c) = match s {
         SimCommand::Campaign { out } => {
             let files = sim::campaign::lab_campaign();
-            sim::campaign::write_files(&out, &files).with_context(|| format!("writing under {}", out.display()))?;
+            sim::campaign::write_files(&out, &files)
+                .with_context(|| format!("writing under {}", out.display()))?;
             eprintln!("wrote {} files under {}", files.len(), out.display());
             return Ok(());
         }

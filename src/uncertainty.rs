@@ -105,7 +105,10 @@ pub fn propagate<F: Fn(&[f64]) -> Vec<f64>>(inputs: &Inputs, f: F) -> (Vec<f64>,
 
 /// The standard errors on the diagonal of a covariance.
 pub fn standard_errors(cov: &DMatrix<f64>) -> DVector<f64> {
-    DVector::from_iterator(cov.nrows(), (0..cov.nrows()).map(|i| cov[(i, i)].max(0.0).sqrt()))
+    DVector::from_iterator(
+        cov.nrows(),
+        (0..cov.nrows()).map(|i| cov[(i, i)].max(0.0).sqrt()),
+    )
 }
 
 #[cfg(test)]

@@ -8,8 +8,9 @@ use std::path::Path;
 fn checked_in_reports_match_a_fresh_regeneration() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let reference = root.join("../shared/reference");
-    let files = bikeproc::report::build(&reference, &mut |_| {}).expect("reports build");
-    let again = bikeproc::report::build(&reference, &mut |_| {}).expect("reports build");
+    let data = root.join("data");
+    let files = bikeproc::report::build(&data, &reference, &mut |_| {}).expect("reports build");
+    let again = bikeproc::report::build(&data, &reference, &mut |_| {}).expect("reports build");
     assert!(files == again, "two regenerations differ");
     let mut stale = Vec::new();
     for (rel, bytes) in &files {

@@ -73,14 +73,27 @@ pub struct LabBike {
 
 impl LabBike {
     pub fn load(path: &Path) -> Result<LabBike, InertiaError> {
-        let invalid = |message: String| InertiaError::Invalid { path: path.to_path_buf(), message };
-        let text = std::fs::read_to_string(path).map_err(|e| invalid(format!("cannot read: {e}")))?;
+        let invalid = |message: String| InertiaError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        };
+        let text =
+            std::fs::read_to_string(path).map_err(|e| invalid(format!("cannot read: {e}")))?;
         let bike: LabBike = toml::from_str(&text).map_err(|e| {
-            let line = e.span().map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count()).unwrap_or(0);
-            InertiaError::Invalid { path: path.with_extension(format!("toml:{line}")), message: e.message().replace('\n', " ") }
+            let line = e
+                .span()
+                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count())
+                .unwrap_or(0);
+            InertiaError::Invalid {
+                path: path.with_extension(format!("toml:{line}")),
+                message: e.message().replace('\n', " "),
+            }
         })?;
         if bike.version != 1 {
-            return Err(invalid(format!("version {}: this bikeproc reads version 1", bike.version)));
+            return Err(invalid(format!(
+                "version {}: this bikeproc reads version 1",
+                bike.version
+            )));
         }
         Ok(bike)
     }
@@ -97,14 +110,28 @@ impl LabBike {
 
     /// Re-measures every inertia from the test folders in `[sources]` (relative to `dir`).
     pub fn refresh(&mut self, dir: &Path) -> Result<Vec<String>, InertiaError> {
-        let s = self.sources.clone().ok_or_else(|| InertiaError::Invalid { path: dir.to_path_buf(), message: "no [sources] table naming the test folders".into() })?;
+        let s = self.sources.clone().ok_or_else(|| InertiaError::Invalid {
+            path: dir.to_path_buf(),
+            message: "no [sources] table naming the test folders".into(),
+        })?;
         let mut warnings = Vec::new();
         let frame_t = torsion(&dir.join(&s.frame_torsion), &s.frame_orientations)?;
         let hb_t = torsion(&dir.join(&s.handlebar_torsion), &[])?;
         let iyy = |folder: &PathBuf| -> Result<(f64, f64, String), InertiaError> {
             let c = compound(&dir.join(folder))?;
-            let t = c.tests.iter().find(|t| t.moment == Moment::Iyy).ok_or_else(|| InertiaError::Invalid { path: dir.join(folder), message: "no test with moment = \"iyy\"".into() })?;
-            Ok((t.inertia_about_cg, t.inertia_about_cg_se, folder.display().to_string()))
+            let t = c
+                .tests
+                .iter()
+                .find(|t| t.moment == Moment::Iyy)
+                .ok_or_else(|| InertiaError::Invalid {
+                    path: dir.join(folder),
+                    message: "no test with moment = \"iyy\"".into(),
+                })?;
+            Ok((
+                t.inertia_about_cg,
+                t.inertia_about_cg_se,
+                folder.display().to_string(),
+            ))
         };
         let set_xz = |b: &mut Body, t: &super::TorsionResult, folder: &Path| {
             b.ixx_kgm2 = t.tensor.ixx;
@@ -115,19 +142,40 @@ impl LabBike {
             b.izz_se_kgm2 = t.tensor.izz_se;
             b.mass_kg = t.mass_kg;
             b.mass_se_kg = t.manifest.mass_se_kg();
-            b.source = format!("{} (orientations {})", folder.display(), t.tensor.orientations.join(", "));
+            b.source = format!(
+                "{} (orientations {})",
+                folder.display(),
+                t.tensor.orientations.join(", ")
+            );
         };
         set_xz(&mut self.frame, &frame_t, &s.frame_torsion);
         set_xz(&mut self.handlebar, &hb_t, &s.handlebar_torsion);
-        warnings.extend(frame_t.tensor.warnings.iter().map(|w| format!("frame: {w}")));
-        warnings.extend(hb_t.tensor.warnings.iter().map(|w| format!("handlebar: {w}")));
-        for (body, folder) in [(&mut self.frame, &s.frame_compound), (&mut self.handlebar, &s.handlebar_compound)] {
+        warnings.extend(
+            frame_t
+                .tensor
+                .warnings
+                .iter()
+                .map(|w| format!("frame: {w}")),
+        );
+        warnings.extend(
+            hb_t.tensor
+                .warnings
+                .iter()
+                .map(|w| format!("handlebar: {w}")),
+        );
+        for (body, folder) in [
+            (&mut self.frame, &s.frame_compound),
+            (&mut self.handlebar, &s.handlebar_compound),
+        ] {
             let (v, se, src) = iyy(folder)?;
             body.iyy_kgm2 = v;
             body.iyy_se_kgm2 = se;
             body.source = format!("{}; iyy from {src}", body.source);
         }
-        for (body, folder) in [(&mut self.rear_wheel, &s.rear_wheel_compound), (&mut self.front_wheel, &s.front_wheel_compound)] {
+        for (body, folder) in [
+            (&mut self.rear_wheel, &s.rear_wheel_compound),
+            (&mut self.front_wheel, &s.front_wheel_compound),
+        ] {
             let c = compound(&dir.join(folder))?;
             body.mass_kg = c.mass_kg;
             body.mass_se_kg = c.mass_se_kg;
@@ -149,7 +197,12 @@ impl LabBike {
             body.ixz_se_kgm2 = 0.0;
             body.source = format!("{} (I_xx = I_zz, eq. 83)", folder.display());
         }
-        for (name, b) in [("rear wheel", &self.rear_wheel), ("frame", &self.frame), ("handlebar", &self.handlebar), ("front wheel", &self.front_wheel)] {
+        for (name, b) in [
+            ("rear wheel", &self.rear_wheel),
+            ("frame", &self.frame),
+            ("handlebar", &self.handlebar),
+            ("front wheel", &self.front_wheel),
+        ] {
             if let Some(w) = validity(b) {
                 warnings.push(format!("{name}: {w}"));
             }
@@ -161,16 +214,30 @@ impl LabBike {
 /// Physical validity of a full tensor: positive definite and the triangle inequalities of its
 /// principal moments (each at most the sum of the other two). Names the entries at fault.
 pub fn validity(b: &Body) -> Option<String> {
-    let t = nalgebra::Matrix3::new(b.ixx_kgm2, 0.0, b.ixz_kgm2, 0.0, b.iyy_kgm2, 0.0, b.ixz_kgm2, 0.0, b.izz_kgm2);
-    let mut p: Vec<f64> = nalgebra::SymmetricEigen::new(t).eigenvalues.iter().copied().collect();
+    let t = nalgebra::Matrix3::new(
+        b.ixx_kgm2, 0.0, b.ixz_kgm2, 0.0, b.iyy_kgm2, 0.0, b.ixz_kgm2, 0.0, b.izz_kgm2,
+    );
+    let mut p: Vec<f64> = nalgebra::SymmetricEigen::new(t)
+        .eigenvalues
+        .iter()
+        .copied()
+        .collect();
     p.sort_by(f64::total_cmp);
     if p[0] <= 0.0 {
         return Some(format!("not positive definite (principal moments {:.4}, {:.4}, {:.4} kg·m²): I_xx, I_zz and I_xz = {:.4} are inconsistent", p[0], p[1], p[2], b.ixz_kgm2));
     }
     if p[2] > p[0] + p[1] + 1e-12 {
         let excess = p[2] - p[0] - p[1];
-        let se = (b.ixx_se_kgm2.powi(2) + b.iyy_se_kgm2.powi(2) + b.izz_se_kgm2.powi(2) + 4.0 * b.ixz_se_kgm2.powi(2)).sqrt();
-        let sigmas = if se > 0.0 { format!(", {:.1} standard errors", excess / se) } else { String::new() };
+        let se = (b.ixx_se_kgm2.powi(2)
+            + b.iyy_se_kgm2.powi(2)
+            + b.izz_se_kgm2.powi(2)
+            + 4.0 * b.ixz_se_kgm2.powi(2))
+        .sqrt();
+        let sigmas = if se > 0.0 {
+            format!(", {:.1} standard errors", excess / se)
+        } else {
+            String::new()
+        };
         return Some(format!(
             "breaks the triangle inequality: the largest principal moment {:.4} exceeds the sum of the others {:.4} + {:.4} by {excess:.4} kg·m²{sigmas}; \
              I_yy = {:.4} and (I_xx, I_zz, I_xz) = ({:.4}, {:.4}, {:.4}) cannot belong to one rigid body",
@@ -212,8 +279,22 @@ impl LabBike {
                 handlebar_cg_on_steer_axis: true,
             },
             rear_wheel: body(2.52, 0.0884, 0.1357, 0.0884, 0.0, "seed eqs. 85, 87, 92"),
-            frame: body(5.48, 0.3215, 0.8796, 0.9538, 0.1131, "seed Table 3 (tests 1, 3, 4) and eq. 80, as in Parametros.m"),
-            handlebar: body(2.96, 0.3056, 0.158, 0.0385, -0.0385, "seed Table 6 and eq. 82"),
+            frame: body(
+                5.48,
+                0.3215,
+                0.8796,
+                0.9538,
+                0.1131,
+                "seed Table 3 (tests 1, 3, 4) and eq. 80, as in Parametros.m",
+            ),
+            handlebar: body(
+                2.96,
+                0.3056,
+                0.158,
+                0.0385,
+                -0.0385,
+                "seed Table 6 and eq. 82",
+            ),
             front_wheel: body(1.96, 0.0525, 0.119, 0.0525, 0.0, "seed eqs. 89, 91, 92"),
             sources: None,
         }

@@ -139,7 +139,11 @@ const UNIT_HINTS: &[(&str, &str)] = &[
 impl Manifest {
     /// Reads `DIR/manifest.toml` (or the file itself when `path` is a file) and checks it.
     pub fn load(path: &Path) -> Result<Manifest, ManifestError> {
-        let file = if path.is_dir() { path.join(MANIFEST) } else { path.to_path_buf() };
+        let file = if path.is_dir() {
+            path.join(MANIFEST)
+        } else {
+            path.to_path_buf()
+        };
         let dir = file.parent().map(Path::to_path_buf).unwrap_or_default();
         let text = std::fs::read_to_string(&file).map_err(|e| ManifestError {
             path: file.clone(),
@@ -147,17 +151,30 @@ impl Manifest {
             message: format!("cannot read the test manifest: {e}"),
         })?;
         let mut m: Manifest = toml::from_str(&text).map_err(|e| {
-            let line = e.span().map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count());
+            let line = e
+                .span()
+                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count());
             let mut message = e.message().trim().to_string();
-            if let Some(key) = message.strip_prefix("unknown field `").and_then(|r| r.split('`').next()) {
+            if let Some(key) = message
+                .strip_prefix("unknown field `")
+                .and_then(|r| r.split('`').next())
+            {
                 if let Some((bad, good)) = UNIT_HINTS.iter().find(|(bad, _)| key.ends_with(bad)) {
                     let want = format!("{}{good}", &key[..key.len() - bad.len()]);
-                    message = format!("`{key}`: wrong unit; bikeproc takes SI units, write `{want}`");
+                    message =
+                        format!("`{key}`: wrong unit; bikeproc takes SI units, write `{want}`");
                 } else {
-                    message = format!("unknown key `{key}` ({})", message.lines().next().unwrap_or(""));
+                    message = format!(
+                        "unknown key `{key}` ({})",
+                        message.lines().next().unwrap_or("")
+                    );
                 }
             }
-            ManifestError { path: file.clone(), line, message: message.replace('\n', " ") }
+            ManifestError {
+                path: file.clone(),
+                line,
+                message: message.replace('\n', " "),
+            }
         })?;
         m.dir = dir;
         m.check(&file, &text)?;
@@ -170,7 +187,9 @@ impl Manifest {
             let start = test
                 .and_then(|n| text.find(&format!("name = \"{n}\"")))
                 .unwrap_or(0);
-            text[start..].find(needle).map(|i| 1 + text[..start + i].matches('\n').count())
+            text[start..]
+                .find(needle)
+                .map(|i| 1 + text[..start + i].matches('\n').count())
         };
         let err = |key: &str, test: Option<&str>, message: String| ManifestError {
             path: file.to_path_buf(),
@@ -178,31 +197,61 @@ impl Manifest {
             message,
         };
         if self.version != 1 {
-            return Err(err("version", None, format!("`version = {}`: this bikeproc reads manifest version 1", self.version)));
+            return Err(err(
+                "version",
+                None,
+                format!(
+                    "`version = {}`: this bikeproc reads manifest version 1",
+                    self.version
+                ),
+            ));
         }
         if self.tests.is_empty() {
-            return Err(err("kind", None, "no `[[test]]`: a manifest lists at least one test".into()));
+            return Err(err(
+                "kind",
+                None,
+                "no `[[test]]`: a manifest lists at least one test".into(),
+            ));
         }
-        let positive = |key: &str, v: Option<f64>, test: Option<&str>| -> Result<f64, ManifestError> {
-            match v {
-                None => Err(err(
-                    if test.is_some() { "name" } else { "kind" },
-                    test,
-                    format!("missing key `{key}`{}", test.map(|t| format!(" in test \"{t}\"")).unwrap_or_default()),
-                )),
-                Some(x) if x.is_finite() && x > 0.0 => Ok(x),
-                Some(x) => Err(err(key, test, format!("`{key} = {x}`: expected a positive number"))),
-            }
-        };
+        let positive =
+            |key: &str, v: Option<f64>, test: Option<&str>| -> Result<f64, ManifestError> {
+                match v {
+                    None => Err(err(
+                        if test.is_some() { "name" } else { "kind" },
+                        test,
+                        format!(
+                            "missing key `{key}`{}",
+                            test.map(|t| format!(" in test \"{t}\""))
+                                .unwrap_or_default()
+                        ),
+                    )),
+                    Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+                    Some(x) => Err(err(
+                        key,
+                        test,
+                        format!("`{key} = {x}`: expected a positive number"),
+                    )),
+                }
+            };
         let non_negative = |key: &str, v: Option<f64>, test: &str| -> Result<(), ManifestError> {
             match v {
-                Some(x) if !(x.is_finite() && x >= 0.0) => Err(err(key, Some(test), format!("`{key} = {x}`: expected zero or more"))),
+                Some(x) if !(x.is_finite() && x >= 0.0) => Err(err(
+                    key,
+                    Some(test),
+                    format!("`{key} = {x}`: expected zero or more"),
+                )),
                 _ => Ok(()),
             }
         };
         match self.kind {
             Kind::BarCalibration => {
-                let rod = self.rod.as_ref().ok_or_else(|| err("kind", None, "missing table `[rod]` (mass_kg, diameter_m, length_m)".into()))?;
+                let rod = self.rod.as_ref().ok_or_else(|| {
+                    err(
+                        "kind",
+                        None,
+                        "missing table `[rod]` (mass_kg, diameter_m, length_m)".into(),
+                    )
+                })?;
                 positive("rod.mass_kg", Some(rod.mass_kg), None)?;
                 positive("rod.diameter_m", Some(rod.diameter_m), None)?;
                 positive("rod.length_m", Some(rod.length_m), None)?;
@@ -215,7 +264,11 @@ impl Manifest {
             Kind::Torsion | Kind::Compound => {
                 positive("mass_kg", self.mass_kg, None)?;
                 if self.body.is_none() {
-                    return Err(err("kind", None, "missing key `body` (frame, handlebar, rear_wheel, front_wheel, …)".into()));
+                    return Err(err(
+                        "kind",
+                        None,
+                        "missing key `body` (frame, handlebar, rear_wheel, front_wheel, …)".into(),
+                    ));
                 }
             }
             Kind::EmptyFixture => {}
@@ -226,17 +279,31 @@ impl Manifest {
         for t in &self.tests {
             let n = Some(t.name.as_str());
             if t.logs.is_empty() {
-                return Err(err("logs", n, format!("test \"{}\": `logs` is empty", t.name)));
+                return Err(err(
+                    "logs",
+                    n,
+                    format!("test \"{}\": `logs` is empty", t.name),
+                ));
             }
             for log in &t.logs {
                 let p = self.dir.join(log);
                 if !p.is_file() {
-                    return Err(err(&log.display().to_string(), n, format!("test \"{}\": log {} does not exist", t.name, p.display())));
+                    return Err(err(
+                        &log.display().to_string(),
+                        n,
+                        format!("test \"{}\": log {} does not exist", t.name, p.display()),
+                    ));
                 }
             }
             match self.kind {
                 Kind::Torsion => {
-                    let axis = t.axis.ok_or_else(|| err("name", n, format!("missing key `axis` in test \"{}\"", t.name)))?;
+                    let axis = t.axis.ok_or_else(|| {
+                        err(
+                            "name",
+                            n,
+                            format!("missing key `axis` in test \"{}\"", t.name),
+                        )
+                    })?;
                     let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
                     if (len - 1.0).abs() > 1e-3 {
                         return Err(err("axis", n, format!("test \"{}\": `axis` {axis:?} has length {len:.4}; expected a unit vector (within 0.001)", t.name)));
@@ -245,7 +312,11 @@ impl Manifest {
                         return Err(err("axis", n, format!("test \"{}\": `axis` {axis:?} leaves the body's xz plane of symmetry; the tensor solve (eq. 69) takes axes (x, 0, z)", t.name)));
                     }
                     if t.cg_distance_m.is_none() {
-                        return Err(err("name", n, format!("missing key `cg_distance_m` in test \"{}\"", t.name)));
+                        return Err(err(
+                            "name",
+                            n,
+                            format!("missing key `cg_distance_m` in test \"{}\"", t.name),
+                        ));
                     }
                     non_negative("cg_distance_m", t.cg_distance_m, &t.name)?;
                     non_negative("weights_kg", t.weights_kg, &t.name)?;
@@ -254,7 +325,14 @@ impl Manifest {
                 Kind::Compound => {
                     positive("pivot_to_cg_m", t.pivot_to_cg_m, n)?;
                     if t.moment.is_none() {
-                        return Err(err("name", n, format!("missing key `moment` in test \"{}\" (iyy or ixx_izz)", t.name)));
+                        return Err(err(
+                            "name",
+                            n,
+                            format!(
+                                "missing key `moment` in test \"{}\" (iyy or ixx_izz)",
+                                t.name
+                            ),
+                        ));
                     }
                 }
                 Kind::EmptyFixture => {

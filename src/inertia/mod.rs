@@ -64,7 +64,12 @@ pub fn torsional_pendulum_inertia(stiffness_nm_per_rad: f64, freq_hz: f64) -> f6
 }
 
 /// Inertia of a compound pendulum about its pivot, `I' = m g L / (2πf)²` (eqs. 76–77).
-pub fn compound_pendulum_inertia(mass_kg: f64, pivot_to_cg_m: f64, freq_hz: f64, gravity_mps2: f64) -> f64 {
+pub fn compound_pendulum_inertia(
+    mass_kg: f64,
+    pivot_to_cg_m: f64,
+    freq_hz: f64,
+    gravity_mps2: f64,
+) -> f64 {
     mass_kg * gravity_mps2 * pivot_to_cg_m / (2.0 * PI * freq_hz).powi(2)
 }
 
@@ -77,19 +82,32 @@ pub fn parallel_axis_removed(inertia_kgm2: f64, mass_kg: f64, distance_m: f64) -
 /// The row of eq. 69 for an axis `(e_x, 0, e_z)` of a body symmetric about xz:
 /// `eᵀIe = e_x² I_xx + 2 e_x e_z I_xz + e_z² I_zz`.
 pub fn tensor_row(axis: [f64; 3]) -> [f64; 3] {
-    [axis[0] * axis[0], 2.0 * axis[0] * axis[2], axis[2] * axis[2]]
+    [
+        axis[0] * axis[0],
+        2.0 * axis[0] * axis[2],
+        axis[2] * axis[2],
+    ]
 }
 
 /// The axis turned by `delta_rad` about y (an error in the angle read off a photograph).
 fn turn_axis(axis: [f64; 3], delta_rad: f64) -> [f64; 3] {
     let (s, c) = delta_rad.sin_cos();
-    [axis[0] * c + axis[2] * s, axis[1], -axis[0] * s + axis[2] * c]
+    [
+        axis[0] * c + axis[2] * s,
+        axis[1],
+        -axis[0] * s + axis[2] * c,
+    ]
 }
 
 /// Solves eq. 69 by weighted least squares for `(I_xx, I_xz, I_zz)` (exact with three axes);
 /// with `handlebar_constraint`, `I_xz = −I_zz` (eq. 74) leaves two unknowns. Returns the three
 /// entries, or `None` when the axes do not determine them.
-pub fn solve_tensor(axes: &[[f64; 3]], moments: &[f64], weights: &[f64], handlebar_constraint: bool) -> Option<[f64; 3]> {
+pub fn solve_tensor(
+    axes: &[[f64; 3]],
+    moments: &[f64],
+    weights: &[f64],
+    handlebar_constraint: bool,
+) -> Option<[f64; 3]> {
     let rows: Vec<[f64; 3]> = axes.iter().map(|a| tensor_row(*a)).collect();
     let ncol = if handlebar_constraint { 2 } else { 3 };
     let mut a = DMatrix::zeros(rows.len(), ncol);
@@ -110,7 +128,11 @@ pub fn solve_tensor(axes: &[[f64; 3]], moments: &[f64], weights: &[f64], handleb
         return None;
     }
     let x = a.svd(true, true).solve(&b, 1e-12).ok()?;
-    Some(if handlebar_constraint { [x[0], -x[1], x[1]] } else { [x[0], x[1], x[2]] })
+    Some(if handlebar_constraint {
+        [x[0], -x[1], x[1]]
+    } else {
+        [x[0], x[1], x[2]]
+    })
 }
 
 /// Condition number of the (weighted) design matrix of eq. 69: how strongly errors in the
@@ -130,7 +152,9 @@ pub fn design_condition(axes: &[[f64; 3]], handlebar_constraint: bool) -> f64 {
         }
     }
     let sv = a.singular_values();
-    let (mx, mn) = sv.iter().fold((0.0f64, f64::INFINITY), |(a, b), &s| (a.max(s), b.min(s)));
+    let (mx, mn) = sv
+        .iter()
+        .fold((0.0f64, f64::INFINITY), |(a, b), &s| (a.max(s), b.min(s)));
     if mn > 0.0 {
         mx / mn
     } else {
@@ -183,11 +207,20 @@ fn small_amplitude_factor(osc: &fit::Oscillation) -> (f64, f64) {
     let (a0, sigma) = (f.amplitude().value, f.sigma().value);
     let (t0, t1) = osc.segment_s;
     let n = 400;
-    let ts: Vec<f64> = (0..n).map(|i| t0 + (t1 - t0) * i as f64 / (n - 1) as f64).collect();
-    let a2: Vec<f64> = ts.iter().map(|t| (a0 * (-sigma * (t - t0)).exp()).powi(2)).collect();
+    let ts: Vec<f64> = (0..n)
+        .map(|i| t0 + (t1 - t0) * i as f64 / (n - 1) as f64)
+        .collect();
+    let a2: Vec<f64> = ts
+        .iter()
+        .map(|t| (a0 * (-sigma * (t - t0)).exp()).powi(2))
+        .collect();
     let wsum: f64 = a2.iter().sum();
     let tbar = ts.iter().zip(&a2).map(|(t, w)| t * w).sum::<f64>() / wsum;
-    let w: Vec<f64> = ts.iter().zip(&a2).map(|(t, a)| a * (t - tbar).powi(2)).collect();
+    let w: Vec<f64> = ts
+        .iter()
+        .zip(&a2)
+        .map(|(t, a)| a * (t - tbar).powi(2))
+        .collect();
     let theta2 = w.iter().zip(&a2).map(|(w, a)| w * a).sum::<f64>() / w.iter().sum::<f64>();
     (1.0 + theta2 / 16.0, theta2.sqrt())
 }
@@ -197,13 +230,25 @@ fn small_amplitude_factor(osc: &fit::Oscillation) -> (f64, f64) {
 /// flagged and left out. The mean's standard error is the larger of the fits' own and the
 /// repeats' scatter (Birge ratio): with two repeats the scatter usually dominates.
 pub fn measure_test(m: &Manifest, t: &Test, compound: bool) -> Result<TestFrequency, InertiaError> {
-    let extract = t.channel.clone().map_or(Extract::DominantRotation, Extract::Channel);
+    let extract = t
+        .channel
+        .clone()
+        .map_or(Extract::DominantRotation, Extract::Channel);
     let mut repeats = Vec::new();
     let mut first_fit = None;
     for log in &t.logs {
         let path = m.log_path(log);
-        let (sig, _warnings) = signal::load_signal(&path, &extract, t.sensor.as_deref(), &ReadOptions::default())?;
-        let osc = fit::analyse(&sig, &FitOptions::default()).map_err(|source| InertiaError::Fit { log: path.clone(), source })?;
+        let (sig, _warnings) = signal::load_signal(
+            &path,
+            &extract,
+            t.sensor.as_deref(),
+            &ReadOptions::default(),
+        )?;
+        let osc =
+            fit::analyse(&sig, &FitOptions::default()).map_err(|source| InertiaError::Fit {
+                log: path.clone(),
+                source,
+            })?;
         let fnat = osc.fit.natural_freq_hz();
         let angle = sig.unit == "rad";
         let (factor, amp) = if compound && (angle || sig.unit == "rad/s") {
@@ -216,7 +261,14 @@ pub fn measure_test(m: &Manifest, t: &Test, compound: bool) -> Result<TestFreque
                 (1.0 + a_rad * a_rad / 16.0, Some(a_rad))
             }
         } else {
-            (1.0, if angle { Some(osc.fit.amplitude().value) } else { None })
+            (
+                1.0,
+                if angle {
+                    Some(osc.fit.amplitude().value)
+                } else {
+                    None
+                },
+            )
         };
         repeats.push(Repeat {
             log: log.clone(),
@@ -245,15 +297,35 @@ pub fn measure_test(m: &Manifest, t: &Test, compound: bool) -> Result<TestFreque
     }
     let kept: Vec<&Repeat> = repeats.iter().filter(|r| !r.outlier).collect();
     let n = kept.len() as f64;
-    let wsum: f64 = kept.iter().map(|r| 1.0 / r.freq_se_hz.max(1e-12).powi(2)).sum();
-    let mean = kept.iter().map(|r| r.freq_hz / r.freq_se_hz.max(1e-12).powi(2)).sum::<f64>() / wsum;
+    let wsum: f64 = kept
+        .iter()
+        .map(|r| 1.0 / r.freq_se_hz.max(1e-12).powi(2))
+        .sum();
+    let mean = kept
+        .iter()
+        .map(|r| r.freq_hz / r.freq_se_hz.max(1e-12).powi(2))
+        .sum::<f64>()
+        / wsum;
     let internal = (1.0 / wsum).sqrt();
     let plain_mean = kept.iter().map(|r| r.freq_hz).sum::<f64>() / n;
-    let sd = if kept.len() > 1 { (kept.iter().map(|r| (r.freq_hz - plain_mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
+    let sd = if kept.len() > 1 {
+        (kept
+            .iter()
+            .map(|r| (r.freq_hz - plain_mean).powi(2))
+            .sum::<f64>()
+            / (n - 1.0))
+            .sqrt()
+    } else {
+        0.0
+    };
     let external = sd / n.sqrt();
     // With a scatter far above the fits' errors, the repeats differ for physical reasons
     // (re-clamping, amplitude): the plain mean and its scatter are then the estimate.
-    let (freq, se) = if external > internal { (plain_mean, external) } else { (mean, internal) };
+    let (freq, se) = if external > internal {
+        (plain_mean, external)
+    } else {
+        (mean, internal)
+    };
     Ok(TestFrequency {
         name: t.name.clone(),
         freq_hz: freq,
@@ -297,7 +369,10 @@ impl BarCalibration {
     pub fn push_inputs(&self, inputs: &mut Inputs) -> usize {
         let (sk, sf) = (self.stiffness_se_nm_per_rad, self.fixture_inertia_se_kgm2);
         let c = self.stiffness_fixture_correlation * sk * sf;
-        inputs.push_correlated(&[self.stiffness_nm_per_rad, self.fixture_inertia_kgm2], &DMatrix::from_row_slice(2, 2, &[sk * sk, c, c, sf * sf]))
+        inputs.push_correlated(
+            &[self.stiffness_nm_per_rad, self.fixture_inertia_kgm2],
+            &DMatrix::from_row_slice(2, 2, &[sk * sk, c, c, sf * sf]),
+        )
     }
 
     /// The calibration file: what `bikeproc inertia` reads.
@@ -308,7 +383,10 @@ impl BarCalibration {
         kv("stiffness_se_nm_per_rad", self.stiffness_se_nm_per_rad);
         kv("fixture_inertia_kgm2", self.fixture_inertia_kgm2);
         kv("fixture_inertia_se_kgm2", self.fixture_inertia_se_kgm2);
-        kv("stiffness_fixture_correlation", self.stiffness_fixture_correlation);
+        kv(
+            "stiffness_fixture_correlation",
+            self.stiffness_fixture_correlation,
+        );
         kv("freq_hz", self.freq_hz);
         kv("freq_se_hz", self.freq_se_hz);
         kv("rod_inertia_kgm2", self.rod_inertia_kgm2);
@@ -336,14 +414,28 @@ impl BarCalibration {
             rod_inertia_se_kgm2: f64,
             theory_stiffness_nm_per_rad: Option<f64>,
         }
-        let invalid = |message: String| InertiaError::Invalid { path: path.to_path_buf(), message };
-        let text = std::fs::read_to_string(path).map_err(|e| invalid(format!("cannot read the bar calibration ({e}); run `bikeproc calibrate-bar` first")))?;
+        let invalid = |message: String| InertiaError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            invalid(format!(
+                "cannot read the bar calibration ({e}); run `bikeproc calibrate-bar` first"
+            ))
+        })?;
         let f: File = toml::from_str(&text).map_err(|e| {
-            let line = e.span().map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count()).unwrap_or(0);
+            let line = e
+                .span()
+                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count())
+                .unwrap_or(0);
             invalid(format!("line {line}: {}", e.message().replace('\n', " ")))
         })?;
-        if f.version != 1 || !(f.stiffness_nm_per_rad > 0.0) {
-            return Err(invalid("not a version-1 calibration with a positive stiffness".into()));
+        if f.version != 1
+            || f.stiffness_nm_per_rad.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        {
+            return Err(invalid(
+                "not a version-1 calibration with a positive stiffness".into(),
+            ));
         }
         Ok(BarCalibration {
             stiffness_nm_per_rad: f.stiffness_nm_per_rad,
@@ -369,9 +461,15 @@ impl BarCalibration {
 pub fn calibrate_bar(dir: &Path) -> Result<BarCalibration, InertiaError> {
     let m = Manifest::load(dir)?;
     if m.kind != Kind::BarCalibration {
-        return Err(InertiaError::Invalid { path: m.dir.join(manifest::MANIFEST), message: format!("kind is {:?}, expected bar_calibration", m.kind) });
+        return Err(InertiaError::Invalid {
+            path: m.dir.join(manifest::MANIFEST),
+            message: format!("kind is {:?}, expected bar_calibration", m.kind),
+        });
     }
-    let rod = m.rod.as_ref().ok_or_else(|| InertiaError::Invalid { path: m.dir.join(manifest::MANIFEST), message: "missing [rod]".into() })?;
+    let rod = m.rod.as_ref().ok_or_else(|| InertiaError::Invalid {
+        path: m.dir.join(manifest::MANIFEST),
+        message: "missing [rod]".into(),
+    })?;
     let mut tests = Vec::new();
     for t in &m.tests {
         tests.push(measure_test(&m, t, false)?);
@@ -382,16 +480,37 @@ pub fn calibrate_bar(dir: &Path) -> Result<BarCalibration, InertiaError> {
     if let Some(fdir) = &m.fixture {
         let fm = Manifest::load(&m.dir.join(fdir))?;
         if fm.kind != Kind::EmptyFixture {
-            return Err(InertiaError::Invalid { path: fm.dir.join(manifest::MANIFEST), message: format!("kind is {:?}, expected empty_fixture", fm.kind) });
+            return Err(InertiaError::Invalid {
+                path: fm.dir.join(manifest::MANIFEST),
+                message: format!("kind is {:?}, expected empty_fixture", fm.kind),
+            });
         }
-        let ft: Vec<TestFrequency> = fm.tests.iter().map(|t| measure_test(&fm, t, false)).collect::<Result<_, _>>()?;
+        let ft: Vec<TestFrequency> = fm
+            .tests
+            .iter()
+            .map(|t| measure_test(&fm, t, false))
+            .collect::<Result<_, _>>()?;
         let t0 = &fm.tests[0];
-        let (wm, wr) = (t0.weights_kg.unwrap_or(0.0), t0.weights_distance_m.unwrap_or(0.0));
+        let (wm, wr) = (
+            t0.weights_kg.unwrap_or(0.0),
+            t0.weights_distance_m.unwrap_or(0.0),
+        );
         let wr_se = t0.weights_distance_se_m.unwrap_or(fm.distance_se_m());
         let w = wm * wr * wr;
         let w_se = ((wr * wr * fm.mass_se_kg()).powi(2) + (2.0 * wm * wr * wr_se).powi(2)).sqrt();
         let f = combine(&ft);
-        fixture = Some((TestFrequency { name: "empty fixture".into(), freq_hz: f.value, freq_se_hz: f.se, repeat_spread: 0.0, repeats: ft.into_iter().flat_map(|t| t.repeats).collect(), first_fit: None }, w, w_se));
+        fixture = Some((
+            TestFrequency {
+                name: "empty fixture".into(),
+                freq_hz: f.value,
+                freq_se_hz: f.se,
+                repeat_spread: 0.0,
+                repeats: ft.into_iter().flat_map(|t| t.repeats).collect(),
+                first_fit: None,
+            },
+            w,
+            w_se,
+        ));
     }
     let mut inputs = Inputs::new();
     inputs.push(rod_freq);
@@ -407,13 +526,25 @@ pub fn calibrate_bar(dir: &Path) -> Result<BarCalibration, InertiaError> {
     inputs.push(w);
     let (y, cov) = propagate(&inputs, |x| {
         let i_rod = rod_inertia(x[1], x[2], x[3]);
-        let ratio = if x[4].is_finite() { (x[0] / x[4]).powi(2) } else { 0.0 };
+        let ratio = if x[4].is_finite() {
+            (x[0] / x[4]).powi(2)
+        } else {
+            0.0
+        };
         let k = 4.0 * PI * PI * x[0] * x[0] * (i_rod - x[5]) / (1.0 - ratio);
-        let i_fix = if x[4].is_finite() { torsional_pendulum_inertia(k, x[4]) - x[5] } else { 0.0 };
+        let i_fix = if x[4].is_finite() {
+            torsional_pendulum_inertia(k, x[4]) - x[5]
+        } else {
+            0.0
+        };
         vec![k, i_fix, i_rod]
     });
     let se = standard_errors(&cov);
-    let corr = if se[0] > 0.0 && se[1] > 0.0 { cov[(0, 1)] / (se[0] * se[1]) } else { 0.0 };
+    let corr = if se[0] > 0.0 && se[1] > 0.0 {
+        cov[(0, 1)] / (se[0] * se[1])
+    } else {
+        0.0
+    };
     Ok(BarCalibration {
         stiffness_nm_per_rad: y[0],
         stiffness_se_nm_per_rad: se[0],
@@ -421,12 +552,18 @@ pub fn calibrate_bar(dir: &Path) -> Result<BarCalibration, InertiaError> {
         freq_se_hz: rod_freq.se,
         rod_inertia_kgm2: y[2],
         rod_inertia_se_kgm2: se[2],
-        theory_stiffness_nm_per_rad: m.bar.as_ref().map(|b| torsion_bar_theory_stiffness(b.shear_modulus_pa, b.diameter_m, b.length_m)),
+        theory_stiffness_nm_per_rad: m
+            .bar
+            .as_ref()
+            .map(|b| torsion_bar_theory_stiffness(b.shear_modulus_pa, b.diameter_m, b.length_m)),
         fixture_inertia_kgm2: y[1],
         fixture_inertia_se_kgm2: se[1],
         stiffness_fixture_correlation: corr,
         fixture_freq_hz: fixture.as_ref().map(|(t, _, _)| t.freq_hz),
-        tests: tests.into_iter().chain(fixture.map(|(t, _, _)| t)).collect(),
+        tests: tests
+            .into_iter()
+            .chain(fixture.map(|(t, _, _)| t))
+            .collect(),
     })
 }
 
@@ -436,7 +573,11 @@ fn combine(tests: &[TestFrequency]) -> Measured {
         return tests[0].freq();
     }
     let w: f64 = tests.iter().map(|t| 1.0 / t.freq_se_hz.powi(2)).sum();
-    let mean = tests.iter().map(|t| t.freq_hz / t.freq_se_hz.powi(2)).sum::<f64>() / w;
+    let mean = tests
+        .iter()
+        .map(|t| t.freq_hz / t.freq_se_hz.powi(2))
+        .sum::<f64>()
+        / w;
     Measured::new(mean, (1.0 / w).sqrt())
 }
 
@@ -516,9 +657,22 @@ fn torsion_inputs(m: &Manifest, cal: &BarCalibration, freqs: &[TestFrequency]) -
     for (t, f) in m.tests.iter().zip(freqs) {
         inputs.push(f.freq());
         let wm = t.weights_kg.unwrap_or(0.0);
-        inputs.push(Measured::new(wm, if wm > 0.0 { m.mass_se_kg() } else { 0.0 }));
-        inputs.push(Measured::new(t.weights_distance_m.unwrap_or(0.0), if wm > 0.0 { t.weights_distance_se_m.unwrap_or(m.distance_se_m()) } else { 0.0 }));
-        inputs.push(Measured::new(t.cg_distance_m.unwrap_or(0.0), m.distance_se_m()));
+        inputs.push(Measured::new(
+            wm,
+            if wm > 0.0 { m.mass_se_kg() } else { 0.0 },
+        ));
+        inputs.push(Measured::new(
+            t.weights_distance_m.unwrap_or(0.0),
+            if wm > 0.0 {
+                t.weights_distance_se_m.unwrap_or(m.distance_se_m())
+            } else {
+                0.0
+            },
+        ));
+        inputs.push(Measured::new(
+            t.cg_distance_m.unwrap_or(0.0),
+            m.distance_se_m(),
+        ));
         inputs.push(Measured::new(0.0, m.axis_angle_se_rad()));
     }
     inputs
@@ -539,20 +693,38 @@ pub fn torsion(dir: &Path, use_orientations: &[String]) -> Result<TorsionResult,
     let m = Manifest::load(dir)?;
     let mpath = m.dir.join(manifest::MANIFEST);
     if m.kind != Kind::Torsion {
-        return Err(InertiaError::Invalid { path: mpath, message: format!("kind is {:?}, expected torsion", m.kind) });
+        return Err(InertiaError::Invalid {
+            path: mpath,
+            message: format!("kind is {:?}, expected torsion", m.kind),
+        });
     }
-    let cal_path = m.dir.join(m.calibration.as_deref().unwrap_or(Path::new(CALIBRATION_FILE)));
+    let cal_path = m.dir.join(
+        m.calibration
+            .as_deref()
+            .unwrap_or(Path::new(CALIBRATION_FILE)),
+    );
     let cal = BarCalibration::load(&cal_path)?;
-    let freqs: Vec<TestFrequency> = m.tests.iter().map(|t| measure_test(&m, t, false)).collect::<Result<_, _>>()?;
+    let freqs: Vec<TestFrequency> = m
+        .tests
+        .iter()
+        .map(|t| measure_test(&m, t, false))
+        .collect::<Result<_, _>>()?;
     torsion_from_frequencies(m, cal, freqs, use_orientations)
 }
 
 /// The torsion computation once the frequencies are measured (used by the campaign tests too).
-pub fn torsion_from_frequencies(m: Manifest, cal: BarCalibration, freqs: Vec<TestFrequency>, use_orientations: &[String]) -> Result<TorsionResult, InertiaError> {
+pub fn torsion_from_frequencies(
+    m: Manifest,
+    cal: BarCalibration,
+    freqs: Vec<TestFrequency>,
+    use_orientations: &[String],
+) -> Result<TorsionResult, InertiaError> {
     let mpath = m.dir.join(manifest::MANIFEST);
     let inputs = torsion_inputs(&m, &cal, &freqs);
     let n = m.tests.len();
-    let (y, cov) = propagate(&inputs, |x| (0..n).flat_map(|i| orientation_moments(x, i)).collect());
+    let (y, cov) = propagate(&inputs, |x| {
+        (0..n).flat_map(|i| orientation_moments(x, i)).collect()
+    });
     let se = standard_errors(&cov);
     let orientations: Vec<Orientation> = m
         .tests
@@ -580,14 +752,28 @@ pub fn torsion_from_frequencies(m: Manifest, cal: BarCalibration, freqs: Vec<Tes
         use_orientations
             .iter()
             .map(|name| {
-                m.tests.iter().position(|t| &t.name == name).ok_or_else(|| InertiaError::Invalid {
-                    path: mpath.clone(),
-                    message: format!("no orientation \"{name}\" (the manifest has {})", m.tests.iter().map(|t| format!("\"{}\"", t.name)).collect::<Vec<_>>().join(", ")),
-                })
+                m.tests
+                    .iter()
+                    .position(|t| &t.name == name)
+                    .ok_or_else(|| InertiaError::Invalid {
+                        path: mpath.clone(),
+                        message: format!(
+                            "no orientation \"{name}\" (the manifest has {})",
+                            m.tests
+                                .iter()
+                                .map(|t| format!("\"{}\"", t.name))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    })
             })
             .collect::<Result<_, _>>()?
     };
-    let tensor = tensor_from(&inputs, &orientations, &chosen).map_err(|message| InertiaError::Invalid { path: mpath.clone(), message })?;
+    let tensor =
+        tensor_from(&inputs, &orientations, &chosen).map_err(|message| InertiaError::Invalid {
+            path: mpath.clone(),
+            message,
+        })?;
     Ok(TorsionResult {
         body: m.body.clone().unwrap_or_default(),
         mass_kg: m.mass_kg.unwrap_or(0.0),
@@ -608,27 +794,55 @@ impl TorsionResult {
         let inputs = torsion_inputs(&self.manifest, &self.calibration, &self.frequencies);
         let chosen: Vec<usize> = names
             .iter()
-            .map(|n| self.orientations.iter().position(|o| o.name == *n).ok_or_else(|| format!("no orientation \"{n}\"")))
+            .map(|n| {
+                self.orientations
+                    .iter()
+                    .position(|o| o.name == *n)
+                    .ok_or_else(|| format!("no orientation \"{n}\""))
+            })
             .collect::<Result<_, _>>()?;
         tensor_from(&inputs, &self.orientations, &chosen)
     }
 }
 
-fn tensor_from(inputs: &Inputs, orientations: &[Orientation], chosen: &[usize]) -> Result<TensorXz, String> {
+fn tensor_from(
+    inputs: &Inputs,
+    orientations: &[Orientation],
+    chosen: &[usize],
+) -> Result<TensorXz, String> {
     let constraint = chosen.len() == 2;
     if chosen.len() < 2 {
-        return Err(format!("{} orientation(s): the tensor needs three, or two with I_xz = −I_zz (eq. 74)", chosen.len()));
+        return Err(format!(
+            "{} orientation(s): the tensor needs three, or two with I_xz = −I_zz (eq. 74)",
+            chosen.len()
+        ));
     }
-    let weights: Vec<f64> = chosen.iter().map(|&i| 1.0 / orientations[i].inertia_about_cg_se.max(1e-12).powi(2)).collect();
+    let weights: Vec<f64> = chosen
+        .iter()
+        .map(|&i| 1.0 / orientations[i].inertia_about_cg_se.max(1e-12).powi(2))
+        .collect();
     let axes: Vec<[f64; 3]> = chosen.iter().map(|&i| orientations[i].axis).collect();
     let solve = |x: &[f64]| -> Vec<f64> {
-        let ax: Vec<[f64; 3]> = chosen.iter().map(|&i| turn_axis(orientations[i].axis, x[3 + INPUTS_PER_ORIENTATION * i + 4])).collect();
-        let mo: Vec<f64> = chosen.iter().map(|&i| orientation_moments(x, i)[2]).collect();
+        let ax: Vec<[f64; 3]> = chosen
+            .iter()
+            .map(|&i| turn_axis(orientations[i].axis, x[3 + INPUTS_PER_ORIENTATION * i + 4]))
+            .collect();
+        let mo: Vec<f64> = chosen
+            .iter()
+            .map(|&i| orientation_moments(x, i)[2])
+            .collect();
         solve_tensor(&ax, &mo, &weights, constraint).map_or(vec![f64::NAN; 3], |t| t.to_vec())
     };
     let (t, cov) = propagate(inputs, solve);
     if t.iter().any(|v| !v.is_finite()) {
-        return Err(format!("the axes of orientations {} do not determine the tensor", chosen.iter().map(|&i| orientations[i].name.clone()).collect::<Vec<_>>().join(", ")));
+        return Err(format!(
+            "the axes of orientations {} do not determine the tensor",
+            chosen
+                .iter()
+                .map(|&i| orientations[i].name.clone())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
     }
     let se = standard_errors(&cov);
     let cond = design_condition(&axes, constraint);
@@ -645,7 +859,10 @@ fn tensor_from(inputs: &Inputs, orientations: &[Orientation], chosen: &[usize]) 
     let k = eig.eigenvalues.imax();
     let v = eig.eigenvectors.column(k);
     let mut warnings = Vec::new();
-    let names = chosen.iter().map(|&i| orientations[i].name.clone()).collect::<Vec<_>>();
+    let names = chosen
+        .iter()
+        .map(|&i| orientations[i].name.clone())
+        .collect::<Vec<_>>();
     if cond > 30.0 {
         warnings.push(format!("orientations {} are poorly spread: condition number {cond:.0} (errors in their moments are amplified up to that much)", names.join(", ")));
     }
@@ -653,7 +870,11 @@ fn tensor_from(inputs: &Inputs, orientations: &[Orientation], chosen: &[usize]) 
     if p_small <= 0.0 {
         let worst = chosen
             .iter()
-            .max_by(|&&a, &&b| orientations[a].inertia_about_cg_se.total_cmp(&orientations[b].inertia_about_cg_se))
+            .max_by(|&&a, &&b| {
+                orientations[a]
+                    .inertia_about_cg_se
+                    .total_cmp(&orientations[b].inertia_about_cg_se)
+            })
             .map(|&i| orientations[i].name.clone())
             .unwrap_or_default();
         warnings.push(format!(
@@ -662,7 +883,10 @@ fn tensor_from(inputs: &Inputs, orientations: &[Orientation], chosen: &[usize]) 
         ));
     }
     if constraint {
-        warnings.push("two orientations: I_xz = −I_zz imposed (eq. 74), as the lab did for the handlebar".into());
+        warnings.push(
+            "two orientations: I_xz = −I_zz imposed (eq. 74), as the lab did for the handlebar"
+                .into(),
+        );
     }
     let c = |r: usize, s: usize| cov[(r, s)];
     Ok(TensorXz {
@@ -674,7 +898,11 @@ fn tensor_from(inputs: &Inputs, orientations: &[Orientation], chosen: &[usize]) 
         ixz_se: se[1],
         izz: t[2],
         izz_se: se[2],
-        covariance: [[c(0, 0), c(0, 1), c(0, 2)], [c(1, 0), c(1, 1), c(1, 2)], [c(2, 0), c(2, 1), c(2, 2)]],
+        covariance: [
+            [c(0, 0), c(0, 1), c(0, 2)],
+            [c(1, 0), c(1, 1), c(1, 2)],
+            [c(2, 0), c(2, 1), c(2, 2)],
+        ],
         condition_number: cond,
         principal_kgm2: [p_big, p_small],
         principal_axis_deg: v[1].atan2(v[0]).to_degrees(),
@@ -720,14 +948,24 @@ pub struct CompoundResult {
 pub fn compound(dir: &Path) -> Result<CompoundResult, InertiaError> {
     let m = Manifest::load(dir)?;
     if m.kind != Kind::Compound {
-        return Err(InertiaError::Invalid { path: m.dir.join(manifest::MANIFEST), message: format!("kind is {:?}, expected compound", m.kind) });
+        return Err(InertiaError::Invalid {
+            path: m.dir.join(manifest::MANIFEST),
+            message: format!("kind is {:?}, expected compound", m.kind),
+        });
     }
-    let freqs: Vec<TestFrequency> = m.tests.iter().map(|t| measure_test(&m, t, true)).collect::<Result<_, _>>()?;
+    let freqs: Vec<TestFrequency> = m
+        .tests
+        .iter()
+        .map(|t| measure_test(&m, t, true))
+        .collect::<Result<_, _>>()?;
     let mut inputs = Inputs::new();
     inputs.push(Measured::new(m.mass_kg.unwrap_or(0.0), m.mass_se_kg()));
     for (t, f) in m.tests.iter().zip(&freqs) {
         inputs.push(f.freq());
-        inputs.push(Measured::new(t.pivot_to_cg_m.unwrap_or(0.0), m.distance_se_m()));
+        inputs.push(Measured::new(
+            t.pivot_to_cg_m.unwrap_or(0.0),
+            m.distance_se_m(),
+        ));
     }
     let n = m.tests.len();
     let (y, cov) = propagate(&inputs, |x| {
@@ -759,7 +997,13 @@ pub fn compound(dir: &Path) -> Result<CompoundResult, InertiaError> {
             repeats: f.repeats.clone(),
         })
         .collect();
-    Ok(CompoundResult { body: m.body.clone().unwrap_or_default(), mass_kg: m.mass_kg.unwrap_or(0.0), mass_se_kg: m.mass_se_kg(), tests, frequencies: freqs })
+    Ok(CompoundResult {
+        body: m.body.clone().unwrap_or_default(),
+        mass_kg: m.mass_kg.unwrap_or(0.0),
+        mass_se_kg: m.mass_se_kg(),
+        tests,
+        frequencies: freqs,
+    })
 }
 
 #[cfg(test)]
@@ -777,13 +1021,20 @@ mod tests {
         assert!((torsional_pendulum_stiffness(i_rod, 0.6782) / 34.33 - 1.0).abs() < 3e-4);
         // Eq. 79–80: frame I'_y = 1.6298, I_y = 0.8796.
         let ip = compound_pendulum_inertia(5.48, 0.37, 0.556, 9.81);
-        assert!((ip - 1.6298).abs() < 5e-5 && (parallel_axis_removed(ip, 5.48, 0.37) - 0.8796).abs() < 5e-5);
+        assert!(
+            (ip - 1.6298).abs() < 5e-5
+                && (parallel_axis_removed(ip, 5.48, 0.37) - 0.8796).abs() < 5e-5
+        );
     }
 
     #[test]
     fn tensor_solve_is_exact_for_three_axes_and_matches_the_issue() {
         // Table 2's moments about the CG with eq. 73's axes: the exact solve of (1,2,4).
-        let axes = [[0.7964, 0.0, -0.6048], [-0.4097, 0.0, 0.9122], [0.9097, 0.0, 0.4153]];
+        let axes = [
+            [0.7964, 0.0, -0.6048],
+            [-0.4097, 0.0, 0.9122],
+            [0.9097, 0.0, 0.4153],
+        ];
         let t = solve_tensor(&axes, &[0.6964, 0.8957, 0.3403], &[1.0; 3], false).unwrap();
         for (got, want) in t.iter().zip([0.3688, -0.1512, 0.8662]) {
             assert!((got - want).abs() < 5e-4, "{got} vs {want}");

@@ -11,12 +11,26 @@ fn pm(v: f64, se: f64) -> String {
 pub fn calibration_text(c: &BarCalibration) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "torsion-bar calibration (seed §5.3.3.2)");
-    let _ = writeln!(s, "  rod inertia       I = {:.5} ± {:.5} kg·m² (eq. 65, from its dimensions)", c.rod_inertia_kgm2, c.rod_inertia_se_kgm2);
-    let _ = writeln!(s, "  rod frequency     f = {:.5} ± {:.5} Hz (natural, {} repeats)", c.freq_hz, c.freq_se_hz, c.tests.first().map_or(0, |t| t.repeats.len()));
+    let _ = writeln!(
+        s,
+        "  rod inertia       I = {:.5} ± {:.5} kg·m² (eq. 65, from its dimensions)",
+        c.rod_inertia_kgm2, c.rod_inertia_se_kgm2
+    );
+    let _ = writeln!(
+        s,
+        "  rod frequency     f = {:.5} ± {:.5} Hz (natural, {} repeats)",
+        c.freq_hz,
+        c.freq_se_hz,
+        c.tests.first().map_or(0, |t| t.repeats.len())
+    );
     if let Some(ff) = c.fixture_freq_hz {
         let _ = writeln!(s, "  fixture           I_f = {:.2e} ± {:.1e} kg·m² (empty-fixture test at {ff:.3} Hz; correlation with k {:+.2})", c.fixture_inertia_kgm2, c.fixture_inertia_se_kgm2, c.stiffness_fixture_correlation);
     }
-    let _ = writeln!(s, "  stiffness         k = {:.3} ± {:.3} N·m/rad (eq. 67)", c.stiffness_nm_per_rad, c.stiffness_se_nm_per_rad);
+    let _ = writeln!(
+        s,
+        "  stiffness         k = {:.3} ± {:.3} N·m/rad (eq. 67)",
+        c.stiffness_nm_per_rad, c.stiffness_se_nm_per_rad
+    );
     if let Some(t) = c.theory_stiffness_nm_per_rad {
         let _ = writeln!(s, "  theory            G·I_p/L = {t:.2} N·m/rad (eq. 64)");
     }
@@ -32,7 +46,11 @@ fn tensor_text(s: &mut String, t: &TensorXz) {
         s,
         "  tensor from orientations {}{}: I_xx = {}, I_xz = {}, I_zz = {} kg·m²",
         t.orientations.join(", "),
-        if t.handlebar_constraint { " (I_xz = −I_zz)" } else { "" },
+        if t.handlebar_constraint {
+            " (I_xz = −I_zz)"
+        } else {
+            ""
+        },
         pm(t.ixx, t.ixx_se),
         pm(t.ixz, t.ixz_se),
         pm(t.izz, t.izz_se)
@@ -49,8 +67,20 @@ fn tensor_text(s: &mut String, t: &TensorXz) {
 
 pub fn torsion_text(r: &TorsionResult) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "{} ({} kg), torsion tests; k = {:.3} ± {:.3} N·m/rad, fixture {:.1e} kg·m²", r.body, r.mass_kg, r.stiffness_nm_per_rad, r.stiffness_se_nm_per_rad, r.fixture_inertia_kgm2);
-    let _ = writeln!(s, "  {:<6} {:>20} {:>18} {:>18} {:>18} {:>8}", "test", "f (Hz)", "with weights", "without weights", "about the CG", "spread");
+    let _ = writeln!(
+        s,
+        "{} ({} kg), torsion tests; k = {:.3} ± {:.3} N·m/rad, fixture {:.1e} kg·m²",
+        r.body,
+        r.mass_kg,
+        r.stiffness_nm_per_rad,
+        r.stiffness_se_nm_per_rad,
+        r.fixture_inertia_kgm2
+    );
+    let _ = writeln!(
+        s,
+        "  {:<6} {:>20} {:>18} {:>18} {:>18} {:>8}",
+        "test", "f (Hz)", "with weights", "without weights", "about the CG", "spread"
+    );
     for o in &r.orientations {
         let flagged = o.repeats.iter().filter(|x| x.outlier).count();
         let _ = writeln!(
@@ -62,7 +92,11 @@ pub fn torsion_text(r: &TorsionResult) -> String {
             pm(o.inertia_without_weights, o.inertia_without_weights_se),
             pm(o.inertia_about_cg, o.inertia_about_cg_se),
             100.0 * o.repeat_spread,
-            if flagged > 0 { format!("  ({flagged} repeat(s) flagged as outliers, left out)") } else { String::new() }
+            if flagged > 0 {
+                format!("  ({flagged} repeat(s) flagged as outliers, left out)")
+            } else {
+                String::new()
+            }
         );
     }
     tensor_text(&mut s, &r.tensor);

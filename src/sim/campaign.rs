@@ -56,7 +56,13 @@ fn spec(shot: &Shot, seed: u64) -> FileSpec {
         rate_hz: 100.0,
         sensors: vec![(shot.sensor_id.to_string(), shot.label.to_string())],
         first_counter: (seed.wrapping_mul(40_503) % 65_536) as u16,
-        start: format!("2009-03-{:02} {:02}:{:02}:{:02}", 10 + seed % 8, 9 + seed % 8, (seed * 7) % 60, (seed * 13) % 60),
+        start: format!(
+            "2009-03-{:02} {:02}:{:02}:{:02}",
+            10 + seed % 8,
+            9 + seed % 8,
+            (seed * 7) % 60,
+            (seed * 13) % 60
+        ),
         extra_header: vec![],
         declare_decimal: seed % 2 == 0,
         jitter_s: 0.0005,
@@ -69,9 +75,21 @@ fn record(shot: &Shot, seed: u64) -> (String, String) {
     let placement = Placement {
         body_rest: rng.rotation(),
         axis_heading_rad: rng.range(0.0, 2.0 * PI),
-        sensor_offset_m: nalgebra::Vector3::new(rng.range(0.1, 0.35), rng.range(-0.05, 0.05), rng.range(-0.1, 0.1)),
+        sensor_offset_m: nalgebra::Vector3::new(
+            rng.range(0.1, 0.35),
+            rng.range(-0.05, 0.05),
+            rng.range(-0.1, 0.1),
+        ),
     };
-    let rec = super::simulate_pendulum(&shot.pendulum, &shot.release, &placement, &sensor, &LinkModel::default(), &spec(shot, seed), seed);
+    let rec = super::simulate_pendulum(
+        &shot.pendulum,
+        &shot.release,
+        &placement,
+        &sensor,
+        &LinkModel::default(),
+        &spec(shot, seed),
+        seed,
+    );
     (rec.angles_log, rec.cal_log)
 }
 
@@ -94,7 +112,12 @@ fn torsion_at(freq_hz: f64, rng: &mut Rng) -> Pendulum {
         stiffness_nm_per_rad: k,
         damping_ratio: rng.range(0.002, 0.006),
         coulomb_nm: 0.0,
-        swing: Some(Swing { freq_hz: rng.range(1.1, 1.6) * freq_hz.max(0.8), damping_ratio: 0.03, coupling: 0.01, release_amplitude_deg: 0.5 }),
+        swing: Some(Swing {
+            freq_hz: rng.range(1.1, 1.6) * freq_hz.max(0.8),
+            damping_ratio: 0.03,
+            coupling: 0.01,
+            release_amplitude_deg: 0.5,
+        }),
     })
 }
 
@@ -102,7 +125,8 @@ fn compound_at(mass_kg: f64, pivot_to_cg_m: f64, freq_hz: f64, rng: &mut Rng) ->
     Pendulum::Compound(Compound {
         mass_kg,
         pivot_to_cg_m,
-        inertia_about_pivot_kgm2: mass_kg * GRAVITY_MPS2 * pivot_to_cg_m / (2.0 * PI * freq_hz).powi(2),
+        inertia_about_pivot_kgm2: mass_kg * GRAVITY_MPS2 * pivot_to_cg_m
+            / (2.0 * PI * freq_hz).powi(2),
         damping_ratio: rng.range(0.002, 0.005),
         coulomb_nm: 0.0,
     })
@@ -138,7 +162,11 @@ fn folder(
         let spread = rng.range(0.0005, 0.002);
         let mut logs = Vec::new();
         for r in 0..t.repeats {
-            let offset = if t.repeats == 1 { 0.0 } else { spread * (2.0 * r as f64 / (t.repeats - 1) as f64 - 1.0) };
+            let offset = if t.repeats == 1 {
+                0.0
+            } else {
+                spread * (2.0 * r as f64 / (t.repeats - 1) as f64 - 1.0)
+            };
             let f = t.freq_hz * (1.0 + offset);
             let (mode, locale) = style(count);
             count += 1;
@@ -154,15 +182,29 @@ fn folder(
             *seed += 1;
             let (angles, cal) = record(&shot, *seed);
             files.push((PathBuf::from(dir).join(&shot.file), angles));
-            files.push((PathBuf::from(dir).join(shot.file.replace(".log", "_cal.log")), cal));
+            files.push((
+                PathBuf::from(dir).join(shot.file.replace(".log", "_cal.log")),
+                cal,
+            ));
             logs.push(format!("\"{}\"", shot.file));
         }
-        let _ = write!(manifest, "\n[[test]]\nname = \"{}\"\nlogs = [{}]\n{}", t.name, logs.join(", "), t.lines);
+        let _ = write!(
+            manifest,
+            "\n[[test]]\nname = \"{}\"\nlogs = [{}]\n{}",
+            t.name,
+            logs.join(", "),
+            t.lines
+        );
     }
     files.push((PathBuf::from(dir).join("manifest.toml"), manifest));
 }
 
-const PUBLISHED: &str = "# The lab's figures are in seed §5.3; this folder was simulated to reproduce them.\n";
+/// A torsion test as the lab recorded it: name, frequency (Hz), weights (kg), their distance
+/// from the axis (m), the CG's distance from the axis (m), the axis in body coordinates.
+type TorsionRow = (&'static str, f64, f64, f64, f64, [f64; 3]);
+
+const PUBLISHED: &str =
+    "# The lab's figures are in seed §5.3; this folder was simulated to reproduce them.\n";
 
 /// The whole campaign (seed §5.3), deterministic.
 pub fn lab_campaign() -> Files {
@@ -191,7 +233,7 @@ pub fn lab_campaign() -> Files {
     folder(
         &mut files,
         "empty_fixture",
-        &format!("# The bare Cardan joint and clamp on the bar, with calibration weights on a machined arm.\n# (Not in the seed: the lab neglected the fixture's inertia.)\nversion = 1\nkind = \"empty_fixture\"\n# The calibration weights are weighed on a fine scale.\nmass_se_kg = 0.001\n"),
+        "# The bare Cardan joint and clamp on the bar, with calibration weights on a machined arm.\n# (Not in the seed: the lab neglected the fixture's inertia.)\nversion = 1\nkind = \"empty_fixture\"\n# The calibration weights are weighed on a fine scale.\nmass_se_kg = 0.001\n",
         &[FolderTest { name: "empty", freq_hz: fix_f, repeats: 2, lines: format!("weights_kg = {wm}\nweights_distance_m = {wr}\nweights_distance_se_m = {wse}\n") }],
         &|f, rng| torsion_at(f, rng),
         30.0,
@@ -207,7 +249,7 @@ pub fn lab_campaign() -> Files {
         ("3", 0.8695, 3.720, 0.205, 0.09, [-0.3768, 0.0, 0.9263]),
         ("4", 1.2160, 3.720, 0.17, 0.16, [0.9097, 0.0, 0.4153]),
     ];
-    let torsion_tests = |rows: &[(&'static str, f64, f64, f64, f64, [f64; 3])]| -> Vec<FolderTest> {
+    let torsion_tests = |rows: &[TorsionRow]| -> Vec<FolderTest> {
         rows.iter()
             .map(|&(name, f, wm, wr, cg, ax)| FolderTest {
                 name,
@@ -236,7 +278,10 @@ pub fn lab_campaign() -> Files {
             _ => (OutputMode::Euler, Locale::Tab),
         },
     );
-    let handlebar = [("1", 4.659, 0.0, 0.0, 0.015, [-0.0106, 0.0, 0.9999]), ("2", 1.392, 2.246, 0.17, 0.16, [-0.9993, 0.0, 0.0376])];
+    let handlebar = [
+        ("1", 4.659, 0.0, 0.0, 0.015, [-0.0106, 0.0, 0.9999]),
+        ("2", 1.392, 2.246, 0.17, 0.16, [-0.9993, 0.0, 0.0376]),
+    ];
     folder(
         &mut files,
         "handlebar_torsion",
@@ -253,7 +298,12 @@ pub fn lab_campaign() -> Files {
     let compound_header = |body: &str, mass: f64, what: &str| {
         format!("# {what}\n{PUBLISHED}version = 1\nkind = \"compound\"\nbody = \"{body}\"\nmass_kg = {mass}\nmass_se_kg = 0.02\ndistance_se_m = 0.005\n")
     };
-    let ct = |name: &'static str, f: f64, l: f64, moment: &str, repeats: usize| FolderTest { name, freq_hz: f, repeats, lines: format!("pivot_to_cg_m = {l}\nmoment = \"{moment}\"\n") };
+    let ct = |name: &'static str, f: f64, l: f64, moment: &str, repeats: usize| FolderTest {
+        name,
+        freq_hz: f,
+        repeats,
+        lines: format!("pivot_to_cg_m = {l}\nmoment = \"{moment}\"\n"),
+    };
     for (dir, body, mass, l, what, tests) in [
         ("frame_compound", "frame", 5.48, 0.37, "The frame as a compound pendulum (seed §5.3.4.2, eqs. 79–80).", vec![ct("yy", 0.556, 0.37, "iyy", 3)]),
         ("handlebar_compound", "handlebar", 2.96, 0.14, "The handlebar as a compound pendulum (seed §5.3.4.3, eqs. 81–82).", vec![ct("yy", 0.6905, 0.14, "iyy", 2)]),
@@ -292,8 +342,14 @@ pub fn lab_campaign() -> Files {
             &|i| if i == 1 { (OutputMode::Quaternion, Locale::Tab) } else { (OutputMode::Euler, Locale::Tab) },
         );
     }
-    files.push(("lab_bike_seed.toml".into(), crate::inertia::bike::LabBike::seed().to_toml()));
-    files.push(("lab_bike.toml".into(), crate::inertia::bike::LabBike::lab_template().to_toml()));
+    files.push((
+        "lab_bike_seed.toml".into(),
+        crate::inertia::bike::LabBike::seed().to_toml(),
+    ));
+    files.push((
+        "lab_bike.toml".into(),
+        crate::inertia::bike::LabBike::lab_template().to_toml(),
+    ));
     files.push(("README.md".into(), DATA_README.into()));
     files.sort_by(|a, b| a.0.cmp(&b.0));
     files
@@ -335,7 +391,11 @@ pub fn random_torsion_campaign(seed: u64) -> RandomCampaign {
     let (p1, p2) = (rng.range(0.05, 1.0), rng.range(0.05, 1.0));
     let phi = rng.range(0.0, PI);
     let (c, s) = (phi.cos(), phi.sin());
-    let truth = [p1 * c * c + p2 * s * s, (p1 - p2) * c * s, p1 * s * s + p2 * c * c];
+    let truth = [
+        p1 * c * c + p2 * s * s,
+        (p1 - p2) * c * s,
+        p1 * s * s + p2 * c * c,
+    ];
     let k = true_stiffness();
     let n = if rng.uniform() < 0.5 { 3 } else { 4 };
     let start = rng.range(0.0, PI);
@@ -344,15 +404,27 @@ pub fn random_torsion_campaign(seed: u64) -> RandomCampaign {
     for i in 0..n {
         let ang = start + PI * (i as f64 + rng.range(-0.15, 0.15)) / n as f64;
         let axis = [ang.cos(), 0.0, ang.sin()];
-        let i_cg = truth[0] * axis[0] * axis[0] + 2.0 * truth[1] * axis[0] * axis[2] + truth[2] * axis[2] * axis[2];
-        let (wm, wr, cg) = (rng.range(0.0, 4.0), rng.range(0.1, 0.4), rng.range(0.02, 0.3));
+        let i_cg = truth[0] * axis[0] * axis[0]
+            + 2.0 * truth[1] * axis[0] * axis[2]
+            + truth[2] * axis[2] * axis[2];
+        let (wm, wr, cg) = (
+            rng.range(0.0, 4.0),
+            rng.range(0.1, 0.4),
+            rng.range(0.02, 0.3),
+        );
         let i_sys = i_cg + mass * cg * cg + wm * wr * wr + FIXTURE_INERTIA_KGM2;
         let mut logs = Vec::new();
         for r in 0..2 {
             let name = format!("o{i}{}.log", (b'a' + r as u8) as char);
             let shot = Shot {
                 file: name.clone(),
-                pendulum: Pendulum::Torsion(Torsion { inertia_kgm2: i_sys, stiffness_nm_per_rad: k, damping_ratio: rng.range(0.002, 0.01), coulomb_nm: 0.0, swing: None }),
+                pendulum: Pendulum::Torsion(Torsion {
+                    inertia_kgm2: i_sys,
+                    stiffness_nm_per_rad: k,
+                    damping_ratio: rng.range(0.002, 0.01),
+                    coulomb_nm: 0.0,
+                    swing: None,
+                }),
                 release: release(&mut rng, 30.0, (4.0, 10.0)),
                 mode: OutputMode::Quaternion,
                 locale: Locale::Tab,
@@ -384,7 +456,11 @@ pub fn random_torsion_campaign(seed: u64) -> RandomCampaign {
         k + k_se * rng.normal(),
         FIXTURE_INERTIA_KGM2 + fix_se * rng.normal()
     );
-    RandomCampaign { files, truth, calibration }
+    RandomCampaign {
+        files,
+        truth,
+        calibration,
+    }
 }
 
 /// Writes files under `root`, each through a temporary file and a rename.
