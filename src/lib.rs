@@ -14,6 +14,7 @@
 //! - [`spectral`]: a signal → its spectrum and peaks (the fit's first guess).
 //! - [`fit`]: a signal → free-decay segment, damped-sinusoid fit, standard errors.
 //! - [`inertia`]: test folders → bar stiffness, moments, tensors (with standard errors).
+//! - [`model`]: bicycle parameters → the linear Whipple model, eigenvalues, stable speeds.
 //! - [`sim`]: the lab simulated from physics (never calls the estimators).
 //! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
 //! - `plot` (feature `plot`): SVG figures for the reports.
@@ -21,6 +22,7 @@
 pub mod fit;
 pub mod inertia;
 pub mod log;
+pub mod model;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod report;

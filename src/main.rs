@@ -32,6 +32,9 @@ enum Command {
     /// Moments and inertia tensors from a folder of torsion or compound-pendulum tests, or
     /// refresh the inertias of a bicycle file (--bike).
     Inertia(InertiaArgs),
+    /// Stability of a bicycle against speed: stable range, weave and capsize speeds with standard
+    /// errors, eigenvalues (linearized Whipple model, Meijaard et al. 2007).
+    Stability(StabilityArgs),
     /// Write simulated logs from physics.
     #[command(subcommand)]
     Simulate(SimCommand),
@@ -83,6 +86,30 @@ struct InertiaArgs {
     bike: Option<PathBuf>,
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Args)]
+struct StabilityArgs {
+    /// A bicycle: BicycleParameters text (`*Benchmark.txt`), benchmark TOML, or a lab bicycle
+    /// (`data/lab_bike.toml`).
+    #[arg(long)]
+    bike: PathBuf,
+    /// Speeds `START:END:STEP` in m/s.
+    #[arg(long, default_value = "0:10:0.01", value_parser = parse_speeds)]
+    speeds: (f64, f64, f64),
+    /// Move the handlebar's centre of gravity onto the steer axis (the lab's model, seed §6.2).
+    #[arg(long)]
+    cg_on_steer_axis: bool,
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_speeds(s: &str) -> Result<(f64, f64, f64), String> {
+    let parts: Vec<f64> = s.split(':').map(|p| p.trim().parse::<f64>().map_err(|_| format!("`{p}` is not a number"))).collect::<Result<_, _>>()?;
+    match parts[..] {
+        [a, b, st] if a >= 0.0 && b > a && st > 0.0 && (b - a) / st <= 1e6 => Ok((a, b, st)),
+        _ => Err("expected START:END:STEP with 0 ≤ START < END and 0 < STEP (at most a million speeds)".into()),
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -242,6 +269,7 @@ fn main() -> ExitCode {
                     || c.is::<fit::FitError>()
                     || c.is::<inertia::InertiaError>()
                     || c.is::<inertia::manifest::ManifestError>()
+                    || c.is::<bikeproc::model::ParamError>()
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
@@ -253,6 +281,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Period(a) => period(a),
         Command::CalibrateBar(a) => calibrate_bar(a),
         Command::Inertia(a) => inertia_cmd(a),
+        Command::Stability(a) => stability(a),
         Command::Simulate(s) => simulate(s),
         Command::Report(r) => {
             let written = bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| {
@@ -365,6 +394,26 @@ fn inertia_cmd(a: InertiaArgs) -> Result<()> {
                     .into()
             })
         }
+    }
+    Ok(())
+}
+
+fn stability(a: StabilityArgs) -> Result<()> {
+    use bikeproc::model::{self, uncertain};
+    let mut p = uncertain::load(&a.bike)?;
+    if a.cg_on_steer_axis {
+        let b = p.nominal().with_handlebar_cg_on_steer_axis();
+        p = uncertain::Parametrized::from_benchmark(&p.name, &b);
+    }
+    let (lo, hi, step) = a.speeds;
+    let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize).map(|i| lo + i as f64 * step).collect();
+    let s = p.speeds(hi, step.min(0.01))?;
+    let bands = p.bands(&speeds)?;
+    let report = model::report::StabilityReport::new(&p.name, &s, &bands);
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", report.to_text());
     }
     Ok(())
 }

@@ -1,0 +1,346 @@
+//! Model stage: bicycle parameters → the linearized Whipple model, its eigenvalues against
+//! speed, the weave and capsize speeds and the stable range.
+//!
+//! In: a [`Benchmark`] parameter set (the 25 parameters of Meijaard, Papadopoulos, Ruina &
+//! Schwab 2007, Proc. R. Soc. A 463:1955–1982, plus g), read from BicycleParameters' text
+//! format, TOML, or the lab's parametrization ([`lab`]). Out: the canonical matrices
+//! `M q̈ + v C₁ q̇ + (g K₀ + v² K₂) q = f`, `q = (φ roll, δ steer)` (their Appendix A), the state
+//! matrix, eigenvalues named by mode (weave, capsize, castor), the characteristic speeds, and
+//! their standard errors propagated from the parameters'.
+
+pub mod lab;
+pub mod params;
+pub mod report;
+pub mod uncertain;
+
+use nalgebra::{Complex, Matrix2, Matrix4};
+pub use params::{Benchmark, ParamError};
+
+/// The canonical matrices of the linearized Whipple bicycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Canonical {
+    pub m: Matrix2<f64>,
+    pub c1: Matrix2<f64>,
+    pub k0: Matrix2<f64>,
+    pub k2: Matrix2<f64>,
+    pub g: f64,
+}
+
+/// `I/r` with the two-mass-skate limit: zero inertia on a zero radius is zero (Kooijman et
+/// al. 2011), not 0/0.
+fn spin_over_radius(inertia: f64, radius: f64) -> f64 {
+    if inertia == 0.0 {
+        0.0
+    } else {
+        inertia / radius
+    }
+}
+
+impl Canonical {
+    /// Meijaard et al. 2007, Appendix A, equations (A 1)–(A 27), term by term.
+    pub fn from_benchmark(p: &Benchmark) -> Canonical {
+        let (sl, cl) = p.lambda.sin_cos();
+        // (A 1)–(A 6): the whole bicycle's mass, centre of mass and inertia (rear contact, z down).
+        let m_t = p.m_r + p.m_b + p.m_h + p.m_f;
+        let x_t = (p.x_b * p.m_b + p.x_h * p.m_h + p.w * p.m_f) / m_t;
+        let z_t = (-p.r_r * p.m_r + p.z_b * p.m_b + p.z_h * p.m_h - p.r_f * p.m_f) / m_t;
+        let i_txx = p.i_rxx + p.i_bxx + p.i_hxx + p.i_fxx + p.m_r * p.r_r * p.r_r + p.m_b * p.z_b * p.z_b + p.m_h * p.z_h * p.z_h + p.m_f * p.r_f * p.r_f;
+        let i_txz = p.i_bxz + p.i_hxz - p.m_b * p.x_b * p.z_b - p.m_h * p.x_h * p.z_h + p.m_f * p.w * p.r_f;
+        // (A 7): wheels are symmetric, I_zz = I_xx.
+        let (i_rzz, i_fzz) = (p.i_rxx, p.i_fxx);
+        let i_tzz = i_rzz + p.i_bzz + p.i_hzz + i_fzz + p.m_b * p.x_b * p.x_b + p.m_h * p.x_h * p.x_h + p.m_f * p.w * p.w;
+        // (A 9)–(A 15): the front assembly A = handlebar and fork + front wheel.
+        let m_a = p.m_h + p.m_f;
+        let x_a = (p.x_h * p.m_h + p.w * p.m_f) / m_a;
+        let z_a = (p.z_h * p.m_h - p.r_f * p.m_f) / m_a;
+        let i_axx = p.i_hxx + p.i_fxx + p.m_h * (p.z_h - z_a).powi(2) + p.m_f * (p.r_f + z_a).powi(2);
+        let i_axz = p.i_hxz - p.m_h * (p.x_h - x_a) * (p.z_h - z_a) + p.m_f * (p.w - x_a) * (p.r_f + z_a);
+        let i_azz = p.i_hzz + i_fzz + p.m_h * (p.x_h - x_a).powi(2) + p.m_f * (p.w - x_a).powi(2);
+        // (A 16)–(A 19): about the steer axis.
+        let u_a = (x_a - p.w - p.c) * cl - z_a * sl;
+        let i_all = m_a * u_a * u_a + i_axx * sl * sl + 2.0 * i_axz * sl * cl + i_azz * cl * cl;
+        let i_alx = -m_a * u_a * z_a + i_axx * sl + i_axz * cl;
+        let i_alz = m_a * u_a * x_a + i_axz * sl + i_azz * cl;
+        // (A 20)–(A 22): trail ratio and gyrostatic coefficients.
+        let mu = p.c / p.w * cl;
+        let s_r = spin_over_radius(p.i_ryy, p.r_r);
+        let s_f = spin_over_radius(p.i_fyy, p.r_f);
+        let s_t = s_r + s_f;
+        let s_a = m_a * u_a + mu * m_t * x_t;
+        // (A 23)–(A 27).
+        let m12 = i_alx + mu * i_txz;
+        Canonical {
+            m: Matrix2::new(i_txx, m12, m12, i_all + 2.0 * mu * i_alz + mu * mu * i_tzz),
+            k0: Matrix2::new(m_t * z_t, -s_a, -s_a, -s_a * sl),
+            k2: Matrix2::new(0.0, (s_t - m_t * z_t) / p.w * cl, 0.0, (s_a + s_f * sl) / p.w * cl),
+            c1: Matrix2::new(
+                0.0,
+                mu * s_t + s_f * cl + i_txz / p.w * cl - mu * m_t * z_t,
+                -(mu * s_t + s_f * cl),
+                i_alz / p.w * cl + mu * (s_a + i_tzz / p.w * cl),
+            ),
+            g: p.g,
+        }
+    }
+
+    /// The state matrix of `x = (φ, δ, φ̇, δ̇)` at speed `v` (eq. 59 of the seed):
+    /// `[[0, I], [−M⁻¹(g K₀ + v² K₂), −M⁻¹ v C₁]]`. `None` when M is singular.
+    pub fn state_matrix(&self, v: f64) -> Option<Matrix4<f64>> {
+        let minv = self.m.try_inverse()?;
+        let k = minv * (self.k0 * self.g + self.k2 * (v * v));
+        let c = minv * self.c1 * v;
+        let mut a = Matrix4::zeros();
+        a[(0, 2)] = 1.0;
+        a[(1, 3)] = 1.0;
+        for r in 0..2 {
+            for col in 0..2 {
+                a[(2 + r, col)] = -k[(r, col)];
+                a[(2 + r, 2 + col)] = -c[(r, col)];
+            }
+        }
+        Some(a)
+    }
+
+    /// The four eigenvalues at speed `v`, sorted by real part then imaginary part.
+    pub fn eigenvalues(&self, v: f64) -> Option<[Complex<f64>; 4]> {
+        let a = self.state_matrix(v)?;
+        let ev = a.complex_eigenvalues();
+        let mut out = [ev[0], ev[1], ev[2], ev[3]];
+        out.sort_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)));
+        Some(out)
+    }
+
+    /// The largest real part at speed `v`: the bicycle is stable where it is negative.
+    pub fn max_real(&self, v: f64) -> f64 {
+        self.eigenvalues(v).map_or(f64::NAN, |e| e.iter().map(|z| z.re).fold(f64::NEG_INFINITY, f64::max))
+    }
+
+    /// A right eigenvector of the state matrix for eigenvalue `lambda` (the mode shape), by
+    /// inverse iteration, scaled so that its largest component is 1. Its first two components
+    /// are roll and steer.
+    pub fn mode_shape(&self, v: f64, lambda: Complex<f64>) -> Option<[Complex<f64>; 4]> {
+        let a = self.state_matrix(v)?.map(|x| Complex::new(x, 0.0));
+        let shift = lambda + Complex::new(1e-9 * (1.0 + lambda.norm()), 1e-9 * (1.0 + lambda.norm()));
+        let lu = (a - Matrix4::<Complex<f64>>::identity() * shift).lu();
+        let mut x = nalgebra::Vector4::from_element(Complex::new(1.0, 0.0));
+        for _ in 0..3 {
+            x = lu.solve(&x)?;
+            let big = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
+            if !(big.is_finite() && big > 0.0) {
+                return None;
+            }
+            x /= Complex::new(big, 0.0);
+        }
+        let k = (0..4).max_by(|&i, &j| x[i].norm().total_cmp(&x[j].norm()))?;
+        let pivot = x[k];
+        Some([x[0] / pivot, x[1] / pivot, x[2] / pivot, x[3] / pivot])
+    }
+}
+
+/// The modes of the bicycle, as named at high speed and followed down by continuity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// The oscillatory mode (the eigenvalue with positive imaginary part; its conjugate is
+    /// `WeaveConjugate`).
+    Weave,
+    WeaveConjugate,
+    /// The slow real mode, unstable above the capsize speed.
+    Capsize,
+    /// The fast real mode (steer castering).
+    Castor,
+}
+
+/// Eigenvalues against speed, each column a named branch.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    pub speeds_mps: Vec<f64>,
+    /// Per speed, the eigenvalues in the order of `modes`.
+    pub eigenvalues: Vec<[Complex<f64>; 4]>,
+    pub modes: [Mode; 4],
+}
+
+/// Matches `next` to `prev` (all 24 orders; the closest in total distance).
+pub(crate) fn match_order(prev: &[Complex<f64>; 4], next: &[Complex<f64>; 4]) -> [Complex<f64>; 4] {
+    let mut best = *next;
+    let mut best_d = f64::INFINITY;
+    let idx = [0usize, 1, 2, 3];
+    for a in idx {
+        for b in idx {
+            for c in idx {
+                for d in idx {
+                    let p = [a, b, c, d];
+                    if a == b || a == c || a == d || b == c || b == d || c == d {
+                        continue;
+                    }
+                    let dist: f64 = (0..4).map(|i| (prev[i] - next[p[i]]).norm_sqr()).sum();
+                    if dist < best_d {
+                        best_d = dist;
+                        best = [next[a], next[b], next[c], next[d]];
+                    }
+                }
+            }
+        }
+    }
+    best
+}
+
+/// Names the eigenvalues at one speed: a complex pair is the weave (positive imaginary part
+/// first); of the real ones the larger is capsize, the smaller castor. With two complex pairs
+/// (or four reals) the slower-decaying pair or values are taken as weave.
+fn name_at(ev: &[Complex<f64>; 4]) -> [Complex<f64>; 4] {
+    let tol = 1e-9;
+    let mut complex: Vec<Complex<f64>> = ev.iter().copied().filter(|z| z.im > tol).collect();
+    let mut real: Vec<Complex<f64>> = ev.iter().copied().filter(|z| z.im.abs() <= tol).collect();
+    complex.sort_by(|a, b| b.re.total_cmp(&a.re));
+    real.sort_by(|a, b| b.re.total_cmp(&a.re));
+    match (complex.len(), real.len()) {
+        (1, 2) => [complex[0], complex[0].conj(), real[0], real[1]],
+        (2, 0) => [complex[0], complex[0].conj(), complex[1], complex[1].conj()],
+        (0, 4) => [real[0], real[1], real[2], real[3]],
+        _ => *ev,
+    }
+}
+
+impl Canonical {
+    /// Eigenvalues at every speed, named at the highest speed and tracked down by continuity
+    /// (through the speeds where real pairs merge into complex ones). Errors on a singular M.
+    pub fn sweep(&self, speeds_mps: &[f64]) -> Result<Sweep, ParamError> {
+        let mut order: Vec<usize> = (0..speeds_mps.len()).collect();
+        order.sort_by(|&a, &b| speeds_mps[b].total_cmp(&speeds_mps[a]));
+        let mut out = vec![[Complex::new(0.0, 0.0); 4]; speeds_mps.len()];
+        let mut prev: Option<[Complex<f64>; 4]> = None;
+        for i in order {
+            let ev = self.eigenvalues(speeds_mps[i]).ok_or(ParamError::SingularMass)?;
+            let named = match prev {
+                None => name_at(&ev),
+                Some(p) => match_order(&p, &ev),
+            };
+            out[i] = named;
+            prev = Some(named);
+        }
+        Ok(Sweep { speeds_mps: speeds_mps.to_vec(), eigenvalues: out, modes: [Mode::Weave, Mode::WeaveConjugate, Mode::Capsize, Mode::Castor] })
+    }
+}
+
+/// A speed where the stability changes, and which mode crosses there.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Crossing {
+    pub speed_mps: f64,
+    /// `true` when the bicycle becomes stable with increasing speed.
+    pub becomes_stable: bool,
+    /// Whether a complex pair (Hopf) or a real eigenvalue (pitchfork) crosses zero.
+    pub oscillatory: bool,
+}
+
+/// Stability against speed.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Stability {
+    /// Ranges of speed where every eigenvalue has a negative real part, `[lo, hi]`, `hi` `None`
+    /// when stable up to the end of the range searched.
+    pub stable_ranges_mps: Vec<(f64, Option<f64>)>,
+    pub crossings: Vec<Crossing>,
+    /// The weave speed: where the weave pair becomes stable (the first oscillatory crossing to
+    /// stable).
+    pub weave_speed_mps: Option<f64>,
+    /// The capsize speed: where a real eigenvalue becomes unstable above the weave speed.
+    pub capsize_speed_mps: Option<f64>,
+    /// The speed where the weave's real pair merges into a complex pair.
+    pub weave_merge_speed_mps: Option<f64>,
+}
+
+/// Bisection to 1e-13 m/s on a sign change of `f` between `a` and `b`.
+pub(crate) fn bisect(mut a: f64, mut b: f64, f: impl Fn(f64) -> f64) -> f64 {
+    let fa = f(a);
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if (b - a) < 1e-13 || m <= a || m >= b {
+            break;
+        }
+        if (f(m) > 0.0) == (fa > 0.0) {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    0.5 * (a + b)
+}
+
+impl Canonical {
+    /// The stable ranges and characteristic speeds in `[0, v_max]`, scanning at `step` and
+    /// refining every change by bisection to 1e-13 m/s.
+    pub fn stability(&self, v_max: f64, step: f64) -> Result<Stability, ParamError> {
+        if self.m.try_inverse().is_none() {
+            return Err(ParamError::SingularMass);
+        }
+        let n = (v_max / step).ceil() as usize;
+        let speeds: Vec<f64> = (0..=n).map(|i| (i as f64 * step).min(v_max)).collect();
+        let mr: Vec<f64> = speeds.iter().map(|&v| self.max_real(v)).collect();
+        if mr.iter().any(|x| !x.is_finite()) {
+            return Err(ParamError::NoEigenvalues);
+        }
+        // A crossing is oscillatory when the eigenvalue at the boundary with the largest real
+        // part has a non-zero imaginary part.
+        let mut crossings = Vec::new();
+        for i in 1..speeds.len() {
+            if (mr[i - 1] < 0.0) != (mr[i] < 0.0) {
+                let v = bisect(speeds[i - 1], speeds[i], |v| self.max_real(v));
+                let ev = self.eigenvalues(v).ok_or(ParamError::SingularMass)?;
+                let top = ev.iter().max_by(|a, b| a.re.total_cmp(&b.re)).copied().unwrap_or_default();
+                crossings.push(Crossing { speed_mps: v, becomes_stable: mr[i] < 0.0, oscillatory: top.im.abs() > 1e-6 });
+            }
+        }
+        let mut ranges = Vec::new();
+        let mut lo = if mr[0] < 0.0 { Some(0.0) } else { None };
+        for c in &crossings {
+            if c.becomes_stable {
+                lo = Some(c.speed_mps);
+            } else if let Some(l) = lo.take() {
+                ranges.push((l, Some(c.speed_mps)));
+            }
+        }
+        if let Some(l) = lo {
+            ranges.push((l, None));
+        }
+        let weave = crossings.iter().find(|c| c.becomes_stable && c.oscillatory).map(|c| c.speed_mps);
+        let capsize = crossings.iter().find(|c| !c.becomes_stable && !c.oscillatory && weave.is_none_or(|w| c.speed_mps > w)).map(|c| c.speed_mps);
+        // The weave pair's merge: below the weave speed, the highest speed with no complex
+        // eigenvalue near the weave branch.
+        let sweep = self.sweep(&speeds)?;
+        let complex_count = |v: f64| self.eigenvalues(v).map_or(0, |ev| ev.iter().filter(|z| z.im.abs() > 1e-7).count());
+        let merge = weave.and_then(|w| {
+            let idx = speeds.iter().rposition(|&v| v <= w)?;
+            let j = (0..=idx).rev().find(|&j| sweep.eigenvalues[j][0].im.abs() < 1e-9)?;
+            if j + 1 >= speeds.len() {
+                return None;
+            }
+            // The number of complex eigenvalues changes where the weave's real pair merges.
+            let below = complex_count(speeds[j]);
+            Some(bisect(speeds[j], speeds[j + 1], |v| if complex_count(v) > below { 1.0 } else { -1.0 }))
+        });
+        Ok(Stability { stable_ranges_mps: ranges, crossings, weave_speed_mps: weave, capsize_speed_mps: capsize, weave_merge_speed_mps: merge })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn benchmark_matrices_match_meijaard_2007() {
+        let c = Canonical::from_benchmark(&Benchmark::meijaard_2007());
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-13 * b.abs().max(1.0);
+        let want_m = [[80.81722, 2.31941332208709], [2.31941332208709, 0.29784188199686]];
+        let want_c1 = [[0.0, 33.86641391492494], [-0.85035641456978, 1.68540397397560]];
+        let want_k0 = [[-80.95, -2.59951685249872], [-2.59951685249872, -0.80329488458618]];
+        let want_k2 = [[0.0, 76.59734589573222], [0.0, 2.65431523794604]];
+        for r in 0..2 {
+            for s in 0..2 {
+                assert!(close(c.m[(r, s)], want_m[r][s]), "M{r}{s} {}", c.m[(r, s)]);
+                assert!(close(c.c1[(r, s)], want_c1[r][s]), "C1{r}{s} {}", c.c1[(r, s)]);
+                assert!(close(c.k0[(r, s)] * 1.0, want_k0[r][s]), "K0{r}{s} {}", c.k0[(r, s)]);
+                assert!(close(c.k2[(r, s)], want_k2[r][s]), "K2{r}{s} {}", c.k2[(r, s)]);
+            }
+        }
+    }
+}

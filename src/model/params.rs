@@ -1,0 +1,240 @@
+//! The benchmark parameter set (Meijaard et al. 2007, Table 1): x forward, z down, origin at the
+//! rear contact point; m, kg, kg·m², rad. Read and written in BicycleParameters' text format
+//! (`name = value+/-sigma`, one a line) and in TOML (`name = value`, `name_se = sigma`).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Errors of the model stage's inputs.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("{path}:{line}: {message}")]
+    Parse { path: PathBuf, line: usize, message: String },
+    #[error("{path}: missing parameter `{name}`")]
+    Missing { path: PathBuf, name: String },
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    #[error("the mass matrix M is singular: the parameters give no dynamics")]
+    SingularMass,
+    #[error("the eigenvalues could not be computed (non-finite state matrix)")]
+    NoEigenvalues,
+}
+
+macro_rules! benchmark_params {
+    ($( $field:ident : $name:literal, $doc:literal; )*) => {
+        /// A bicycle in the benchmark form, with a standard error for every parameter.
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        pub struct Benchmark {
+            $( #[doc = $doc] pub $field: f64, )*
+            /// Standard errors, in the order of [`Benchmark::NAMES`].
+            pub se: [f64; 26],
+        }
+
+        impl Benchmark {
+            /// Parameter names as BicycleParameters writes them, in a fixed order.
+            pub const NAMES: [&'static str; 26] = [$( $name, )*];
+
+            /// The values in the order of [`Benchmark::NAMES`].
+            pub fn to_array(&self) -> [f64; 26] {
+                [$( self.$field, )*]
+            }
+
+            /// A parameter set from values in the order of [`Benchmark::NAMES`] (no errors).
+            pub fn from_array(v: &[f64; 26]) -> Benchmark {
+                let mut it = v.iter().copied();
+                Benchmark { $( $field: it.next().unwrap_or(0.0), )* se: [0.0; 26] }
+            }
+        }
+    };
+}
+
+benchmark_params! {
+    w: "w", "Wheelbase (m).";
+    c: "c", "Trail (m).";
+    lambda: "lam", "Steer axis tilt from the vertical (rad).";
+    g: "g", "Gravity (m/s²).";
+    r_r: "rR", "Rear wheel radius (m).";
+    m_r: "mR", "Rear wheel mass (kg).";
+    i_rxx: "IRxx", "Rear wheel inertia about a diameter (kg·m²).";
+    i_ryy: "IRyy", "Rear wheel spin inertia (kg·m²).";
+    x_b: "xB", "Rear body (frame and rider) centre of mass, x (m).";
+    z_b: "zB", "Rear body centre of mass, z, down (m).";
+    m_b: "mB", "Rear body mass (kg).";
+    i_bxx: "IBxx", "Rear body inertia (kg·m²).";
+    i_byy: "IByy", "Rear body inertia (kg·m²).";
+    i_bzz: "IBzz", "Rear body inertia (kg·m²).";
+    i_bxz: "IBxz", "Rear body product of inertia, z down (kg·m²).";
+    x_h: "xH", "Front frame (handlebar and fork) centre of mass, x (m).";
+    z_h: "zH", "Front frame centre of mass, z, down (m).";
+    m_h: "mH", "Front frame mass (kg).";
+    i_hxx: "IHxx", "Front frame inertia (kg·m²).";
+    i_hyy: "IHyy", "Front frame inertia (kg·m²).";
+    i_hzz: "IHzz", "Front frame inertia (kg·m²).";
+    i_hxz: "IHxz", "Front frame product of inertia, z down (kg·m²).";
+    r_f: "rF", "Front wheel radius (m).";
+    m_f: "mF", "Front wheel mass (kg).";
+    i_fxx: "IFxx", "Front wheel inertia about a diameter (kg·m²).";
+    i_fyy: "IFyy", "Front wheel spin inertia (kg·m²).";
+}
+
+impl Benchmark {
+    /// The benchmark bicycle of Meijaard et al. 2007, Table 1.
+    pub fn meijaard_2007() -> Benchmark {
+        Benchmark::from_array(&[
+            1.02, 0.08, std::f64::consts::PI / 10.0, 9.81, 0.3, 2.0, 0.0603, 0.12, 0.3, -0.9, 85.0, 9.2, 11.0, 2.8, 2.4, 0.9, -0.7, 4.0, 0.05892, 0.06, 0.00708,
+            -0.00756, 0.35, 3.0, 0.1405, 0.28,
+        ])
+    }
+
+    /// Reads BicycleParameters' text format. Keys that are not benchmark parameters (`lcs`,
+    /// `hbb`, rider geometry) are skipped; a missing parameter is an error.
+    pub fn parse_text(text: &str, path: &Path) -> Result<Benchmark, ParamError> {
+        let mut values = [f64::NAN; 26];
+        let mut se = [0.0; 26];
+        for (i, raw) in text.lines().enumerate() {
+            let line = raw.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let err = |message: String| ParamError::Parse { path: path.to_path_buf(), line: i + 1, message };
+            let (name, rest) = line.split_once('=').ok_or_else(|| err(format!("`{line}`: expected `name = value+/-sigma`")))?;
+            let name = name.trim();
+            let (v, s) = match rest.split_once("+/-") {
+                Some((v, s)) => (v.trim(), Some(s.trim())),
+                None => (rest.trim(), None),
+            };
+            let Some(k) = Benchmark::NAMES.iter().position(|n| *n == name) else { continue };
+            let num = |t: &str| t.parse::<f64>().ok().filter(|x| x.is_finite());
+            values[k] = num(v).ok_or_else(|| err(format!("`{name} = {}`: expected a number", rest.trim())))?;
+            if let Some(s) = s {
+                se[k] = num(s).filter(|x| *x >= 0.0).ok_or_else(|| err(format!("`{name}`: standard error `{s}` is not a non-negative number")))?;
+            }
+        }
+        if let Some(k) = values.iter().position(|v| v.is_nan()) {
+            if values[..4].iter().all(|v| v.is_nan()) {
+                return Err(ParamError::Invalid {
+                    path: path.to_path_buf(),
+                    message: "no bicycle geometry (w, c, lam, g are missing): a rider's parameters? The model needs a whole bicycle".into(),
+                });
+            }
+            return Err(ParamError::Missing { path: path.to_path_buf(), name: Benchmark::NAMES[k].into() });
+        }
+        let mut b = Benchmark::from_array(&values);
+        b.se = se;
+        b.validate(path)?;
+        Ok(b)
+    }
+
+    /// Writes BicycleParameters' text format.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        for ((name, v), e) in Benchmark::NAMES.iter().zip(self.to_array()).zip(self.se) {
+            let _ = writeln!(s, "{name} = {v:?}+/-{e:?}");
+        }
+        s
+    }
+
+    /// Reads TOML: `name = value` and optionally `name_se = sigma`, BicycleParameters' names.
+    pub fn parse_toml(text: &str, path: &Path) -> Result<Benchmark, ParamError> {
+        let table: toml::Table = toml::from_str(text).map_err(|e| {
+            let line = e.span().map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count()).unwrap_or(0);
+            ParamError::Parse { path: path.to_path_buf(), line, message: e.message().replace('\n', " ") }
+        })?;
+        let mut values = [0.0; 26];
+        let mut se = [0.0; 26];
+        for (k, name) in Benchmark::NAMES.iter().enumerate() {
+            let get = |key: &str| table.get(key).and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)));
+            values[k] = get(name).ok_or_else(|| ParamError::Missing { path: path.to_path_buf(), name: (*name).into() })?;
+            se[k] = get(&format!("{name}_se")).unwrap_or(0.0);
+        }
+        let mut b = Benchmark::from_array(&values);
+        b.se = se;
+        b.validate(path)?;
+        Ok(b)
+    }
+
+    /// Writes TOML.
+    pub fn to_toml(&self) -> String {
+        let mut s = String::from("# Benchmark bicycle parameters (Meijaard et al. 2007): x forward, z down, origin at the rear contact.\n");
+        for ((name, v), e) in Benchmark::NAMES.iter().zip(self.to_array()).zip(self.se) {
+            let _ = writeln!(s, "{name} = {v:?}");
+            if e != 0.0 {
+                let _ = writeln!(s, "{name}_se = {e:?}");
+            }
+        }
+        s
+    }
+
+    /// Reads a file: TOML by extension, otherwise BicycleParameters' text, or the lab's
+    /// bicycle format (a TOML with a `[geometry]` table).
+    pub fn load(path: &Path) -> Result<Benchmark, ParamError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid { path: path.to_path_buf(), message: format!("cannot read: {e}") })?;
+        if path.extension().is_some_and(|e| e == "toml") {
+            if text.lines().any(|l| l.trim() == "[geometry]") {
+                return super::lab::load_lab_bike(path);
+            }
+            Benchmark::parse_toml(&text, path)
+        } else {
+            Benchmark::parse_text(&text, path)
+        }
+    }
+
+    /// Physical checks: positive masses and radii (zero allowed for the two-mass-skate's
+    /// massless wheels), positive-definite inertias, a wheelbase, a steer axis tilt within ±90°.
+    pub fn validate(&self, path: &Path) -> Result<(), ParamError> {
+        let bad = |message: String| Err(ParamError::Invalid { path: path.to_path_buf(), message });
+        if !(self.w > 0.0) {
+            return bad(format!("wheelbase w = {} m: expected positive", self.w));
+        }
+        if !(self.lambda.abs() < std::f64::consts::FRAC_PI_2) {
+            return bad(format!("steer axis tilt lam = {} rad: expected within ±π/2", self.lambda));
+        }
+        if !(self.g > 0.0) {
+            return bad(format!("g = {}: expected positive", self.g));
+        }
+        if !(self.m_b > 0.0) {
+            return bad(format!("rear body mass mB = {} kg: expected positive", self.m_b));
+        }
+        for (name, v) in [("mR", self.m_r), ("mH", self.m_h), ("mF", self.m_f), ("rR", self.r_r), ("rF", self.r_f)] {
+            if !(v >= 0.0) {
+                return bad(format!("{name} = {v}: expected zero or positive"));
+            }
+        }
+        for (name, r, iyy) in [("rear", self.r_r, self.i_ryy), ("front", self.r_f, self.i_fyy)] {
+            if r == 0.0 && iyy != 0.0 {
+                return bad(format!("{name} wheel: zero radius with spin inertia {iyy}: I/r has no limit"));
+            }
+        }
+        for (body, xx, zz, xz) in [("B", self.i_bxx, self.i_bzz, self.i_bxz), ("H", self.i_hxx, self.i_hzz, self.i_hxz)] {
+            if xx < 0.0 || zz < 0.0 || xx * zz - xz * xz < -1e-12 {
+                return bad(format!("I{body}xx = {xx}, I{body}zz = {zz}, I{body}xz = {xz}: not positive semi-definite"));
+            }
+        }
+        for (name, v) in [("IRxx", self.i_rxx), ("IRyy", self.i_ryy), ("IFxx", self.i_fxx), ("IFyy", self.i_fyy), ("IByy", self.i_byy), ("IHyy", self.i_hyy)] {
+            if v < 0.0 {
+                return bad(format!("{name} = {v}: expected zero or positive"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The handlebar's centre of mass moved onto the steer axis (its perpendicular projection),
+    /// as the lab's model has it (seed §6.2); its inertia about its own centre is kept.
+    pub fn with_handlebar_cg_on_steer_axis(&self) -> Benchmark {
+        let mut b = *self;
+        // The steer axis passes through the ground point (w + c, 0) with direction
+        // (−sin λ, −cos λ) (upwards and backwards, z down).
+        let (sl, cl) = self.lambda.sin_cos();
+        let (px, pz) = (self.w + self.c, 0.0);
+        let (dx, dz) = (-sl, -cl);
+        let t = (self.x_h - px) * dx + (self.z_h - pz) * dz;
+        b.x_h = px + t * dx;
+        b.z_h = pz + t * dz;
+        b
+    }
+
+    /// Standard errors as a vector.
+    pub fn standard_errors(&self) -> [f64; 26] {
+        self.se
+    }
+}

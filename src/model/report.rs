@@ -1,0 +1,100 @@
+//! Exporters of the model's results: plain text and JSON for `bikeproc stability`.
+
+use super::uncertain::{Bands, SpeedsWithSe};
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// One speed's eigenvalues, named.
+#[derive(Debug, Clone, Serialize)]
+pub struct EigenRow {
+    pub speed_mps: f64,
+    pub weave: Part,
+    pub capsize: Part,
+    pub castor: Part,
+}
+
+/// A complex eigenvalue with the standard errors of its parts (1/s).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Part {
+    pub re: f64,
+    pub im: f64,
+    pub re_se: f64,
+    pub im_se: f64,
+}
+
+/// What `bikeproc stability` prints.
+#[derive(Debug, Clone, Serialize)]
+pub struct StabilityReport {
+    pub bike: String,
+    pub weave_speed_mps: Option<f64>,
+    pub weave_speed_se_mps: Option<f64>,
+    pub capsize_speed_mps: Option<f64>,
+    pub capsize_speed_se_mps: Option<f64>,
+    pub weave_merge_speed_mps: Option<f64>,
+    /// `[[lo, hi], …]`, `hi` null when stable up to the end of the speeds searched.
+    pub stable_ranges_mps: Vec<(f64, Option<f64>)>,
+    pub eigenvalues: Vec<EigenRow>,
+}
+
+impl StabilityReport {
+    pub fn new(name: &str, s: &SpeedsWithSe, b: &Bands) -> StabilityReport {
+        let part = |i: usize, k: usize| {
+            let z = b.sweep.eigenvalues[i][k];
+            Part { re: z.re, im: z.im, re_se: b.se[i][k].0, im_se: b.se[i][k].1 }
+        };
+        StabilityReport {
+            bike: name.into(),
+            weave_speed_mps: s.stability.weave_speed_mps,
+            weave_speed_se_mps: s.weave_speed_se_mps,
+            capsize_speed_mps: s.stability.capsize_speed_mps,
+            capsize_speed_se_mps: s.capsize_speed_se_mps,
+            weave_merge_speed_mps: s.stability.weave_merge_speed_mps,
+            stable_ranges_mps: s.stability.stable_ranges_mps.clone(),
+            eigenvalues: (0..b.sweep.speeds_mps.len())
+                .map(|i| EigenRow { speed_mps: b.sweep.speeds_mps[i], weave: part(i, 0), capsize: part(i, 2), castor: part(i, 3) })
+                .collect(),
+        }
+    }
+
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let sp = |v: Option<f64>, se: Option<f64>| match v {
+            Some(v) => match se {
+                Some(se) => format!("{v:.4} ± {se:.4} m/s"),
+                None => format!("{v:.4} m/s (standard error unavailable)"),
+            },
+            None => "none in the range".into(),
+        };
+        let _ = writeln!(s, "{}: linearized Whipple model (Meijaard et al. 2007)", self.bike);
+        let ranges: Vec<String> = self
+            .stable_ranges_mps
+            .iter()
+            .map(|(lo, hi)| match hi {
+                Some(h) => format!("{lo:.4} – {h:.4} m/s"),
+                None => format!("above {lo:.4} m/s"),
+            })
+            .collect();
+        let _ = writeln!(s, "  stable         {}", if ranges.is_empty() { "at no speed in the range".to_string() } else { ranges.join(", ") });
+        let _ = writeln!(s, "  weave speed    {}", sp(self.weave_speed_mps, self.weave_speed_se_mps));
+        let _ = writeln!(s, "  capsize speed  {}", sp(self.capsize_speed_mps, self.capsize_speed_se_mps));
+        if let Some(m) = self.weave_merge_speed_mps {
+            let _ = writeln!(s, "  weave appears  {m:.4} m/s (its real pair merges into a complex pair)");
+        }
+        let _ = writeln!(s, "\n  {:>8}  {:>26}  {:>12}  {:>12}", "v (m/s)", "weave (1/s)", "capsize", "castor");
+        let every = (self.eigenvalues.len() / 20).max(1);
+        for r in self.eigenvalues.iter().step_by(every) {
+            let _ = writeln!(
+                s,
+                "  {:>8.3}  {:>12.5} {:>+12.5}i  {:>12.5}{}  {:>12.5}{}",
+                r.speed_mps,
+                r.weave.re,
+                r.weave.im,
+                r.capsize.re,
+                if r.capsize.im.abs() > 1e-9 { format!(" {:+.3}i", r.capsize.im) } else { String::new() },
+                r.castor.re,
+                if r.castor.im.abs() > 1e-9 { format!(" {:+.3}i", r.castor.im) } else { String::new() },
+            );
+        }
+        s
+    }
+}

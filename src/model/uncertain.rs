@@ -1,0 +1,172 @@
+//! Uncertainty of the model's results: a bicycle whose benchmark parameters are a function of
+//! measured inputs with standard errors, and the linear propagation of those errors to the
+//! eigenvalues and the characteristic speeds (checked against a Monte Carlo in the tests).
+
+use super::lab::lab_to_benchmark;
+use super::params::{Benchmark, ParamError};
+use super::{Canonical, Stability};
+use crate::inertia::bike::LabBike;
+use crate::uncertainty::{propagate, Inputs, Measured};
+use nalgebra::Complex;
+use std::path::Path;
+
+/// A bicycle whose benchmark parameters are a function of measured inputs: the
+/// uncertainties are propagated from those inputs (with their correlations through the
+/// conversion), not from the benchmark parameters.
+pub struct Parametrized {
+    pub name: String,
+    pub inputs: Inputs,
+    build: Box<dyn Fn(&[f64]) -> Benchmark + Send + Sync>,
+}
+
+impl Parametrized {
+    /// A benchmark parameter set whose inputs are its own 26 parameters.
+    pub fn from_benchmark(name: &str, b: &Benchmark) -> Parametrized {
+        let mut inputs = Inputs::new();
+        for (v, s) in b.to_array().iter().zip(b.se) {
+            inputs.push(Measured::new(*v, s));
+        }
+        Parametrized {
+            name: name.into(),
+            inputs,
+            build: Box::new(|x: &[f64]| {
+                let mut a = [0.0; 26];
+                a.copy_from_slice(&x[..26]);
+                Benchmark::from_array(&a)
+            }),
+        }
+    }
+
+    /// The lab's bicycle: inputs are its masses and inertia entries (with their standard errors).
+    pub fn from_lab(name: &str, bike: &LabBike) -> Parametrized {
+        let mut inputs = Inputs::new();
+        for body in [&bike.rear_wheel, &bike.frame, &bike.handlebar, &bike.front_wheel] {
+            inputs.push(Measured::new(body.mass_kg, body.mass_se_kg));
+            inputs.push(Measured::new(body.ixx_kgm2, body.ixx_se_kgm2));
+            inputs.push(Measured::new(body.iyy_kgm2, body.iyy_se_kgm2));
+            inputs.push(Measured::new(body.izz_kgm2, body.izz_se_kgm2));
+            inputs.push(Measured::new(body.ixz_kgm2, body.ixz_se_kgm2));
+        }
+        let bike = bike.clone();
+        Parametrized {
+            name: name.into(),
+            inputs,
+            build: Box::new(move |x: &[f64]| {
+                let mut b = bike.clone();
+                for (k, body) in [&mut b.rear_wheel, &mut b.frame, &mut b.handlebar, &mut b.front_wheel].into_iter().enumerate() {
+                    let v = &x[5 * k..5 * k + 5];
+                    body.mass_kg = v[0];
+                    body.ixx_kgm2 = v[1];
+                    body.iyy_kgm2 = v[2];
+                    body.izz_kgm2 = v[3];
+                    body.ixz_kgm2 = v[4];
+                }
+                lab_to_benchmark(&b)
+            }),
+        }
+    }
+
+    /// The benchmark parameters at given input values.
+    pub fn benchmark_at(&self, x: &[f64]) -> Benchmark {
+        (self.build)(x)
+    }
+
+    /// The nominal benchmark parameters, with standard errors propagated from the inputs.
+    pub fn nominal(&self) -> Benchmark {
+        let (y, cov) = crate::uncertainty::propagate(&self.inputs, |x| self.benchmark_at(x).to_array().to_vec());
+        let mut a = [0.0; 26];
+        a.copy_from_slice(&y);
+        let mut b = Benchmark::from_array(&a);
+        for k in 0..26 {
+            b.se[k] = cov[(k, k)].max(0.0).sqrt();
+        }
+        b
+    }
+}
+
+
+/// The characteristic speeds with their standard errors.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SpeedsWithSe {
+    pub stability: Stability,
+    pub weave_speed_se_mps: Option<f64>,
+    pub capsize_speed_se_mps: Option<f64>,
+}
+
+/// Eigenvalues against speed with standard errors of their real and imaginary parts.
+#[derive(Debug, Clone)]
+pub struct Bands {
+    pub sweep: super::Sweep,
+    /// Per speed and branch: (se of the real part, se of the imaginary part).
+    pub se: Vec<[(f64, f64); 4]>,
+}
+
+/// The speed where `max_real` changes sign within ±0.02 m/s of `v0` (the perturbations of the
+/// propagation move it by far less), or `NaN`.
+fn crossing_near(c: &Canonical, v0: f64) -> f64 {
+    let (a, b) = ((v0 - 0.02).max(0.0), v0 + 0.02);
+    let (fa, fb) = (c.max_real(a), c.max_real(b));
+    if !(fa.is_finite() && fb.is_finite()) || (fa < 0.0) == (fb < 0.0) {
+        return f64::NAN;
+    }
+    super::bisect(a, b, |v| c.max_real(v))
+}
+
+impl Parametrized {
+    /// Stability in `[0, v_max]` and the standard errors of the weave and capsize speeds.
+    pub fn speeds(&self, v_max: f64, step: f64) -> Result<SpeedsWithSe, ParamError> {
+        let nominal = Canonical::from_benchmark(&self.benchmark_at(self.inputs.values()));
+        let stability = nominal.stability(v_max, step)?;
+        let se_of = |v0: Option<f64>| -> Option<f64> {
+            let v0 = v0?;
+            let (_, cov) = propagate(&self.inputs, |x| vec![crossing_near(&Canonical::from_benchmark(&self.benchmark_at(x)), v0)]);
+            let var = cov[(0, 0)];
+            var.is_finite().then(|| var.max(0.0).sqrt())
+        };
+        Ok(SpeedsWithSe { weave_speed_se_mps: se_of(stability.weave_speed_mps), capsize_speed_se_mps: se_of(stability.capsize_speed_mps), stability })
+    }
+
+    /// Named eigenvalues at `speeds` with the standard errors of their parts.
+    pub fn bands(&self, speeds: &[f64]) -> Result<Bands, ParamError> {
+        let nominal = Canonical::from_benchmark(&self.benchmark_at(self.inputs.values()));
+        let sweep = nominal.sweep(speeds)?;
+        let (_, cov) = propagate(&self.inputs, |x| {
+            let c = Canonical::from_benchmark(&self.benchmark_at(x));
+            let mut out = Vec::with_capacity(8 * speeds.len());
+            for (i, &v) in speeds.iter().enumerate() {
+                let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
+                let m = super::match_order(&sweep.eigenvalues[i], &ev);
+                for z in m {
+                    out.push(z.re);
+                    out.push(z.im);
+                }
+            }
+            out
+        });
+        let se = (0..speeds.len())
+            .map(|i| {
+                let mut row = [(0.0, 0.0); 4];
+                for (k, r) in row.iter_mut().enumerate() {
+                    let j = 8 * i + 2 * k;
+                    *r = (cov[(j, j)].max(0.0).sqrt(), cov[(j + 1, j + 1)].max(0.0).sqrt());
+                }
+                row
+            })
+            .collect();
+        Ok(Bands { sweep, se })
+    }
+}
+
+/// Loads any bicycle file as a parametrized model: a lab bicycle (TOML with `[geometry]`)
+/// keeps its measured inputs; other files are their own benchmark parameters.
+pub fn load(path: &Path) -> Result<Parametrized, ParamError> {
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid { path: path.to_path_buf(), message: format!("cannot read: {e}") })?;
+    if path.extension().is_some_and(|e| e == "toml") && text.lines().any(|l| l.trim() == "[geometry]") {
+        let bike = LabBike::load(path).map_err(|e| ParamError::Invalid { path: path.to_path_buf(), message: e.to_string() })?;
+        let p = Parametrized::from_lab(&name, &bike);
+        p.benchmark_at(p.inputs.values()).validate(path)?;
+        return Ok(p);
+    }
+    Ok(Parametrized::from_benchmark(&name, &Benchmark::load(path)?))
+}
