@@ -133,3 +133,12 @@ fn fit_one_60_s_signal(bencher: divan::Bencher) {
     let sig = sixty_second_signal();
     bencher.bench(|| fit::analyse(divan::black_box(sig), &FitOptions::default()).expect("fits"));
 }
+
+/// The benchmark bicycle's eigenvalues at 10,001 speeds (0–10 m/s), named and tracked.
+#[divan::bench(sample_count = 30)]
+fn sweep_10001_speeds(bencher: divan::Bencher) {
+    let c =
+        bikeproc::model::Canonical::from_benchmark(&bikeproc::model::Benchmark::meijaard_2007());
+    let speeds: Vec<f64> = (0..=10_000).map(|i| i as f64 * 0.001).collect();
+    bencher.bench(|| c.sweep(divan::black_box(&speeds)).expect("sweeps"));
+}

@@ -105,10 +105,20 @@ struct StabilityArgs {
 }
 
 fn parse_speeds(s: &str) -> Result<(f64, f64, f64), String> {
-    let parts: Vec<f64> = s.split(':').map(|p| p.trim().parse::<f64>().map_err(|_| format!("`{p}` is not a number"))).collect::<Result<_, _>>()?;
+    let parts: Vec<f64> = s
+        .split(':')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("`{p}` is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
     match parts[..] {
         [a, b, st] if a >= 0.0 && b > a && st > 0.0 && (b - a) / st <= 1e6 => Ok((a, b, st)),
-        _ => Err("expected START:END:STEP with 0 ≤ START < END and 0 < STEP (at most a million speeds)".into()),
+        _ => Err(
+            "expected START:END:STEP with 0 ≤ START < END and 0 < STEP (at most a million speeds)"
+                .into(),
+        ),
     }
 }
 
@@ -406,10 +416,13 @@ fn stability(a: StabilityArgs) -> Result<()> {
         p = uncertain::Parametrized::from_benchmark(&p.name, &b);
     }
     let (lo, hi, step) = a.speeds;
-    let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize).map(|i| lo + i as f64 * step).collect();
+    let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize)
+        .map(|i| lo + i as f64 * step)
+        .collect();
     let s = p.speeds(hi, step.min(0.01))?;
     let bands = p.bands(&speeds)?;
-    let report = model::report::StabilityReport::new(&p.name, &s, &bands);
+    let canonical = model::Canonical::from_benchmark(&p.benchmark_at(p.inputs.values()));
+    let report = model::report::StabilityReport::new(&p.name, &s, &bands, &canonical);
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

@@ -36,6 +36,10 @@ fn register_font() {
 #[derive(Debug, Clone, Copy)]
 pub enum Mark {
     Line,
+    /// A dashed line (imaginary parts, as in the seed's continuation diagrams).
+    Dashed,
+    /// A thin line (uncertainty bands).
+    Thin,
     Dots,
 }
 
@@ -107,6 +111,18 @@ pub fn chart(
     series: &[Series],
     log_y: bool,
 ) -> Result<String, PlotError> {
+    chart_shaded(title, x_label, y_label, series, log_y, &[])
+}
+
+/// As [`chart`], with x ranges shaded (stable speed ranges); linear y only.
+pub fn chart_shaded(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    log_y: bool,
+    shades: &[(f64, f64, RGBColor)],
+) -> Result<String, PlotError> {
     register_font();
     let pts = series.iter().flat_map(|s| s.points.iter());
     let (mut x0, mut x1, mut y0, mut y1) = (
@@ -163,6 +179,15 @@ pub fn chart(
             let mut chart = builder
                 .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
                 .map_err(|e| err(&e))?;
+            for &(a, b, color) in shades {
+                let rect = Rectangle::new(
+                    [(a.max(x0), y0 - pad), (b.min(x1), y1 + pad)],
+                    color.mix(0.12).filled(),
+                );
+                chart
+                    .draw_series(std::iter::once(rect))
+                    .map_err(|e| err(&e))?;
+            }
             chart
                 .configure_mesh()
                 .x_desc(x_label)
@@ -203,13 +228,21 @@ where
             Mark::Line => chart
                 .draw_series(LineSeries::new(pts, color.stroke_width(1)))
                 .map_err(|e| err(&e))?,
+            Mark::Thin => chart
+                .draw_series(LineSeries::new(pts, color.mix(0.45).stroke_width(1)))
+                .map_err(|e| err(&e))?,
+            Mark::Dashed => chart
+                .draw_series(DashedLineSeries::new(pts, 6, 4, color.stroke_width(1)))
+                .map_err(|e| err(&e))?,
             Mark::Dots => chart
                 .draw_series(pts.into_iter().map(|p| Circle::new(p, 2, color.filled())))
                 .map_err(|e| err(&e))?,
         };
-        anno.label(s.name.clone()).legend(move |(x, y)| {
-            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-        });
+        if !s.name.is_empty() {
+            anno.label(s.name.clone()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+        }
     }
     chart
         .configure_series_labels()
@@ -293,6 +326,114 @@ pub fn spectrum_svg(osc: &Oscillation, title: &str) -> Result<String, PlotError>
             },
         ],
         true,
+    )
+}
+
+/// One bicycle's continuation diagram: the named eigenvalues against speed, with ±2 standard
+/// error bands on the real parts.
+pub struct Continuation<'a> {
+    pub name: &'a str,
+    pub bands: &'a crate::model::uncertain::Bands,
+    pub stable: &'a [(f64, Option<f64>)],
+    pub color: RGBColor,
+    /// The second colour, for the real modes.
+    pub color_real: RGBColor,
+}
+
+/// Real parts (solid) and imaginary parts (dashed) of the eigenvalues against speed, as the
+/// seed's Figs. 14–17, for one or several bicycles; stable ranges shaded; bands at ±2 se.
+pub fn continuation_svg(
+    title: &str,
+    bikes: &[Continuation<'_>],
+    y_range: (f64, f64),
+) -> Result<String, PlotError> {
+    let mut series = Vec::new();
+    let mut shades = Vec::new();
+    for b in bikes {
+        let sw = &b.bands.sweep;
+        let pick =
+            |k: usize, f: &dyn Fn(nalgebra::Complex<f64>, (f64, f64)) -> f64| -> Vec<(f64, f64)> {
+                sw.speeds_mps
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &v)| {
+                        (
+                            v,
+                            f(sw.eigenvalues[i][k], b.bands.se[i][k]).clamp(y_range.0, y_range.1),
+                        )
+                    })
+                    .collect()
+            };
+        let multi = bikes.len() > 1;
+        let label = |what: &str| {
+            if multi {
+                format!("{}: {what}", b.name)
+            } else {
+                what.to_string()
+            }
+        };
+        series.push(Series {
+            name: label("weave, real part"),
+            points: pick(0, &|z, _| z.re),
+            color: b.color,
+            mark: Mark::Line,
+        });
+        series.push(Series {
+            name: label("weave, imaginary part"),
+            points: pick(0, &|z, _| z.im.abs()),
+            color: b.color,
+            mark: Mark::Dashed,
+        });
+        series.push(Series {
+            name: label("capsize and castor, real parts"),
+            points: pick(2, &|z, _| z.re),
+            color: b.color_real,
+            mark: Mark::Line,
+        });
+        series.push(Series {
+            name: String::new(),
+            points: pick(3, &|z, _| z.re),
+            color: b.color_real,
+            mark: Mark::Line,
+        });
+        for k in [0, 2, 3] {
+            for sign in [-2.0, 2.0] {
+                let c = if k == 0 { b.color } else { b.color_real };
+                series.push(Series {
+                    name: String::new(),
+                    points: pick(k, &|z, se| z.re + sign * se.0),
+                    color: c,
+                    mark: Mark::Thin,
+                });
+            }
+        }
+        for &(lo, hi) in b.stable {
+            shades.push((lo, hi.unwrap_or(f64::INFINITY), b.color));
+        }
+    }
+    // Keep the y axis on the chosen range.
+    let xs = bikes
+        .first()
+        .map(|b| {
+            (
+                b.bands.sweep.speeds_mps[0],
+                *b.bands.sweep.speeds_mps.last().unwrap_or(&1.0),
+            )
+        })
+        .unwrap_or((0.0, 1.0));
+    series.push(Series {
+        name: String::new(),
+        points: vec![(xs.0, y_range.0), (xs.1, y_range.1)],
+        color: WHITE,
+        mark: Mark::Dots,
+    });
+    chart_shaded(
+        title,
+        "speed (m/s)",
+        "eigenvalue (1/s)",
+        &series,
+        false,
+        &shades,
     )
 }
 

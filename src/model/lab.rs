@@ -45,7 +45,10 @@ pub fn lab_to_benchmark(bike: &LabBike) -> Benchmark {
     let (x_b, z_b) = down(g.frame_cg_from_rear_hub_m);
     let g4 = g.handlebar_cg_from_rear_hub_m;
     let (x_h, z_h) = down(g4);
-    let g5 = [g4[0] + g.front_hub_from_handlebar_cg_m[0], g4[1] + g.front_hub_from_handlebar_cg_m[1]];
+    let g5 = [
+        g4[0] + g.front_hub_from_handlebar_cg_m[0],
+        g4[1] + g.front_hub_from_handlebar_cg_m[1],
+    ];
     let w = g5[0];
     let lambda = (-sb).atan2(cb);
     let ground_z = g5[1] - rd;
@@ -86,7 +89,10 @@ pub fn lab_to_benchmark(bike: &LabBike) -> Benchmark {
 
 /// Loads a lab bicycle file as benchmark parameters with propagated standard errors.
 pub fn load_lab_bike(path: &Path) -> Result<Benchmark, ParamError> {
-    let bike = LabBike::load(path).map_err(|e| ParamError::Invalid { path: path.to_path_buf(), message: e.to_string() })?;
+    let bike = LabBike::load(path).map_err(|e| ParamError::Invalid {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let b = super::uncertain::Parametrized::from_lab("lab", &bike).nominal();
     b.validate(path)?;
     Ok(b)

@@ -44,17 +44,33 @@ impl Canonical {
         let m_t = p.m_r + p.m_b + p.m_h + p.m_f;
         let x_t = (p.x_b * p.m_b + p.x_h * p.m_h + p.w * p.m_f) / m_t;
         let z_t = (-p.r_r * p.m_r + p.z_b * p.m_b + p.z_h * p.m_h - p.r_f * p.m_f) / m_t;
-        let i_txx = p.i_rxx + p.i_bxx + p.i_hxx + p.i_fxx + p.m_r * p.r_r * p.r_r + p.m_b * p.z_b * p.z_b + p.m_h * p.z_h * p.z_h + p.m_f * p.r_f * p.r_f;
-        let i_txz = p.i_bxz + p.i_hxz - p.m_b * p.x_b * p.z_b - p.m_h * p.x_h * p.z_h + p.m_f * p.w * p.r_f;
+        let i_txx = p.i_rxx
+            + p.i_bxx
+            + p.i_hxx
+            + p.i_fxx
+            + p.m_r * p.r_r * p.r_r
+            + p.m_b * p.z_b * p.z_b
+            + p.m_h * p.z_h * p.z_h
+            + p.m_f * p.r_f * p.r_f;
+        let i_txz =
+            p.i_bxz + p.i_hxz - p.m_b * p.x_b * p.z_b - p.m_h * p.x_h * p.z_h + p.m_f * p.w * p.r_f;
         // (A 7): wheels are symmetric, I_zz = I_xx.
         let (i_rzz, i_fzz) = (p.i_rxx, p.i_fxx);
-        let i_tzz = i_rzz + p.i_bzz + p.i_hzz + i_fzz + p.m_b * p.x_b * p.x_b + p.m_h * p.x_h * p.x_h + p.m_f * p.w * p.w;
+        let i_tzz = i_rzz
+            + p.i_bzz
+            + p.i_hzz
+            + i_fzz
+            + p.m_b * p.x_b * p.x_b
+            + p.m_h * p.x_h * p.x_h
+            + p.m_f * p.w * p.w;
         // (A 9)–(A 15): the front assembly A = handlebar and fork + front wheel.
         let m_a = p.m_h + p.m_f;
         let x_a = (p.x_h * p.m_h + p.w * p.m_f) / m_a;
         let z_a = (p.z_h * p.m_h - p.r_f * p.m_f) / m_a;
-        let i_axx = p.i_hxx + p.i_fxx + p.m_h * (p.z_h - z_a).powi(2) + p.m_f * (p.r_f + z_a).powi(2);
-        let i_axz = p.i_hxz - p.m_h * (p.x_h - x_a) * (p.z_h - z_a) + p.m_f * (p.w - x_a) * (p.r_f + z_a);
+        let i_axx =
+            p.i_hxx + p.i_fxx + p.m_h * (p.z_h - z_a).powi(2) + p.m_f * (p.r_f + z_a).powi(2);
+        let i_axz =
+            p.i_hxz - p.m_h * (p.x_h - x_a) * (p.z_h - z_a) + p.m_f * (p.w - x_a) * (p.r_f + z_a);
         let i_azz = p.i_hzz + i_fzz + p.m_h * (p.x_h - x_a).powi(2) + p.m_f * (p.w - x_a).powi(2);
         // (A 16)–(A 19): about the steer axis.
         let u_a = (x_a - p.w - p.c) * cl - z_a * sl;
@@ -72,7 +88,12 @@ impl Canonical {
         Canonical {
             m: Matrix2::new(i_txx, m12, m12, i_all + 2.0 * mu * i_alz + mu * mu * i_tzz),
             k0: Matrix2::new(m_t * z_t, -s_a, -s_a, -s_a * sl),
-            k2: Matrix2::new(0.0, (s_t - m_t * z_t) / p.w * cl, 0.0, (s_a + s_f * sl) / p.w * cl),
+            k2: Matrix2::new(
+                0.0,
+                (s_t - m_t * z_t) / p.w * cl,
+                0.0,
+                (s_a + s_f * sl) / p.w * cl,
+            ),
             c1: Matrix2::new(
                 0.0,
                 mu * s_t + s_f * cl + i_txz / p.w * cl - mu * m_t * z_t,
@@ -102,17 +123,43 @@ impl Canonical {
     }
 
     /// The four eigenvalues at speed `v`, sorted by real part then imaginary part.
+    ///
+    /// Through a real Schur decomposition with an iteration limit: nalgebra's
+    /// `complex_eigenvalues()` iterates without one, and its Francis iteration (no exceptional
+    /// shifts) can stagnate forever, e.g. on a matrix with two complex pairs of similar modulus.
+    /// When it does not converge, the same eigenvalues are taken from similar matrices: the
+    /// transpose, then the order-reversed matrix and its transpose. `None` when all fail or M is
+    /// singular.
     pub fn eigenvalues(&self, v: f64) -> Option<[Complex<f64>; 4]> {
-        let a = self.state_matrix(v)?;
-        let ev = a.complex_eigenvalues();
+        eigenvalues_of(&self.state_matrix(v)?)
+    }
+}
+
+/// The eigenvalues of a real 4×4 matrix, sorted by real then imaginary part (see
+/// [`Canonical::eigenvalues`] for why not nalgebra's `complex_eigenvalues()`).
+pub fn eigenvalues_of(a: &Matrix4<f64>) -> Option<[Complex<f64>; 4]> {
+    {
+        let a = *a;
+        if !a.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let reversed = Matrix4::from_fn(|r, c| a[(3 - r, 3 - c)]);
+        let schur = [a, a.transpose(), reversed, reversed.transpose()]
+            .into_iter()
+            .find_map(|m| nalgebra::Schur::try_new(m, f64::EPSILON, 500))?;
+        let ev = schur.complex_eigenvalues();
         let mut out = [ev[0], ev[1], ev[2], ev[3]];
         out.sort_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)));
         Some(out)
     }
+}
 
+impl Canonical {
     /// The largest real part at speed `v`: the bicycle is stable where it is negative.
     pub fn max_real(&self, v: f64) -> f64 {
-        self.eigenvalues(v).map_or(f64::NAN, |e| e.iter().map(|z| z.re).fold(f64::NEG_INFINITY, f64::max))
+        self.eigenvalues(v).map_or(f64::NAN, |e| {
+            e.iter().map(|z| z.re).fold(f64::NEG_INFINITY, f64::max)
+        })
     }
 
     /// A right eigenvector of the state matrix for eigenvalue `lambda` (the mode shape), by
@@ -120,7 +167,8 @@ impl Canonical {
     /// are roll and steer.
     pub fn mode_shape(&self, v: f64, lambda: Complex<f64>) -> Option<[Complex<f64>; 4]> {
         let a = self.state_matrix(v)?.map(|x| Complex::new(x, 0.0));
-        let shift = lambda + Complex::new(1e-9 * (1.0 + lambda.norm()), 1e-9 * (1.0 + lambda.norm()));
+        let shift =
+            lambda + Complex::new(1e-9 * (1.0 + lambda.norm()), 1e-9 * (1.0 + lambda.norm()));
         let lu = (a - Matrix4::<Complex<f64>>::identity() * shift).lu();
         let mut x = nalgebra::Vector4::from_element(Complex::new(1.0, 0.0));
         for _ in 0..3 {
@@ -211,7 +259,9 @@ impl Canonical {
         let mut out = vec![[Complex::new(0.0, 0.0); 4]; speeds_mps.len()];
         let mut prev: Option<[Complex<f64>; 4]> = None;
         for i in order {
-            let ev = self.eigenvalues(speeds_mps[i]).ok_or(ParamError::SingularMass)?;
+            let ev = self
+                .eigenvalues(speeds_mps[i])
+                .ok_or(ParamError::SingularMass)?;
             let named = match prev {
                 None => name_at(&ev),
                 Some(p) => match_order(&p, &ev),
@@ -219,7 +269,16 @@ impl Canonical {
             out[i] = named;
             prev = Some(named);
         }
-        Ok(Sweep { speeds_mps: speeds_mps.to_vec(), eigenvalues: out, modes: [Mode::Weave, Mode::WeaveConjugate, Mode::Capsize, Mode::Castor] })
+        Ok(Sweep {
+            speeds_mps: speeds_mps.to_vec(),
+            eigenvalues: out,
+            modes: [
+                Mode::Weave,
+                Mode::WeaveConjugate,
+                Mode::Capsize,
+                Mode::Castor,
+            ],
+        })
     }
 }
 
@@ -286,8 +345,16 @@ impl Canonical {
             if (mr[i - 1] < 0.0) != (mr[i] < 0.0) {
                 let v = bisect(speeds[i - 1], speeds[i], |v| self.max_real(v));
                 let ev = self.eigenvalues(v).ok_or(ParamError::SingularMass)?;
-                let top = ev.iter().max_by(|a, b| a.re.total_cmp(&b.re)).copied().unwrap_or_default();
-                crossings.push(Crossing { speed_mps: v, becomes_stable: mr[i] < 0.0, oscillatory: top.im.abs() > 1e-6 });
+                let top = ev
+                    .iter()
+                    .max_by(|a, b| a.re.total_cmp(&b.re))
+                    .copied()
+                    .unwrap_or_default();
+                crossings.push(Crossing {
+                    speed_mps: v,
+                    becomes_stable: mr[i] < 0.0,
+                    oscillatory: top.im.abs() > 1e-6,
+                });
             }
         }
         let mut ranges = Vec::new();
@@ -302,23 +369,46 @@ impl Canonical {
         if let Some(l) = lo {
             ranges.push((l, None));
         }
-        let weave = crossings.iter().find(|c| c.becomes_stable && c.oscillatory).map(|c| c.speed_mps);
-        let capsize = crossings.iter().find(|c| !c.becomes_stable && !c.oscillatory && weave.is_none_or(|w| c.speed_mps > w)).map(|c| c.speed_mps);
+        let weave = crossings
+            .iter()
+            .find(|c| c.becomes_stable && c.oscillatory)
+            .map(|c| c.speed_mps);
+        let capsize = crossings
+            .iter()
+            .find(|c| !c.becomes_stable && !c.oscillatory && weave.is_none_or(|w| c.speed_mps > w))
+            .map(|c| c.speed_mps);
         // The weave pair's merge: below the weave speed, the highest speed with no complex
         // eigenvalue near the weave branch.
         let sweep = self.sweep(&speeds)?;
-        let complex_count = |v: f64| self.eigenvalues(v).map_or(0, |ev| ev.iter().filter(|z| z.im.abs() > 1e-7).count());
+        let complex_count = |v: f64| {
+            self.eigenvalues(v)
+                .map_or(0, |ev| ev.iter().filter(|z| z.im.abs() > 1e-7).count())
+        };
         let merge = weave.and_then(|w| {
             let idx = speeds.iter().rposition(|&v| v <= w)?;
-            let j = (0..=idx).rev().find(|&j| sweep.eigenvalues[j][0].im.abs() < 1e-9)?;
+            let j = (0..=idx)
+                .rev()
+                .find(|&j| sweep.eigenvalues[j][0].im.abs() < 1e-9)?;
             if j + 1 >= speeds.len() {
                 return None;
             }
             // The number of complex eigenvalues changes where the weave's real pair merges.
             let below = complex_count(speeds[j]);
-            Some(bisect(speeds[j], speeds[j + 1], |v| if complex_count(v) > below { 1.0 } else { -1.0 }))
+            Some(bisect(speeds[j], speeds[j + 1], |v| {
+                if complex_count(v) > below {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }))
         });
-        Ok(Stability { stable_ranges_mps: ranges, crossings, weave_speed_mps: weave, capsize_speed_mps: capsize, weave_merge_speed_mps: merge })
+        Ok(Stability {
+            stable_ranges_mps: ranges,
+            crossings,
+            weave_speed_mps: weave,
+            capsize_speed_mps: capsize,
+            weave_merge_speed_mps: merge,
+        })
     }
 }
 
@@ -327,19 +417,93 @@ mod tests {
     use super::*;
 
     #[test]
+    fn mode_shapes_are_eigenvectors() {
+        let c = Canonical::from_benchmark(&Benchmark::meijaard_2007());
+        for v in [1.0, 5.0, 8.0] {
+            let a = c.state_matrix(v).unwrap().map(|x| Complex::new(x, 0.0));
+            for lambda in c.eigenvalues(v).unwrap() {
+                let m = c.mode_shape(v, lambda).unwrap();
+                let x = nalgebra::Vector4::new(m[0], m[1], m[2], m[3]);
+                let r = (a * x - x * lambda).norm();
+                assert!(r < 1e-8, "v = {v}, λ = {lambda}: residual {r}");
+                // The state holds the angles and their rates: rates = λ·angles.
+                assert!(
+                    (m[2] - m[0] * lambda).norm() < 1e-8 && (m[3] - m[1] * lambda).norm() < 1e-8
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn eigenvalues_where_nalgebras_francis_iteration_stagnates() {
+        // A state matrix of the lab bicycle (a Monte Carlo draw at 1.24 m/s) on which
+        // `Schur::try_new` never converges; its transpose does.
+        let a = Matrix4::new(
+            0.0,
+            0.0,
+            1.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+            15.092852850371253,
+            -2.0322055634793577,
+            -0.47880788461045326,
+            -1.1919159002898172,
+            1.5465328770071665,
+            10.15522753343885,
+            5.212423607350845,
+            -2.221382804670737,
+        );
+        assert!(nalgebra::Schur::try_new(a, f64::EPSILON, 10_000).is_none());
+        let ev = eigenvalues_of(&a).unwrap();
+        for z in ev {
+            // det(A − zI) = 0 to rounding.
+            let m = a.map(|x| Complex::new(x, 0.0)) - Matrix4::<Complex<f64>>::identity() * z;
+            assert!(m.determinant().norm() < 1e-10, "{z}");
+        }
+        assert!(
+            (ev[3].re - 2.7310498958369887).abs() < 1e-12
+                && (ev[0].re + 4.081145240477584).abs() < 1e-12
+        );
+    }
+
+    #[test]
     fn benchmark_matrices_match_meijaard_2007() {
         let c = Canonical::from_benchmark(&Benchmark::meijaard_2007());
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-13 * b.abs().max(1.0);
-        let want_m = [[80.81722, 2.31941332208709], [2.31941332208709, 0.29784188199686]];
-        let want_c1 = [[0.0, 33.86641391492494], [-0.85035641456978, 1.68540397397560]];
-        let want_k0 = [[-80.95, -2.59951685249872], [-2.59951685249872, -0.80329488458618]];
+        let want_m = [
+            [80.81722, 2.31941332208709],
+            [2.31941332208709, 0.29784188199686],
+        ];
+        let want_c1 = [
+            [0.0, 33.86641391492494],
+            [-0.85035641456978, 1.68540397397560],
+        ];
+        let want_k0 = [
+            [-80.95, -2.59951685249872],
+            [-2.59951685249872, -0.80329488458618],
+        ];
         let want_k2 = [[0.0, 76.59734589573222], [0.0, 2.65431523794604]];
         for r in 0..2 {
             for s in 0..2 {
                 assert!(close(c.m[(r, s)], want_m[r][s]), "M{r}{s} {}", c.m[(r, s)]);
-                assert!(close(c.c1[(r, s)], want_c1[r][s]), "C1{r}{s} {}", c.c1[(r, s)]);
-                assert!(close(c.k0[(r, s)] * 1.0, want_k0[r][s]), "K0{r}{s} {}", c.k0[(r, s)]);
-                assert!(close(c.k2[(r, s)], want_k2[r][s]), "K2{r}{s} {}", c.k2[(r, s)]);
+                assert!(
+                    close(c.c1[(r, s)], want_c1[r][s]),
+                    "C1{r}{s} {}",
+                    c.c1[(r, s)]
+                );
+                assert!(
+                    close(c.k0[(r, s)] * 1.0, want_k0[r][s]),
+                    "K0{r}{s} {}",
+                    c.k0[(r, s)]
+                );
+                assert!(
+                    close(c.k2[(r, s)], want_k2[r][s]),
+                    "K2{r}{s} {}",
+                    c.k2[(r, s)]
+                );
             }
         }
     }

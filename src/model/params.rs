@@ -9,7 +9,11 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
     #[error("{path}:{line}: {message}")]
-    Parse { path: PathBuf, line: usize, message: String },
+    Parse {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
     #[error("{path}: missing parameter `{name}`")]
     Missing { path: PathBuf, name: String },
     #[error("{path}: {message}")]
@@ -81,8 +85,32 @@ impl Benchmark {
     /// The benchmark bicycle of Meijaard et al. 2007, Table 1.
     pub fn meijaard_2007() -> Benchmark {
         Benchmark::from_array(&[
-            1.02, 0.08, std::f64::consts::PI / 10.0, 9.81, 0.3, 2.0, 0.0603, 0.12, 0.3, -0.9, 85.0, 9.2, 11.0, 2.8, 2.4, 0.9, -0.7, 4.0, 0.05892, 0.06, 0.00708,
-            -0.00756, 0.35, 3.0, 0.1405, 0.28,
+            1.02,
+            0.08,
+            std::f64::consts::PI / 10.0,
+            9.81,
+            0.3,
+            2.0,
+            0.0603,
+            0.12,
+            0.3,
+            -0.9,
+            85.0,
+            9.2,
+            11.0,
+            2.8,
+            2.4,
+            0.9,
+            -0.7,
+            4.0,
+            0.05892,
+            0.06,
+            0.00708,
+            -0.00756,
+            0.35,
+            3.0,
+            0.1405,
+            0.28,
         ])
     }
 
@@ -96,18 +124,31 @@ impl Benchmark {
             if line.is_empty() || line.starts_with('#') {
                 continue;
             }
-            let err = |message: String| ParamError::Parse { path: path.to_path_buf(), line: i + 1, message };
-            let (name, rest) = line.split_once('=').ok_or_else(|| err(format!("`{line}`: expected `name = value+/-sigma`")))?;
+            let err = |message: String| ParamError::Parse {
+                path: path.to_path_buf(),
+                line: i + 1,
+                message,
+            };
+            let (name, rest) = line
+                .split_once('=')
+                .ok_or_else(|| err(format!("`{line}`: expected `name = value+/-sigma`")))?;
             let name = name.trim();
             let (v, s) = match rest.split_once("+/-") {
                 Some((v, s)) => (v.trim(), Some(s.trim())),
                 None => (rest.trim(), None),
             };
-            let Some(k) = Benchmark::NAMES.iter().position(|n| *n == name) else { continue };
+            let Some(k) = Benchmark::NAMES.iter().position(|n| *n == name) else {
+                continue;
+            };
             let num = |t: &str| t.parse::<f64>().ok().filter(|x| x.is_finite());
-            values[k] = num(v).ok_or_else(|| err(format!("`{name} = {}`: expected a number", rest.trim())))?;
+            values[k] = num(v)
+                .ok_or_else(|| err(format!("`{name} = {}`: expected a number", rest.trim())))?;
             if let Some(s) = s {
-                se[k] = num(s).filter(|x| *x >= 0.0).ok_or_else(|| err(format!("`{name}`: standard error `{s}` is not a non-negative number")))?;
+                se[k] = num(s).filter(|x| *x >= 0.0).ok_or_else(|| {
+                    err(format!(
+                        "`{name}`: standard error `{s}` is not a non-negative number"
+                    ))
+                })?;
             }
         }
         if let Some(k) = values.iter().position(|v| v.is_nan()) {
@@ -117,7 +158,10 @@ impl Benchmark {
                     message: "no bicycle geometry (w, c, lam, g are missing): a rider's parameters? The model needs a whole bicycle".into(),
                 });
             }
-            return Err(ParamError::Missing { path: path.to_path_buf(), name: Benchmark::NAMES[k].into() });
+            return Err(ParamError::Missing {
+                path: path.to_path_buf(),
+                name: Benchmark::NAMES[k].into(),
+            });
         }
         let mut b = Benchmark::from_array(&values);
         b.se = se;
@@ -137,14 +181,28 @@ impl Benchmark {
     /// Reads TOML: `name = value` and optionally `name_se = sigma`, BicycleParameters' names.
     pub fn parse_toml(text: &str, path: &Path) -> Result<Benchmark, ParamError> {
         let table: toml::Table = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count()).unwrap_or(0);
-            ParamError::Parse { path: path.to_path_buf(), line, message: e.message().replace('\n', " ") }
+            let line = e
+                .span()
+                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count())
+                .unwrap_or(0);
+            ParamError::Parse {
+                path: path.to_path_buf(),
+                line,
+                message: e.message().replace('\n', " "),
+            }
         })?;
         let mut values = [0.0; 26];
         let mut se = [0.0; 26];
         for (k, name) in Benchmark::NAMES.iter().enumerate() {
-            let get = |key: &str| table.get(key).and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)));
-            values[k] = get(name).ok_or_else(|| ParamError::Missing { path: path.to_path_buf(), name: (*name).into() })?;
+            let get = |key: &str| {
+                table
+                    .get(key)
+                    .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
+            };
+            values[k] = get(name).ok_or_else(|| ParamError::Missing {
+                path: path.to_path_buf(),
+                name: (*name).into(),
+            })?;
             se[k] = get(&format!("{name}_se")).unwrap_or(0.0);
         }
         let mut b = Benchmark::from_array(&values);
@@ -168,7 +226,10 @@ impl Benchmark {
     /// Reads a file: TOML by extension, otherwise BicycleParameters' text, or the lab's
     /// bicycle format (a TOML with a `[geometry]` table).
     pub fn load(path: &Path) -> Result<Benchmark, ParamError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid { path: path.to_path_buf(), message: format!("cannot read: {e}") })?;
+        let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("cannot read: {e}"),
+        })?;
         if path.extension().is_some_and(|e| e == "toml") {
             if text.lines().any(|l| l.trim() == "[geometry]") {
                 return super::lab::load_lab_bike(path);
@@ -182,35 +243,67 @@ impl Benchmark {
     /// Physical checks: positive masses and radii (zero allowed for the two-mass-skate's
     /// massless wheels), positive-definite inertias, a wheelbase, a steer axis tilt within ±90°.
     pub fn validate(&self, path: &Path) -> Result<(), ParamError> {
-        let bad = |message: String| Err(ParamError::Invalid { path: path.to_path_buf(), message });
-        if !(self.w > 0.0) {
+        let bad = |message: String| {
+            Err(ParamError::Invalid {
+                path: path.to_path_buf(),
+                message,
+            })
+        };
+        if !is_positive(self.w) {
             return bad(format!("wheelbase w = {} m: expected positive", self.w));
         }
-        if !(self.lambda.abs() < std::f64::consts::FRAC_PI_2) {
-            return bad(format!("steer axis tilt lam = {} rad: expected within ±π/2", self.lambda));
+        if !is_positive(std::f64::consts::FRAC_PI_2 - self.lambda.abs()) {
+            return bad(format!(
+                "steer axis tilt lam = {} rad: expected within ±π/2",
+                self.lambda
+            ));
         }
-        if !(self.g > 0.0) {
+        if !is_positive(self.g) {
             return bad(format!("g = {}: expected positive", self.g));
         }
-        if !(self.m_b > 0.0) {
-            return bad(format!("rear body mass mB = {} kg: expected positive", self.m_b));
+        if !is_positive(self.m_b) {
+            return bad(format!(
+                "rear body mass mB = {} kg: expected positive",
+                self.m_b
+            ));
         }
-        for (name, v) in [("mR", self.m_r), ("mH", self.m_h), ("mF", self.m_f), ("rR", self.r_r), ("rF", self.r_f)] {
-            if !(v >= 0.0) {
+        for (name, v) in [
+            ("mR", self.m_r),
+            ("mH", self.m_h),
+            ("mF", self.m_f),
+            ("rR", self.r_r),
+            ("rF", self.r_f),
+        ] {
+            if !is_non_negative(v) {
                 return bad(format!("{name} = {v}: expected zero or positive"));
             }
         }
-        for (name, r, iyy) in [("rear", self.r_r, self.i_ryy), ("front", self.r_f, self.i_fyy)] {
+        for (name, r, iyy) in [
+            ("rear", self.r_r, self.i_ryy),
+            ("front", self.r_f, self.i_fyy),
+        ] {
             if r == 0.0 && iyy != 0.0 {
-                return bad(format!("{name} wheel: zero radius with spin inertia {iyy}: I/r has no limit"));
+                return bad(format!(
+                    "{name} wheel: zero radius with spin inertia {iyy}: I/r has no limit"
+                ));
             }
         }
-        for (body, xx, zz, xz) in [("B", self.i_bxx, self.i_bzz, self.i_bxz), ("H", self.i_hxx, self.i_hzz, self.i_hxz)] {
+        for (body, xx, zz, xz) in [
+            ("B", self.i_bxx, self.i_bzz, self.i_bxz),
+            ("H", self.i_hxx, self.i_hzz, self.i_hxz),
+        ] {
             if xx < 0.0 || zz < 0.0 || xx * zz - xz * xz < -1e-12 {
                 return bad(format!("I{body}xx = {xx}, I{body}zz = {zz}, I{body}xz = {xz}: not positive semi-definite"));
             }
         }
-        for (name, v) in [("IRxx", self.i_rxx), ("IRyy", self.i_ryy), ("IFxx", self.i_fxx), ("IFyy", self.i_fyy), ("IByy", self.i_byy), ("IHyy", self.i_hyy)] {
+        for (name, v) in [
+            ("IRxx", self.i_rxx),
+            ("IRyy", self.i_ryy),
+            ("IFxx", self.i_fxx),
+            ("IFyy", self.i_fyy),
+            ("IByy", self.i_byy),
+            ("IHyy", self.i_hyy),
+        ] {
             if v < 0.0 {
                 return bad(format!("{name} = {v}: expected zero or positive"));
             }
@@ -237,4 +330,14 @@ impl Benchmark {
     pub fn standard_errors(&self) -> [f64; 26] {
         self.se
     }
+}
+
+/// `x > 0`, and false for NaN.
+fn is_positive(x: f64) -> bool {
+    x > 0.0
+}
+
+/// `x ≥ 0`, and false for NaN.
+fn is_non_negative(x: f64) -> bool {
+    x >= 0.0
 }

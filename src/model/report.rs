@@ -11,6 +11,10 @@ pub struct EigenRow {
     pub weave: Part,
     pub capsize: Part,
     pub castor: Part,
+    /// The weave's mode shape: |δ/φ| and the phase of steer ahead of roll (deg); absent where
+    /// the weave is not oscillatory.
+    pub weave_steer_over_roll: Option<f64>,
+    pub weave_steer_phase_deg: Option<f64>,
 }
 
 /// A complex eigenvalue with the standard errors of its parts (1/s).
@@ -37,10 +41,20 @@ pub struct StabilityReport {
 }
 
 impl StabilityReport {
-    pub fn new(name: &str, s: &SpeedsWithSe, b: &Bands) -> StabilityReport {
+    pub fn new(
+        name: &str,
+        s: &SpeedsWithSe,
+        b: &Bands,
+        model: &super::Canonical,
+    ) -> StabilityReport {
         let part = |i: usize, k: usize| {
             let z = b.sweep.eigenvalues[i][k];
-            Part { re: z.re, im: z.im, re_se: b.se[i][k].0, im_se: b.se[i][k].1 }
+            Part {
+                re: z.re,
+                im: z.im,
+                re_se: b.se[i][k].0,
+                im_se: b.se[i][k].1,
+            }
         };
         StabilityReport {
             bike: name.into(),
@@ -51,7 +65,22 @@ impl StabilityReport {
             weave_merge_speed_mps: s.stability.weave_merge_speed_mps,
             stable_ranges_mps: s.stability.stable_ranges_mps.clone(),
             eigenvalues: (0..b.sweep.speeds_mps.len())
-                .map(|i| EigenRow { speed_mps: b.sweep.speeds_mps[i], weave: part(i, 0), capsize: part(i, 2), castor: part(i, 3) })
+                .map(|i| {
+                    let (v, w) = (b.sweep.speeds_mps[i], b.sweep.eigenvalues[i][0]);
+                    let shape = (w.im.abs() > 1e-9)
+                        .then(|| model.mode_shape(v, w))
+                        .flatten()
+                        .filter(|m| m[0].norm() > 0.0);
+                    let ratio = shape.map(|m| m[1] / m[0]);
+                    EigenRow {
+                        speed_mps: v,
+                        weave: part(i, 0),
+                        capsize: part(i, 2),
+                        castor: part(i, 3),
+                        weave_steer_over_roll: ratio.map(|r| r.norm()),
+                        weave_steer_phase_deg: ratio.map(|r| r.arg().to_degrees()),
+                    }
+                })
                 .collect(),
         }
     }
@@ -65,7 +94,11 @@ impl StabilityReport {
             },
             None => "none in the range".into(),
         };
-        let _ = writeln!(s, "{}: linearized Whipple model (Meijaard et al. 2007)", self.bike);
+        let _ = writeln!(
+            s,
+            "{}: linearized Whipple model (Meijaard et al. 2007)",
+            self.bike
+        );
         let ranges: Vec<String> = self
             .stable_ranges_mps
             .iter()
@@ -74,13 +107,36 @@ impl StabilityReport {
                 None => format!("above {lo:.4} m/s"),
             })
             .collect();
-        let _ = writeln!(s, "  stable         {}", if ranges.is_empty() { "at no speed in the range".to_string() } else { ranges.join(", ") });
-        let _ = writeln!(s, "  weave speed    {}", sp(self.weave_speed_mps, self.weave_speed_se_mps));
-        let _ = writeln!(s, "  capsize speed  {}", sp(self.capsize_speed_mps, self.capsize_speed_se_mps));
+        let _ = writeln!(
+            s,
+            "  stable         {}",
+            if ranges.is_empty() {
+                "at no speed in the range".to_string()
+            } else {
+                ranges.join(", ")
+            }
+        );
+        let _ = writeln!(
+            s,
+            "  weave speed    {}",
+            sp(self.weave_speed_mps, self.weave_speed_se_mps)
+        );
+        let _ = writeln!(
+            s,
+            "  capsize speed  {}",
+            sp(self.capsize_speed_mps, self.capsize_speed_se_mps)
+        );
         if let Some(m) = self.weave_merge_speed_mps {
-            let _ = writeln!(s, "  weave appears  {m:.4} m/s (its real pair merges into a complex pair)");
+            let _ = writeln!(
+                s,
+                "  weave appears  {m:.4} m/s (its real pair merges into a complex pair)"
+            );
         }
-        let _ = writeln!(s, "\n  {:>8}  {:>26}  {:>12}  {:>12}", "v (m/s)", "weave (1/s)", "capsize", "castor");
+        let _ = writeln!(
+            s,
+            "\n  {:>8}  {:>26}  {:>12}  {:>12}",
+            "v (m/s)", "weave (1/s)", "capsize", "castor"
+        );
         let every = (self.eigenvalues.len() / 20).max(1);
         for r in self.eigenvalues.iter().step_by(every) {
             let _ = writeln!(
@@ -90,9 +146,17 @@ impl StabilityReport {
                 r.weave.re,
                 r.weave.im,
                 r.capsize.re,
-                if r.capsize.im.abs() > 1e-9 { format!(" {:+.3}i", r.capsize.im) } else { String::new() },
+                if r.capsize.im.abs() > 1e-9 {
+                    format!(" {:+.3}i", r.capsize.im)
+                } else {
+                    String::new()
+                },
                 r.castor.re,
-                if r.castor.im.abs() > 1e-9 { format!(" {:+.3}i", r.castor.im) } else { String::new() },
+                if r.castor.im.abs() > 1e-9 {
+                    format!(" {:+.3}i", r.castor.im)
+                } else {
+                    String::new()
+                },
             );
         }
         s

@@ -10,13 +10,16 @@ use crate::uncertainty::{propagate, Inputs, Measured};
 use nalgebra::Complex;
 use std::path::Path;
 
+/// Inputs → benchmark parameters.
+type Builder = Box<dyn Fn(&[f64]) -> Benchmark + Send + Sync>;
+
 /// A bicycle whose benchmark parameters are a function of measured inputs: the
 /// uncertainties are propagated from those inputs (with their correlations through the
 /// conversion), not from the benchmark parameters.
 pub struct Parametrized {
     pub name: String,
     pub inputs: Inputs,
-    build: Box<dyn Fn(&[f64]) -> Benchmark + Send + Sync>,
+    build: Builder,
 }
 
 impl Parametrized {
@@ -40,7 +43,12 @@ impl Parametrized {
     /// The lab's bicycle: inputs are its masses and inertia entries (with their standard errors).
     pub fn from_lab(name: &str, bike: &LabBike) -> Parametrized {
         let mut inputs = Inputs::new();
-        for body in [&bike.rear_wheel, &bike.frame, &bike.handlebar, &bike.front_wheel] {
+        for body in [
+            &bike.rear_wheel,
+            &bike.frame,
+            &bike.handlebar,
+            &bike.front_wheel,
+        ] {
             inputs.push(Measured::new(body.mass_kg, body.mass_se_kg));
             inputs.push(Measured::new(body.ixx_kgm2, body.ixx_se_kgm2));
             inputs.push(Measured::new(body.iyy_kgm2, body.iyy_se_kgm2));
@@ -53,7 +61,15 @@ impl Parametrized {
             inputs,
             build: Box::new(move |x: &[f64]| {
                 let mut b = bike.clone();
-                for (k, body) in [&mut b.rear_wheel, &mut b.frame, &mut b.handlebar, &mut b.front_wheel].into_iter().enumerate() {
+                for (k, body) in [
+                    &mut b.rear_wheel,
+                    &mut b.frame,
+                    &mut b.handlebar,
+                    &mut b.front_wheel,
+                ]
+                .into_iter()
+                .enumerate()
+                {
                     let v = &x[5 * k..5 * k + 5];
                     body.mass_kg = v[0];
                     body.ixx_kgm2 = v[1];
@@ -73,7 +89,9 @@ impl Parametrized {
 
     /// The nominal benchmark parameters, with standard errors propagated from the inputs.
     pub fn nominal(&self) -> Benchmark {
-        let (y, cov) = crate::uncertainty::propagate(&self.inputs, |x| self.benchmark_at(x).to_array().to_vec());
+        let (y, cov) = crate::uncertainty::propagate(&self.inputs, |x| {
+            self.benchmark_at(x).to_array().to_vec()
+        });
         let mut a = [0.0; 26];
         a.copy_from_slice(&y);
         let mut b = Benchmark::from_array(&a);
@@ -83,7 +101,6 @@ impl Parametrized {
         b
     }
 }
-
 
 /// The characteristic speeds with their standard errors.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -119,11 +136,20 @@ impl Parametrized {
         let stability = nominal.stability(v_max, step)?;
         let se_of = |v0: Option<f64>| -> Option<f64> {
             let v0 = v0?;
-            let (_, cov) = propagate(&self.inputs, |x| vec![crossing_near(&Canonical::from_benchmark(&self.benchmark_at(x)), v0)]);
+            let (_, cov) = propagate(&self.inputs, |x| {
+                vec![crossing_near(
+                    &Canonical::from_benchmark(&self.benchmark_at(x)),
+                    v0,
+                )]
+            });
             let var = cov[(0, 0)];
             var.is_finite().then(|| var.max(0.0).sqrt())
         };
-        Ok(SpeedsWithSe { weave_speed_se_mps: se_of(stability.weave_speed_mps), capsize_speed_se_mps: se_of(stability.capsize_speed_mps), stability })
+        Ok(SpeedsWithSe {
+            weave_speed_se_mps: se_of(stability.weave_speed_mps),
+            capsize_speed_se_mps: se_of(stability.capsize_speed_mps),
+            stability,
+        })
     }
 
     /// Named eigenvalues at `speeds` with the standard errors of their parts.
@@ -148,7 +174,10 @@ impl Parametrized {
                 let mut row = [(0.0, 0.0); 4];
                 for (k, r) in row.iter_mut().enumerate() {
                     let j = 8 * i + 2 * k;
-                    *r = (cov[(j, j)].max(0.0).sqrt(), cov[(j + 1, j + 1)].max(0.0).sqrt());
+                    *r = (
+                        cov[(j, j)].max(0.0).sqrt(),
+                        cov[(j + 1, j + 1)].max(0.0).sqrt(),
+                    );
                 }
                 row
             })
@@ -160,10 +189,21 @@ impl Parametrized {
 /// Loads any bicycle file as a parametrized model: a lab bicycle (TOML with `[geometry]`)
 /// keeps its measured inputs; other files are their own benchmark parameters.
 pub fn load(path: &Path) -> Result<Parametrized, ParamError> {
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid { path: path.to_path_buf(), message: format!("cannot read: {e}") })?;
-    if path.extension().is_some_and(|e| e == "toml") && text.lines().any(|l| l.trim() == "[geometry]") {
-        let bike = LabBike::load(path).map_err(|e| ParamError::Invalid { path: path.to_path_buf(), message: e.to_string() })?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid {
+        path: path.to_path_buf(),
+        message: format!("cannot read: {e}"),
+    })?;
+    if path.extension().is_some_and(|e| e == "toml")
+        && text.lines().any(|l| l.trim() == "[geometry]")
+    {
+        let bike = LabBike::load(path).map_err(|e| ParamError::Invalid {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         let p = Parametrized::from_lab(&name, &bike);
         p.benchmark_at(p.inputs.values()).validate(path)?;
         return Ok(p);

@@ -1,0 +1,222 @@
+//! The linear Whipple model against the published benchmark (Meijaard et al. 2007), the lab's
+//! published bicycle (seed §6, Fig. 15), every reference bicycle, and the propagation of the
+//! parameters' uncertainty against a Monte Carlo.
+
+use bikeproc::model::{uncertain, Benchmark, Canonical};
+use bikeproc::sim::rng::Rng;
+use nalgebra::Complex;
+use std::path::{Path, PathBuf};
+
+fn reference(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/reference/bicycleparameters")
+        .join(name)
+}
+
+#[test]
+fn benchmark_file_reproduces_the_published_matrices_eigenvalues_and_speeds() {
+    let b = Benchmark::load(&reference("BenchmarkBenchmark.txt")).unwrap();
+    let c = Canonical::from_benchmark(&b);
+    let close = |a: f64, w: f64, tol: f64| (a - w).abs() <= tol * w.abs().max(1.0);
+    let m = [
+        [80.81722, 2.31941332208709],
+        [2.31941332208709, 0.29784188199686],
+    ];
+    let c1 = [
+        [0.0, 33.86641391492494],
+        [-0.85035641456978, 1.68540397397560],
+    ];
+    let k0 = [
+        [-80.95, -2.59951685249872],
+        [-2.59951685249872, -0.80329488458618],
+    ];
+    let k2 = [[0.0, 76.59734589573222], [0.0, 2.65431523794604]];
+    for r in 0..2 {
+        for s in 0..2 {
+            assert!(close(c.m[(r, s)], m[r][s], 1e-13) && close(c.c1[(r, s)], c1[r][s], 1e-13));
+            assert!(close(c.k0[(r, s)], k0[r][s], 1e-13) && close(c.k2[(r, s)], k2[r][s], 1e-13));
+        }
+    }
+    // Table 2 of the paper, as quoted in the issue.
+    let cases: [(f64, Vec<Complex<f64>>); 3] = [
+        (
+            0.0,
+            vec![
+                Complex::new(-5.53094371765393, 0.0),
+                Complex::new(-3.13164324790656, 0.0),
+                Complex::new(3.13164324790656, 0.0),
+                Complex::new(5.53094371765393, 0.0),
+            ],
+        ),
+        (
+            5.0,
+            vec![
+                Complex::new(-14.0783896927982, 0.0),
+                Complex::new(-0.77534188219585, -4.46486771378823),
+                Complex::new(-0.77534188219585, 4.46486771378823),
+                Complex::new(-0.32286642900409, 0.0),
+            ],
+        ),
+        (
+            10.0,
+            vec![
+                Complex::new(-24.62459635017404, 0.0),
+                Complex::new(-3.72016840437287, -10.90681139476287),
+                Complex::new(-3.72016840437287, 10.90681139476287),
+                Complex::new(0.16105338653172, 0.0),
+            ],
+        ),
+    ];
+    for (v, want) in cases {
+        let got = c.eigenvalues(v).unwrap();
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).norm() < 1e-12, "v = {v}: {g} vs {w}");
+        }
+    }
+    let s = c.stability(10.0, 0.01).unwrap();
+    assert!((s.weave_speed_mps.unwrap() - 4.29238253634111).abs() < 1e-10);
+    assert!((s.capsize_speed_mps.unwrap() - 6.02426201538837).abs() < 1e-10);
+    assert_eq!(s.stable_ranges_mps.len(), 1);
+}
+
+#[test]
+fn the_labs_published_bicycle_is_stable_from_3_14_to_5_40() {
+    // Seed Fig. 15 (not π: the seed's lower bound, 3.14 m/s).
+    let (seed_lo, seed_hi) = (314.0 / 100.0, 5.40);
+    let p = uncertain::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike_seed.toml"))
+        .unwrap();
+    let c = Canonical::from_benchmark(&p.nominal());
+    let s = c.stability(10.0, 0.01).unwrap();
+    let (lo, hi) = s.stable_ranges_mps[0];
+    assert!(
+        (lo - seed_lo).abs() < 0.01 && (hi.unwrap() - seed_hi).abs() < 0.01,
+        "{lo} – {hi:?}"
+    );
+    // Castor and capsize share one complex pair below about 2.5 m/s (seed §6.2).
+    let speeds: Vec<f64> = (0..=1000).map(|i| i as f64 * 0.01).collect();
+    let sw = c.sweep(&speeds).unwrap();
+    let split = speeds
+        .iter()
+        .zip(&sw.eigenvalues)
+        .find(|(v, e)| **v > 1.0 && e[2].im.abs() < 1e-9)
+        .map(|(v, _)| *v)
+        .unwrap();
+    assert!(
+        (2.3..2.7).contains(&split),
+        "castor and capsize split at {split}"
+    );
+    for (v, e) in speeds
+        .iter()
+        .zip(&sw.eigenvalues)
+        .filter(|(v, _)| **v > 1.0 && **v < split - 0.01)
+    {
+        assert!(
+            (e[2] - e[3].conj()).norm() < 1e-9 && e[2].im.abs() > 1e-6,
+            "v = {v}: {:?}",
+            e
+        );
+    }
+}
+
+#[test]
+fn every_reference_bicycle_gets_its_stable_range_or_a_clear_error() {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(reference(""))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().ends_with("Benchmark.txt"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 15);
+    for f in files {
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        match Benchmark::load(&f) {
+            Ok(b) => {
+                let s = Canonical::from_benchmark(&b)
+                    .stability(10.0, 0.01)
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+                assert!(!s.stable_ranges_mps.is_empty(), "{name}: no stable range");
+                for (lo, hi) in &s.stable_ranges_mps {
+                    assert!(
+                        lo.is_finite() && hi.is_none_or(|h| h.is_finite() && h > *lo),
+                        "{name}"
+                    );
+                }
+            }
+            Err(e) => {
+                assert!(name.starts_with("Jason"), "{name}: {e}");
+                assert!(
+                    e.to_string().contains(&name) && e.to_string().contains("rider"),
+                    "{e}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn linear_propagation_of_speed_uncertainty_agrees_with_a_monte_carlo() {
+    let p =
+        uncertain::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml")).unwrap();
+    let lin = p.speeds(10.0, 0.01).unwrap();
+    let (w_se, c_se) = (
+        lin.weave_speed_se_mps.unwrap(),
+        lin.capsize_speed_se_mps.unwrap(),
+    );
+    let x0 = p.inputs.values().to_vec();
+    let sd: Vec<f64> = {
+        let c = p.inputs.covariance();
+        (0..x0.len()).map(|i| c[(i, i)].sqrt()).collect()
+    };
+    let mut rng = Rng::new(42);
+    let (mut ws, mut cs) = (Vec::new(), Vec::new());
+    for _ in 0..500 {
+        let x: Vec<f64> = x0
+            .iter()
+            .zip(&sd)
+            .map(|(v, s)| v + s * rng.normal())
+            .collect();
+        let c = Canonical::from_benchmark(&p.benchmark_at(&x));
+        let s = c.stability(8.0, 0.02).unwrap();
+        if let (Some(w), Some(k)) = (s.weave_speed_mps, s.capsize_speed_mps) {
+            ws.push(w);
+            cs.push(k);
+        }
+    }
+    let std = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    };
+    let (mw, mc) = (std(&ws), std(&cs));
+    eprintln!("weave speed: linear {w_se:.4}, Monte Carlo {mw:.4}; capsize: linear {c_se:.4}, Monte Carlo {mc:.4}");
+    // 500 draws estimate a standard deviation to ±3 % (1σ); allow 15 %.
+    assert!((mw / w_se - 1.0).abs() < 0.15 && (mc / c_se - 1.0).abs() < 0.15);
+}
+
+#[test]
+fn stability_json_has_the_documented_fields() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+        .args([
+            "stability",
+            "--bike",
+            reference("BenchmarkBenchmark.txt").to_str().unwrap(),
+            "--speeds",
+            "0:10:1",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((v["weave_speed_mps"].as_f64().unwrap() - 4.29238253634111).abs() < 1e-10);
+    assert!((v["capsize_speed_mps"].as_f64().unwrap() - 6.02426201538837).abs() < 1e-10);
+    assert_eq!(
+        v["stable_ranges_mps"][0][1]
+            .as_f64()
+            .map(|h| (h * 1e6).round()),
+        Some(6024262.0)
+    );
+    assert_eq!(v["eigenvalues"].as_array().unwrap().len(), 11);
+    assert!(
+        (v["eigenvalues"][5]["weave"]["im"].as_f64().unwrap() - 4.46486771378823).abs() < 1e-12
+    );
+}
