@@ -98,6 +98,19 @@ pub fn load_lab_bike(path: &Path) -> Result<Benchmark, ParamError> {
     Ok(b)
 }
 
+/// The lab's geometry defines the steer axis through the handlebar's centre of gravity; a file
+/// that says otherwise cannot be converted.
+pub fn check_geometry(bike: &LabBike, path: &Path) -> Result<(), ParamError> {
+    if bike.geometry.handlebar_cg_on_steer_axis {
+        Ok(())
+    } else {
+        Err(ParamError::Invalid {
+            path: path.to_path_buf(),
+            message: "geometry.handlebar_cg_on_steer_axis = false: the lab's parametrization defines the steer axis through the handlebar's centre of gravity (seed §3); set it to true".into(),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
