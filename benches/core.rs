@@ -26,29 +26,17 @@ fn torsion() -> Pendulum {
 }
 
 fn spec(sensors: usize, mode: OutputMode) -> FileSpec {
-    FileSpec {
+    let mut s = FileSpec::single_sensor(
         mode,
-        locale: Locale::Tab,
-        precision: Precision::Sensor,
-        rate_hz: 100.0,
-        sensors: (0..sensors)
-            .map(|i| {
-                (
-                    format!("0030041{}", 7 + i),
-                    if i == 0 {
-                        "frame".into()
-                    } else {
-                        "handlebar".into()
-                    },
-                )
-            })
-            .collect(),
-        first_counter: 51_234,
-        start: "2009-03-12 11:42:07".into(),
-        extra_header: vec![],
-        declare_decimal: false,
-        jitter_s: 0.0005,
+        Locale::Tab,
+        Precision::Sensor,
+        ("00300417", "frame"),
+        51_234,
+    );
+    if sensors == 2 {
+        s.sensors.push(("00300418".into(), "handlebar".into()));
     }
+    s
 }
 
 /// A one-hour recording of two sensors (Euler), written once to a temporary file.

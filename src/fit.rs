@@ -520,16 +520,20 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
     let omega0 = 2.0 * PI * main_peak.freq_hz;
 
     let mut fit = fit_from_frequency(&t[i0..=i1], &x[i0..=i1], omega0, trend_for_search)?;
+    // Refit samples i0..=i1 from a previous fit's σ and ω.
+    let refit = |prev: &DampedFit, i0: usize, i1: usize| {
+        fit_from_guess(
+            &t[i0..=i1],
+            &x[i0..=i1],
+            prev.sigma().value,
+            prev.omega_d().value,
+            trend_for_search,
+        )
+    };
     if options.segment_s.is_none() {
         // After the first fit on the stretch of motion, the decay runs to the record's end.
         i1 = n - 1;
-        fit = fit_from_guess(
-            &t[i0..=i1],
-            &x[i0..=i1],
-            fit.sigma().value,
-            fit.omega_d().value,
-            trend_for_search,
-        )?;
+        fit = refit(&fit, i0, i1)?;
         for _ in 0..6 {
             let (start, end) = refine_segment(&fit, &t, x, i0, signal.sample_rate_hz);
             if start == i0 && end == i1 {
@@ -537,13 +541,7 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
             }
             i0 = start;
             i1 = end.max(i0 + 16).min(n - 1);
-            fit = fit_from_guess(
-                &t[i0..=i1],
-                &x[i0..=i1],
-                fit.sigma().value,
-                fit.omega_d().value,
-                trend_for_search,
-            )?;
+            fit = refit(&fit, i0, i1)?;
         }
     }
     // Final model: trend or not.

@@ -328,26 +328,16 @@ fn period(a: PeriodArgs) -> Result<()> {
     };
     let osc = fit::analyse(&sig, &options).with_context(|| format!("{}", a.file.display()))?;
     let summary = osc.summary(&sig);
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else {
-        print!("{}", summary.to_text(&a.file));
-    }
-    Ok(())
+    emit(a.json, &summary, || summary.to_text(&a.file))
 }
 
 fn calibrate_bar(a: CalibrateArgs) -> Result<()> {
     let cal = inertia::calibrate_bar(&a.dir)?;
     let out = a.dir.join(inertia::CALIBRATION_FILE);
     write_atomic(&out, cal.to_toml().as_bytes())?;
-    if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&text::calibration_json(&cal))?
-        );
-    } else {
-        print!("{}", text::calibration_text(&cal));
-    }
+    emit(a.json, &text::calibration_json(&cal), || {
+        text::calibration_text(&cal)
+    })?;
     eprintln!("wrote {}", out.display());
     Ok(())
 }
@@ -364,11 +354,7 @@ fn inertia_cmd(a: InertiaArgs) -> Result<()> {
             eprintln!("warning: {w}");
         }
         write_atomic(&bike_path, bike.to_toml().as_bytes())?;
-        if a.json {
-            println!("{}", serde_json::to_string_pretty(&bike)?);
-        } else {
-            print!("{}", bike.to_toml());
-        }
+        emit(a.json, &bike, || bike.to_toml())?;
         eprintln!("refreshed the inertias of {}", bike_path.display());
         return Ok(());
     }
@@ -380,22 +366,11 @@ fn inertia_cmd(a: InertiaArgs) -> Result<()> {
             for w in &r.tensor.warnings {
                 eprintln!("warning: {w}");
             }
-            if a.json {
-                println!("{}", serde_json::to_string_pretty(&text::torsion_json(&r))?);
-            } else {
-                print!("{}", text::torsion_text(&r));
-            }
+            emit(a.json, &text::torsion_json(&r), || text::torsion_text(&r))?;
         }
         Kind::Compound => {
             let r = inertia::compound(&dir)?;
-            if a.json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&text::compound_json(&r))?
-                );
-            } else {
-                print!("{}", text::compound_text(&r));
-            }
+            emit(a.json, &text::compound_json(&r), || text::compound_text(&r))?;
         }
         Kind::BarCalibration | Kind::EmptyFixture => {
             anyhow::bail!(inertia::InertiaError::Invalid {
@@ -423,12 +398,7 @@ fn stability(a: StabilityArgs) -> Result<()> {
     let bands = p.bands(&speeds)?;
     let canonical = model::Canonical::from_benchmark(&p.benchmark_at(p.inputs.values()));
     let report = model::report::StabilityReport::new(&p.name, &s, &bands, &canonical);
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", report.to_text());
-    }
-    Ok(())
+    emit(a.json, &report, || report.to_text())
 }
 
 fn simulate(s: SimCommand) -> Result<()> {
@@ -521,4 +491,14 @@ fn simulate(s: SimCommand) -> Result<()> {
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     bikeproc::report::write_atomic(path, bytes)
         .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Prints JSON (`--json`) or the plain text.
+fn emit<T: serde::Serialize>(json: bool, value: &T, text: impl FnOnce() -> String) -> Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(value)?);
+    } else {
+        print!("{}", text());
+    }
+    Ok(())
 }

@@ -630,6 +630,13 @@ fn model_report(
             .iter()
             .map(|r| r.stability.stable_ranges_mps.clone())
             .collect();
+        let second = |i: usize, name: &'static str| Continuation {
+            name,
+            bands: &bands[i],
+            stable: &stable[i],
+            color: green,
+            color_real: grey,
+        };
         let single = |i: usize, name: &'static str| Continuation {
             name,
             bands: &bands[i],
@@ -658,44 +665,17 @@ fn model_report(
             (
                 "model/benchmark_vs_lab.svg",
                 "benchmark (blue) and the lab's measured bicycle (green)",
-                vec![
-                    single(0, "benchmark"),
-                    Continuation {
-                        name: "lab, measured",
-                        bands: &bands[3],
-                        stable: &stable[3],
-                        color: green,
-                        color_real: grey,
-                    },
-                ],
+                vec![single(0, "benchmark"), second(3, "lab, measured")],
             ),
             (
                 "model/lab_published_vs_measured.svg",
                 "the lab's bicycle: published (blue) and measured (green)",
-                vec![
-                    single(2, "published"),
-                    Continuation {
-                        name: "measured",
-                        bands: &bands[3],
-                        stable: &stable[3],
-                        color: green,
-                        color_real: grey,
-                    },
-                ],
+                vec![single(2, "published"), second(3, "measured")],
             ),
             (
                 "model/benchmark_cg_on_axis.svg",
                 "benchmark (blue) and with its handlebar CG on the steer axis (green)",
-                vec![
-                    single(0, "benchmark"),
-                    Continuation {
-                        name: "CG on the axis",
-                        bands: &bands[1],
-                        stable: &stable[1],
-                        color: green,
-                        color_real: grey,
-                    },
-                ],
+                vec![single(0, "benchmark"), second(1, "CG on the axis")],
             ),
         ] {
             files.push((

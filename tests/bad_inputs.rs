@@ -75,18 +75,15 @@ fn valid_logs() -> Vec<String> {
             axis_heading_rad: 0.0,
             sensor_offset_m: nalgebra::Vector3::new(0.2, 0.0, 0.0),
         };
-        let spec = FileSpec {
+        let locale = if k == 1 { Locale::Spanish } else { Locale::Tab };
+        let mut spec = FileSpec::single_sensor(
             mode,
-            locale: if k == 1 { Locale::Spanish } else { Locale::Tab },
-            precision: Precision::Sensor,
-            rate_hz: 100.0,
-            sensors: vec![("00300417".into(), "frame".into())],
-            first_counter: 65_500,
-            start: "2009-03-12 11:42:07".into(),
-            extra_header: vec![],
-            declare_decimal: k == 1,
-            jitter_s: 0.0005,
-        };
+            locale,
+            Precision::Sensor,
+            ("00300417", "frame"),
+            65_500,
+        );
+        spec.declare_decimal = k == 1;
         let rec = bikeproc::sim::simulate_pendulum(
             &pend,
             &release,

@@ -165,18 +165,13 @@ fn the_cardan_swing_shows_as_a_secondary_peak() {
         axis_heading_rad: 0.0,
         sensor_offset_m: nalgebra::Vector3::new(0.3, 0.0, 0.0),
     };
-    let spec = FileSpec {
-        mode: OutputMode::Euler,
-        locale: Locale::Tab,
-        precision: Precision::Sensor,
-        rate_hz: 100.0,
-        sensors: vec![("00300417".into(), "frame".into())],
-        first_counter: 0,
-        start: "2009-03-12 11:42:07".into(),
-        extra_header: vec![],
-        declare_decimal: false,
-        jitter_s: 0.0005,
-    };
+    let spec = FileSpec::single_sensor(
+        OutputMode::Euler,
+        Locale::Tab,
+        Precision::Sensor,
+        ("00300417", "frame"),
+        0,
+    );
     let rec = bikeproc::sim::simulate_pendulum(
         &pend,
         &release,

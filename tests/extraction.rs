@@ -11,18 +11,9 @@ use bikeproc::sim::simulate_pendulum;
 use std::path::Path;
 
 fn spec(mode: OutputMode, locale: Locale, precision: Precision) -> FileSpec {
-    FileSpec {
-        mode,
-        locale,
-        precision,
-        rate_hz: 100.0,
-        sensors: vec![("00300418".into(), "handlebar".into())],
-        first_counter: 65_300,
-        start: "2009-03-12 11:42:07".into(),
-        extra_header: vec![("Operator".into(), "lab".into())],
-        declare_decimal: false,
-        jitter_s: 0.0005,
-    }
+    let mut s = FileSpec::single_sensor(mode, locale, precision, ("00300418", "handlebar"), 65_300);
+    s.extra_header = vec![("Operator".into(), "lab".into())];
+    s
 }
 
 /// The handlebar on the torsion bar (Table 6, test 1: 4.659 Hz) with a Cardan swing mode.

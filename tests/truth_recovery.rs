@@ -20,18 +20,7 @@ struct Trial {
 }
 
 fn spec(mode: OutputMode, locale: Locale, precision: Precision) -> FileSpec {
-    FileSpec {
-        mode,
-        locale,
-        precision,
-        rate_hz: 100.0,
-        sensors: vec![("00300417".into(), "torsion bar".into())],
-        first_counter: 65_000,
-        start: "2009-03-12 11:42:07".into(),
-        extra_header: vec![],
-        declare_decimal: false,
-        jitter_s: 0.0005,
-    }
+    FileSpec::single_sensor(mode, locale, precision, ("00300417", "torsion bar"), 65_000)
 }
 
 /// One seeded torsion test with f, ζ, SNR and duration drawn from the acceptance ranges; half

@@ -253,6 +253,31 @@ pub struct FileSpec {
     pub jitter_s: f64,
 }
 
+impl FileSpec {
+    /// One sensor at 100 Hz, counter starting at `first_counter`, ±0.5 ms of receiver jitter,
+    /// no extra header lines.
+    pub fn single_sensor(
+        mode: OutputMode,
+        locale: Locale,
+        precision: Precision,
+        sensor: (&str, &str),
+        first_counter: u16,
+    ) -> FileSpec {
+        FileSpec {
+            mode,
+            locale,
+            precision,
+            rate_hz: 100.0,
+            sensors: vec![(sensor.0.to_string(), sensor.1.to_string())],
+            first_counter,
+            start: "2009-03-12 11:42:07".into(),
+            extra_header: vec![],
+            declare_decimal: false,
+            jitter_s: 0.0005,
+        }
+    }
+}
+
 fn fmt_num(out: &mut String, v: f64, decimals: usize, precision: Precision, comma: bool) {
     let start = out.len();
     match precision {
