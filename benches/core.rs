@@ -130,3 +130,18 @@ fn sweep_10001_speeds(bencher: divan::Bencher) {
     let speeds: Vec<f64> = (0..=10_000).map(|i| i as f64 * 0.001).collect();
     bencher.bench(|| c.sweep(divan::black_box(&speeds)).expect("sweeps"));
 }
+
+/// A 10 s coast of the nonlinear Whipple bicycle at 5 m/s after a roll kick, sampled at 100 Hz.
+#[divan::bench(sample_count = 20)]
+fn nonlinear_ride_10_s(bencher: divan::Bencher) {
+    use bikeproc::sim::whipple::{coast, upright_state, WhippleParams};
+    let p = WhippleParams::from_benchmark(&bikeproc::model::Benchmark::meijaard_2007());
+    let (q, qd) = upright_state(&p, 5.0, 0.0, 0.0, 0.5, 0.0).expect("upright");
+    let mut y = [0.0; 11];
+    y[..8].copy_from_slice(&q);
+    y[8] = qd[3];
+    y[9] = qd[5];
+    y[10] = qd[6];
+    bencher
+        .bench(|| coast(&p, divan::black_box(y), 10.0, 0.01, &Default::default()).expect("coasts"));
+}

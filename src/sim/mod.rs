@@ -11,8 +11,11 @@
 
 pub mod campaign;
 pub mod imu;
+pub mod jet;
+pub mod ode;
 pub mod pendulum;
 pub mod rng;
+pub mod whipple;
 
 use imu::{FileSpec, LinkModel, SensorModel};
 use pendulum::{Pendulum, PendulumTruth, Placement, Release};
