@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 const COUNTER_MODULUS: u64 = 65_536;
 
 /// How an orientation file encodes each sensor's rotation, or `Calibrated` for a `_cal` file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum OutputMode {
     /// `Roll Pitch Yaw` in degrees, aerospace Z-Y-X sequence.
     Euler,

@@ -135,12 +135,43 @@ enum SimCommand {
     Torsion(TorsionArgs),
     /// A body hung as a compound pendulum (defaults: the lab's frame, eq. 79).
     Compound(CompoundArgs),
+    /// A ride (seed §5.4): standstill, push, release, kick at the saddle, catch; the nonlinear
+    /// Whipple bicycle with the chosen effects, recorded by a frame and a handlebar sensor.
+    Ride(RideArgs),
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
     Campaign {
         /// Folder to write into.
         #[arg(long, default_value = "data")]
         out: PathBuf,
     },
+}
+
+#[derive(Args)]
+struct RideArgs {
+    /// The truth bicycle (BicycleParameters text, benchmark TOML or a lab bicycle).
+    #[arg(long)]
+    bike: PathBuf,
+    /// Speed at release (m/s).
+    #[arg(long)]
+    speed: f64,
+    /// `none`, `realistic`, or a TOML file of effects (see `bikeproc::sim::ride::Effects`).
+    #[arg(long, default_value = "realistic")]
+    effects: String,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output `NAME.log` (its `NAME_cal.log` beside it).
+    #[arg(long)]
+    out: PathBuf,
+    /// Where the truth goes (default: `truth/NAME.json` beside the log); no analysis reads it.
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// Wire the reed switch: the `Sync` column and the wheel circumference.
+    #[arg(long)]
+    sync: bool,
+    #[arg(long, value_enum, default_value_t = ModeArg::Euler)]
+    mode: ModeArg,
+    #[arg(long, value_enum, default_value_t = LocaleArg::Tab)]
+    locale: LocaleArg,
 }
 
 #[derive(Args)]
@@ -403,6 +434,7 @@ fn stability(a: StabilityArgs) -> Result<()> {
 
 fn simulate(s: SimCommand) -> Result<()> {
     let (p, c) = match s {
+        SimCommand::Ride(r) => return simulate_ride(r),
         SimCommand::Campaign { out } => {
             let files = sim::campaign::lab_campaign();
             sim::campaign::write_files(&out, &files)
@@ -484,6 +516,56 @@ fn simulate(s: SimCommand) -> Result<()> {
     write_atomic(&cal, rec.cal_log.as_bytes())?;
     println!("{}", serde_json::to_string_pretty(&rec.truth)?);
     eprintln!("wrote {} and {}", c.out.display(), cal.display());
+    Ok(())
+}
+
+fn simulate_ride(r: RideArgs) -> Result<()> {
+    use bikeproc::sim::ride;
+    let bike = bikeproc::model::uncertain::load(&r.bike)?.nominal();
+    let effects = match r.effects.as_str() {
+        "none" => ride::Effects::default(),
+        "realistic" => ride::Effects::realistic(),
+        file => {
+            let text =
+                std::fs::read_to_string(file).with_context(|| format!("reading effects {file}"))?;
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{file}: {}", e.message()))?
+        }
+    };
+    let mut spec = ride::RideSpec::lab(r.speed, effects);
+    spec.sync = r.sync;
+    spec.mode = match r.mode {
+        ModeArg::Euler => OutputMode::Euler,
+        ModeArg::Quaternion => OutputMode::Quaternion,
+        ModeArg::Matrix => OutputMode::Matrix,
+    };
+    spec.locale = match r.locale {
+        LocaleArg::Tab => imu::Locale::Tab,
+        LocaleArg::Spanish => imu::Locale::Spanish,
+    };
+    let ride = ride::simulate_ride(&bike, &spec, r.seed)?;
+    let truth = r.truth.clone().unwrap_or_else(|| {
+        let stem = r
+            .out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        r.out.with_file_name("truth").join(format!("{stem}.json"))
+    });
+    write_atomic(&r.out, ride.angles_log.as_bytes())?;
+    write_atomic(
+        &bikeproc::log::Log::cal_path(&r.out),
+        ride.cal_log.as_bytes(),
+    )?;
+    write_atomic(&truth, serde_json::to_string(&ride.truth)?.as_bytes())?;
+    eprintln!(
+        "wrote {} (release {:.2} s, kick {:.2} s, catch {:.2} s; speedometer {:.2} m/s) and the truth {}",
+        r.out.display(),
+        ride.truth.release_s,
+        ride.truth.kick_s,
+        ride.truth.catch_s,
+        ride.truth.noted_speed_mps,
+        truth.display()
+    );
     Ok(())
 }
 

@@ -140,7 +140,8 @@ impl SensorModel {
 }
 
 /// Field separator and decimal mark of the written files.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Locale {
     /// Tab-separated, decimal point.
     #[default]

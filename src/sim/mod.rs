@@ -14,6 +14,7 @@ pub mod imu;
 pub mod jet;
 pub mod ode;
 pub mod pendulum;
+pub mod ride;
 pub mod rng;
 pub mod whipple;
 

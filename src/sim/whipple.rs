@@ -21,9 +21,9 @@ use super::jet::{Jet, Scalar};
 use crate::model::Benchmark;
 use nalgebra::{SMatrix, SVector};
 
-type V3<S> = [S; 3];
+pub type V3<S> = [S; 3];
 /// A rotation as its three columns: the body's axes in ground coordinates.
-type Frame<S> = [V3<S>; 3];
+pub type Frame<S> = [V3<S>; 3];
 
 fn add<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
@@ -280,7 +280,108 @@ fn rates(p: &WhippleParams, q: &[f64; 8], qd: &[f64; 8]) -> Rates {
 /// forces' generalized components), by the saddle-point system of the module's equations.
 /// `q̇` must satisfy the velocity constraints. `None` when the system is singular.
 pub fn accelerations(p: &WhippleParams, q: &[f64; 8], qd: &[f64; 8]) -> Option<[f64; 8]> {
-    accelerations_with(p, q, qd, &columns(p, q))
+    accelerations_with(p, q, qd, &columns(p, q), &[])
+}
+
+/// As [`accelerations`], with applied loads.
+pub fn accelerations_loaded(
+    p: &WhippleParams,
+    q: &[f64; 8],
+    qd: &[f64; 8],
+    loads: &[Load],
+) -> Option<[f64; 8]> {
+    accelerations_with(p, q, qd, &columns(p, q), loads)
+}
+
+/// The frame's and the fork's orientation and centre of mass along jets (for sensors):
+/// `(C, r_C, E, r_E)`.
+pub fn kinematics_jets(
+    p: &WhippleParams,
+    q: &[Jet; 8],
+) -> (Frame<Jet>, V3<Jet>, Frame<Jet>, V3<Jet>) {
+    let k = kinematics(p, q);
+    (k.c, k.co, k.e, k.eo)
+}
+
+/// The bodies, in the order used by [`Load`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Body {
+    Frame,
+    RearWheel,
+    Fork,
+    FrontWheel,
+}
+
+impl Body {
+    fn index(self) -> usize {
+        match self {
+            Body::Frame => 0,
+            Body::RearWheel => 1,
+            Body::Fork => 2,
+            Body::FrontWheel => 3,
+        }
+    }
+}
+
+/// An applied load beyond gravity and the contacts.
+#[derive(Debug, Clone, Copy)]
+pub enum Load {
+    /// A force (N, ground axes) at a point given in the body's own axes relative to its centre
+    /// of mass (wheels: their centres).
+    Force {
+        body: Body,
+        offset_body_m: [f64; 3],
+        force_n: [f64; 3],
+    },
+    /// A torque (N·m, ground axes) on a body.
+    Torque { body: Body, torque_nm: [f64; 3] },
+    /// A torque between frame and fork about the steer axis (N·m), positive turning the fork
+    /// towards positive steer.
+    Steer(f64),
+}
+
+/// The generalized forces of `loads` (virtual power: `Qᵢ = Jᵢ · F`).
+fn generalized_forces(cols: &[Rates], along: &Rates, loads: &[Load]) -> [f64; 8] {
+    let mut out = [0.0; 8];
+    for load in loads {
+        for (i, c) in cols.iter().enumerate() {
+            out[i] += match *load {
+                Load::Force {
+                    body,
+                    offset_body_m,
+                    force_n,
+                } => {
+                    let b = body.index();
+                    let rho = along.r[b] * C3::from(offset_body_m);
+                    (c.v[b] + c.w[b].cross(&rho)).dot(&C3::from(force_n))
+                }
+                Load::Torque { body, torque_nm } => c.w[body.index()].dot(&C3::from(torque_nm)),
+                Load::Steer(t) => {
+                    if i == 6 {
+                        t
+                    } else {
+                        0.0
+                    }
+                }
+            };
+        }
+    }
+    out
+}
+
+/// The velocity of a point of a body (ground axes), from the rates along `q̇`.
+pub fn point_velocity(
+    p: &WhippleParams,
+    q: &[f64; 8],
+    qd: &[f64; 8],
+    body: Body,
+    offset_body_m: [f64; 3],
+) -> [f64; 3] {
+    let r = rates(p, q, qd);
+    let b = body.index();
+    let v = r.v[b] + r.w[b].cross(&(r.r[b] * C3::from(offset_body_m)));
+    [v[0], v[1], v[2]]
 }
 
 /// The velocity Jacobian's columns: the rates of everything per unit rate of each coordinate.
@@ -314,8 +415,10 @@ fn accelerations_with(
     q: &[f64; 8],
     qd: &[f64; 8],
     cols: &[Rates],
+    loads: &[Load],
 ) -> Option<[f64; 8]> {
     let along = rates(p, q, qd);
+    let applied = generalized_forces(cols, &along, loads);
     let masses = [p.mc, p.md, p.me, p.mf];
     let inertia_body = [
         M3::from_fn(|i, j| p.ic[i][j]),
@@ -337,6 +440,9 @@ fn accelerations_with(
                     + cols[i].w[b].dot(&(inn * cols[j].w[b]));
             }
         }
+    }
+    for (i, a) in applied.iter().enumerate() {
+        rhs[i] += a;
     }
     for r in 0..5 {
         for i in 0..8 {
@@ -473,11 +579,27 @@ pub fn coast(
     dt_s: f64,
     tol: &super::ode::Tolerance,
 ) -> Result<Vec<RideState>, super::ode::OdeError> {
-    let rhs = |_t: f64, y: &RideState| -> Option<RideState> {
+    coast_loaded(p, y, 0.0, duration_s, dt_s, tol, &|_, _, _| Vec::new())
+}
+
+/// Loads as a function of time, coordinates and rates.
+pub type Loads<'a> = dyn Fn(f64, &[f64; 8], &[f64; 8]) -> Vec<Load> + 'a;
+
+/// As [`coast`], from time `t0_s`, with applied `loads`.
+pub fn coast_loaded(
+    p: &WhippleParams,
+    y: RideState,
+    t0_s: f64,
+    duration_s: f64,
+    dt_s: f64,
+    tol: &super::ode::Tolerance,
+    loads: &Loads<'_>,
+) -> Result<Vec<RideState>, super::ode::OdeError> {
+    let rhs = |t: f64, y: &RideState| -> Option<RideState> {
         let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         let cols = columns(p, &q);
         let qd = constrained_rates_with(&cols, y[8], y[9], y[10])?;
-        let qdd = accelerations_with(p, &q, &qd, &cols)?;
+        let qdd = accelerations_with(p, &q, &qd, &cols, &loads(t, &q, &qd))?;
         let mut out = [0.0; 11];
         out[..8].copy_from_slice(&qd);
         out[8] = qdd[3];
@@ -498,16 +620,8 @@ pub fn coast(
     let mut fsal = None;
     out.push(state);
     for k in 0..n {
-        super::ode::integrate(
-            &rhs,
-            &project,
-            k as f64 * dt_s,
-            (k + 1) as f64 * dt_s,
-            &mut state,
-            &mut h,
-            &mut fsal,
-            tol,
-        )?;
+        let (a, b) = (t0_s + k as f64 * dt_s, t0_s + (k + 1) as f64 * dt_s);
+        super::ode::integrate(&rhs, &project, a, b, &mut state, &mut h, &mut fsal, tol)?;
         out.push(state);
     }
     Ok(out)
