@@ -173,6 +173,9 @@ pub struct RideSpec {
     pub effects: Effects,
     /// Write the reed switch's `Sync` column and the wheel circumference.
     pub sync: bool,
+    /// Coasting (the lab's rides) or the rear wheel's rate imposed.
+    #[serde(default)]
+    pub motion: whipple::Motion,
     pub mode: OutputMode,
     pub locale: Locale,
 }
@@ -194,6 +197,7 @@ impl RideSpec {
             },
             effects,
             sync: false,
+            motion: whipple::Motion::Free,
             mode: OutputMode::Euler,
             locale: Locale::Tab,
         }
@@ -404,6 +408,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
         dt,
         &super::ode::Tolerance::default(),
         &loads,
+        spec.motion,
     )?;
     let mut catch_s = release_s + spec.coast_s;
     let mut free_speeds = Vec::new();
@@ -411,7 +416,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
         let t = release_s + i as f64 * dt;
         let q: [f64; 8] = std::array::from_fn(|k| s[k]);
         let qd = whipple::full_rates(&p, s).ok_or(RideError::NoUpright)?;
-        let qdd = whipple::accelerations_loaded(&p, &q, &qd, &loads(t, &q, &qd))
+        let qdd = whipple::accelerations_loaded(&p, &q, &qd, &loads(t, &q, &qd), spec.motion)
             .ok_or(RideError::NoUpright)?;
         let smp = sample(&p, &q, &qd, &qdd, heading, frame_sensor, bar_sensor);
         motion[0].push(smp[0]);
@@ -561,5 +566,47 @@ mod tests {
         let i1 = i0 + 200;
         let decel = (t.speed_mps[i0] - t.speed_mps[i1]) / 2.0;
         assert!((0.05..0.25).contains(&decel), "deceleration {decel} m/s²");
+    }
+
+    /// Upright and straight, rolling resistance and drag decelerate the bicycle as a point mass
+    /// with its wheels' spin inertia: a = −(C_rr W + ½ρ C_dA v²) / (m + I_Ryy/r_R² + I_Fyy/r_F²).
+    #[test]
+    fn resistance_decelerates_as_the_closed_form_and_an_imposed_speed_holds() {
+        let b = Benchmark::meijaard_2007();
+        let p = WhippleParams::from_benchmark(&b);
+        let (crr, cda, v) = (0.008, 0.4, 5.0);
+        let m = b.m_r + b.m_b + b.m_h + b.m_f;
+        let weight = b.g * m;
+        let x_t = (b.x_b * b.m_b + b.x_h * b.m_h + b.w * b.m_f) / m;
+        let nf = weight * x_t / b.w;
+        let normal = [weight - nf, nf];
+        let (q, qd) = whipple::upright_state(&p, v, 0.0, 0.0, 0.0, 0.0).unwrap();
+        let mut loads = Vec::new();
+        for (k, body) in [Body::RearWheel, Body::FrontWheel].into_iter().enumerate() {
+            loads.push(Load::Force {
+                body,
+                offset_body_m: [0.0; 3],
+                force_n: [-crr * normal[k], 0.0, 0.0],
+            });
+        }
+        loads.push(Load::Force {
+            body: Body::Frame,
+            offset_body_m: [0.0; 3],
+            force_n: [-0.5 * AIR_DENSITY_KGPM3 * cda * v * v, 0.0, 0.0],
+        });
+        let qdd =
+            whipple::accelerations_loaded(&p, &q, &qd, &loads, whipple::Motion::Free).unwrap();
+        let want = -(crr * weight + 0.5 * AIR_DENSITY_KGPM3 * cda * v * v)
+            / (m + b.i_ryy / (b.r_r * b.r_r) + b.i_fyy / (b.r_f * b.r_f));
+        let got = -qdd[5] * b.r_r;
+        assert!((got / want - 1.0).abs() < 1e-10, "{got} vs {want}");
+        // Held at its rate, the wheel does not slow down, and nothing else moves.
+        let held =
+            whipple::accelerations_loaded(&p, &q, &qd, &loads, whipple::Motion::ImposedSpeed)
+                .unwrap();
+        assert!(
+            held[5].abs() < 1e-12 && held[3].abs() < 1e-12 && held[6].abs() < 1e-12,
+            "{held:?}"
+        );
     }
 }

@@ -280,17 +280,29 @@ fn rates(p: &WhippleParams, q: &[f64; 8], qd: &[f64; 8]) -> Rates {
 /// forces' generalized components), by the saddle-point system of the module's equations.
 /// `q̇` must satisfy the velocity constraints. `None` when the system is singular.
 pub fn accelerations(p: &WhippleParams, q: &[f64; 8], qd: &[f64; 8]) -> Option<[f64; 8]> {
-    accelerations_with(p, q, qd, &columns(p, q), &[])
+    accelerations_with(p, q, qd, &columns(p, q), &[], Motion::Free)
 }
 
-/// As [`accelerations`], with applied loads.
+/// How the rear wheel moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Motion {
+    /// Coasting: the speed is free (it changes with the loads and the motion).
+    #[default]
+    Free,
+    /// The rear wheel's rate held constant (the seed's eq. 33), by whatever torque that takes.
+    ImposedSpeed,
+}
+
+/// As [`accelerations`], with applied loads and the rear wheel's motion.
 pub fn accelerations_loaded(
     p: &WhippleParams,
     q: &[f64; 8],
     qd: &[f64; 8],
     loads: &[Load],
+    motion: Motion,
 ) -> Option<[f64; 8]> {
-    accelerations_with(p, q, qd, &columns(p, q), loads)
+    accelerations_with(p, q, qd, &columns(p, q), loads, motion)
 }
 
 /// The frame's and the fork's orientation and centre of mass along jets (for sensors):
@@ -416,6 +428,7 @@ fn accelerations_with(
     qd: &[f64; 8],
     cols: &[Rates],
     loads: &[Load],
+    motion: Motion,
 ) -> Option<[f64; 8]> {
     let along = rates(p, q, qd);
     let applied = generalized_forces(cols, &along, loads);
@@ -426,8 +439,8 @@ fn accelerations_with(
         M3::from_fn(|i, j| p.ie[i][j]),
         M3::from_diagonal(&C3::new(p.if11, p.if22, p.if11)),
     ];
-    let mut sys = SMatrix::<f64, 13, 13>::zeros();
-    let mut rhs = SVector::<f64, 13>::zeros();
+    let mut sys = SMatrix::<f64, 14, 14>::zeros();
+    let mut rhs = SVector::<f64, 14>::zeros();
     let gravity = C3::new(0.0, 0.0, p.g);
     for b in 0..4 {
         let inn = along.r[b] * inertia_body[b] * along.r[b].transpose();
@@ -450,6 +463,14 @@ fn accelerations_with(
             sys[(i, 8 + r)] = -cols[i].contact[r];
         }
         rhs[8 + r] = -along.contact_conv[r];
+    }
+    match motion {
+        // q̈₆ = 0: its multiplier is the driving torque that holds the wheel's rate.
+        Motion::ImposedSpeed => {
+            sys[(13, 5)] = 1.0;
+            sys[(5, 13)] = -1.0;
+        }
+        Motion::Free => sys[(13, 13)] = 1.0,
     }
     let x = sys.lu().solve(&rhs)?;
     Some(std::array::from_fn(|i| x[i]))
@@ -579,7 +600,16 @@ pub fn coast(
     dt_s: f64,
     tol: &super::ode::Tolerance,
 ) -> Result<Vec<RideState>, super::ode::OdeError> {
-    coast_loaded(p, y, 0.0, duration_s, dt_s, tol, &|_, _, _| Vec::new())
+    coast_loaded(
+        p,
+        y,
+        0.0,
+        duration_s,
+        dt_s,
+        tol,
+        &|_, _, _| Vec::new(),
+        Motion::Free,
+    )
 }
 
 /// Loads as a function of time, coordinates and rates.
@@ -594,12 +624,13 @@ pub fn coast_loaded(
     dt_s: f64,
     tol: &super::ode::Tolerance,
     loads: &Loads<'_>,
+    motion: Motion,
 ) -> Result<Vec<RideState>, super::ode::OdeError> {
     let rhs = |t: f64, y: &RideState| -> Option<RideState> {
         let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         let cols = columns(p, &q);
         let qd = constrained_rates_with(&cols, y[8], y[9], y[10])?;
-        let qdd = accelerations_with(p, &q, &qd, &cols, &loads(t, &q, &qd))?;
+        let qdd = accelerations_with(p, &q, &qd, &cols, &loads(t, &q, &qd), motion)?;
         let mut out = [0.0; 11];
         out[..8].copy_from_slice(&qd);
         out[8] = qdd[3];
