@@ -407,8 +407,10 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
         spec.coast_s,
         dt,
         &super::ode::Tolerance::default(),
-        &loads,
-        spec.motion,
+        whipple::Drive {
+            loads: &loads,
+            motion: spec.motion,
+        },
     )?;
     let mut catch_s = release_s + spec.coast_s;
     let mut free_speeds = Vec::new();

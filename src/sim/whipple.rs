@@ -607,13 +607,22 @@ pub fn coast(
         duration_s,
         dt_s,
         tol,
-        &|_, _, _| Vec::new(),
-        Motion::Free,
+        Drive {
+            loads: &|_, _, _| Vec::new(),
+            motion: Motion::Free,
+        },
     )
 }
 
 /// Loads as a function of time, coordinates and rates.
 pub type Loads<'a> = dyn Fn(f64, &[f64; 8], &[f64; 8]) -> Vec<Load> + 'a;
+
+/// What drives a coast beyond gravity: applied loads and the rear wheel's motion.
+#[derive(Clone, Copy)]
+pub struct Drive<'a> {
+    pub loads: &'a Loads<'a>,
+    pub motion: Motion,
+}
 
 /// As [`coast`], from time `t0_s`, with applied `loads`.
 pub fn coast_loaded(
@@ -623,14 +632,13 @@ pub fn coast_loaded(
     duration_s: f64,
     dt_s: f64,
     tol: &super::ode::Tolerance,
-    loads: &Loads<'_>,
-    motion: Motion,
+    drive: Drive<'_>,
 ) -> Result<Vec<RideState>, super::ode::OdeError> {
     let rhs = |t: f64, y: &RideState| -> Option<RideState> {
         let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         let cols = columns(p, &q);
         let qd = constrained_rates_with(&cols, y[8], y[9], y[10])?;
-        let qdd = accelerations_with(p, &q, &qd, &cols, &loads(t, &q, &qd), motion)?;
+        let qdd = accelerations_with(p, &q, &qd, &cols, &(drive.loads)(t, &q, &qd), drive.motion)?;
         let mut out = [0.0; 11];
         out[..8].copy_from_slice(&qd);
         out[8] = qdd[3];
