@@ -3,11 +3,12 @@
 //! ([`super::whipple`]) in between, with the effects the linear model leaves out; a frame and a
 //! handlebar sensor recording it all in the acquisition side's format.
 //!
-//! Effects (each off at zero): steering-head friction, viscous and Coulomb; rolling resistance
-//! and aerodynamic drag (the coast slows down); extra point masses on the frame or the fork
-//! (sensors, speedometer, polystyrene protection); a truth bicycle whose parameters differ from
-//! the measured ones (pass it as the bicycle); a speedometer reading off by a factor.
-//! Not yet here: lateral tyre compliance.
+//! Effects (each off at zero): steering-head friction, viscous and Coulomb; lateral tyre
+//! compliance (side slip with cornering and camber stiffness and a relaxation length, in place
+//! of the lateral no-slip constraints); rolling resistance and aerodynamic drag (the coast slows
+//! down); extra point masses on the frame or the fork (sensors, speedometer, polystyrene
+//! protection); a truth bicycle whose parameters differ from the measured ones (pass it as the
+//! bicycle); a speedometer reading off by a factor.
 
 use super::imu::{self, BodySample, FileSpec, LinkModel, Locale, Precision, SensorModel};
 use super::jet::Jet;
@@ -45,6 +46,8 @@ pub struct Effects {
     pub extra_masses: Vec<PointMass>,
     /// Speedometer reading / true speed (a wrong wheel circumference).
     pub speedometer_scale: f64,
+    /// Lateral tyre compliance in place of the lateral no-slip constraints (none: knife edges).
+    pub tyres: Option<whipple::TyreModel>,
 }
 
 impl Default for Effects {
@@ -56,6 +59,7 @@ impl Default for Effects {
             drag_area_m2: 0.0,
             extra_masses: vec![],
             speedometer_scale: 1.0,
+            tyres: None,
         }
     }
 }
@@ -63,7 +67,8 @@ impl Default for Effects {
 impl Effects {
     /// A realistic mix: steer damping 0.3 N·m·s/rad, Coulomb 0.04 N·m, C_rr 0.006, C_dA 0.15 m²
     /// (≈0.1–0.15 m/s² at 5 m/s for the lab's 13 kg bicycle), two sensors and a speedometer
-    /// (0.3 kg on the frame, 0.15 kg on the handlebar), a speedometer reading 3 % high.
+    /// (0.3 kg on the frame, 0.15 kg on the handlebar), a speedometer reading 3 % high, tyres
+    /// with C_α = 11 /rad, C_γ = 0.6 /rad, σ = 0.18 m.
     ///
     /// Coulomb friction: the 0.15 N·m measured on an instrumented bicycle with a rider makes the
     /// lab's light riderless bicycle fall within 2 s of the kick at 4.1 m/s (simulated, seed 3);
@@ -89,6 +94,11 @@ impl Effects {
                 },
             ],
             speedometer_scale: 1.03,
+            tyres: Some(whipple::TyreModel {
+                cornering_per_rad: 11.0,
+                camber_per_rad: 0.6,
+                relaxation_length_m: 0.18,
+            }),
         }
     }
 }
@@ -400,26 +410,60 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
         }
         l
     };
-    let states = whipple::coast_loaded(
-        &p,
-        y,
-        release_s,
-        spec.coast_s,
-        dt,
-        &super::ode::Tolerance::default(),
-        whipple::Drive {
-            loads: &loads,
-            motion: spec.motion,
-        },
-    )?;
+    let tol = super::ode::Tolerance::default();
+    let drive = whipple::Drive {
+        loads: &loads,
+        motion: spec.motion,
+    };
+    // The free motion as (q, q̇, q̈) per sample after the release.
+    let free: Vec<([f64; 8], [f64; 8], [f64; 8])> = match &spec.effects.tyres {
+        None => whipple::coast_loaded(&p, y, release_s, spec.coast_s, dt, &tol, drive)?
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let t = release_s + i as f64 * dt;
+                let q: [f64; 8] = std::array::from_fn(|k| s[k]);
+                let qd = whipple::full_rates(&p, s)?;
+                let qdd =
+                    whipple::accelerations_loaded(&p, &q, &qd, &loads(t, &q, &qd), spec.motion)?;
+                Some((q, qd, qdd))
+            })
+            .collect::<Option<_>>()
+            .ok_or(RideError::NoUpright)?,
+        Some(tyre) => {
+            let q0: [f64; 8] = std::array::from_fn(|k| y[k]);
+            let qd0 = whipple::full_rates(&p, &y).ok_or(RideError::NoUpright)?;
+            let tyres = whipple::Tyres {
+                model: *tyre,
+                normal_n: normal,
+            };
+            let span = whipple::Span {
+                t0_s: release_s,
+                duration_s: spec.coast_s,
+                dt_s: dt,
+            };
+            let states = whipple::coast_on_tyres(&p, &tyres, &q0, &qd0, span, &tol, drive)?;
+            states
+                .iter()
+                .enumerate()
+                .map(|(i, s)| {
+                    let t = release_s + i as f64 * dt;
+                    let d = whipple::tyre_derivative(&p, &tyres, t, s, drive)?;
+                    Some((
+                        std::array::from_fn(|k| s[k]),
+                        std::array::from_fn(|k| s[8 + k]),
+                        std::array::from_fn(|k| d[8 + k]),
+                    ))
+                })
+                .collect::<Option<_>>()
+                .ok_or(RideError::NoUpright)?
+        }
+    };
     let mut catch_s = release_s + spec.coast_s;
     let mut free_speeds = Vec::new();
-    for (i, s) in states.iter().enumerate().skip(1) {
+    for (i, (q, qd, qdd)) in free.iter().enumerate().skip(1) {
+        let (q, qd, qdd) = (*q, *qd, *qdd);
         let t = release_s + i as f64 * dt;
-        let q: [f64; 8] = std::array::from_fn(|k| s[k]);
-        let qd = whipple::full_rates(&p, s).ok_or(RideError::NoUpright)?;
-        let qdd = whipple::accelerations_loaded(&p, &q, &qd, &loads(t, &q, &qd), spec.motion)
-            .ok_or(RideError::NoUpright)?;
         let smp = sample(&p, &q, &qd, &qdd, heading, frame_sensor, bar_sensor);
         motion[0].push(smp[0]);
         motion[1].push(smp[1]);
