@@ -145,3 +145,14 @@ fn nonlinear_ride_10_s(bencher: divan::Bencher) {
     bencher
         .bench(|| coast(&p, divan::black_box(y), 10.0, 0.01, &Default::default()).expect("coasts"));
 }
+
+/// A whole simulated ride (standstill, push, 10 s of coast on compliant tyres with every
+/// effect, two sensors written as a log pair).
+#[divan::bench(sample_count = 10)]
+fn simulated_ride_with_effects(bencher: divan::Bencher) {
+    use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec};
+    let b = bikeproc::model::Benchmark::meijaard_2007();
+    let mut spec = RideSpec::lab(5.0, Effects::realistic());
+    spec.coast_s = 10.0;
+    bencher.bench(|| simulate_ride(&b, divan::black_box(&spec), 3).expect("rides"));
+}

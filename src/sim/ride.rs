@@ -372,7 +372,8 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
     let sx = kick.saddle_x_m - truth_bike.x_b;
     let sz = kick.saddle_z_m - truth_bike.z_b;
     let saddle = [sx * cl - sz * sl, 0.0, sx * sl + sz * cl];
-    let loads = move |t: f64, q: &[f64; 8], qd: &[f64; 8]| -> Vec<Load> {
+    let loads = move |input: &whipple::LoadInput<'_>| -> Vec<Load> {
+        let (t, q, qd) = (input.t, input.q, input.qd);
         let mut l = Vec::new();
         l.push(Load::Steer(
             -e.steer_viscous_nms_per_rad * qd[6] - e.steer_coulomb_nm * (qd[6] / 1e-3).tanh(),
@@ -387,7 +388,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
             });
         }
         for (k, body) in [Body::RearWheel, Body::FrontWheel].into_iter().enumerate() {
-            let v = whipple::point_velocity(&p, q, qd, body, [0.0; 3]);
+            let v = input.velocities[if body == Body::RearWheel { 1 } else { 3 }];
             let sp = (v[0] * v[0] + v[1] * v[1]).sqrt();
             if sp > 1e-6 && e.rolling_resistance_coeff > 0.0 {
                 let f = e.rolling_resistance_coeff * normal[k] / sp;
@@ -399,7 +400,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
             }
         }
         if e.drag_area_m2 > 0.0 {
-            let v = whipple::point_velocity(&p, q, qd, Body::Frame, [0.0; 3]);
+            let v = input.velocities[0];
             let sp = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
             let k = 0.5 * AIR_DENSITY_KGPM3 * e.drag_area_m2 * sp;
             l.push(Load::Force {
@@ -424,8 +425,18 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
                 let t = release_s + i as f64 * dt;
                 let q: [f64; 8] = std::array::from_fn(|k| s[k]);
                 let qd = whipple::full_rates(&p, s)?;
-                let qdd =
-                    whipple::accelerations_loaded(&p, &q, &qd, &loads(t, &q, &qd), spec.motion)?;
+                let qdd = whipple::accelerations_loaded(
+                    &p,
+                    &q,
+                    &qd,
+                    &loads(&whipple::LoadInput {
+                        t,
+                        q: &q,
+                        qd: &qd,
+                        velocities: whipple::body_velocities(&p, &q, &qd),
+                    }),
+                    spec.motion,
+                )?;
                 Some((q, qd, qdd))
             })
             .collect::<Option<_>>()

@@ -637,7 +637,12 @@ pub fn tyre_derivative(
     let cols = columns(p, &q);
     let along = rates(p, &q, &qd);
     let (mut loads, f_rates) = tyre_forces(&along, &tyres.model, tyres.normal_n, [y[16], y[17]]);
-    loads.extend((drive.loads)(t, &q, &qd));
+    loads.extend((drive.loads)(&LoadInput {
+        t,
+        q: &q,
+        qd: &qd,
+        velocities: velocities_of(&along),
+    }));
     let qdd = solve_dynamics(
         p,
         &cols,
@@ -846,14 +851,32 @@ pub fn coast(
         dt_s,
         tol,
         Drive {
-            loads: &|_, _, _| Vec::new(),
+            loads: &|_| Vec::new(),
             motion: Motion::Free,
         },
     )
 }
 
 /// Loads as a function of time, coordinates and rates.
-pub type Loads<'a> = dyn Fn(f64, &[f64; 8], &[f64; 8]) -> Vec<Load> + 'a;
+pub type Loads<'a> = dyn Fn(&LoadInput<'_>) -> Vec<Load> + 'a;
+
+/// What a load may depend on: time, coordinates, rates, and the bodies' velocities.
+pub struct LoadInput<'a> {
+    pub t: f64,
+    pub q: &'a [f64; 8],
+    pub qd: &'a [f64; 8],
+    /// Centre-of-mass velocities (ground axes, m/s) of the frame, rear wheel, fork, front wheel.
+    pub velocities: [[f64; 3]; 4],
+}
+
+fn velocities_of(along: &Rates) -> [[f64; 3]; 4] {
+    std::array::from_fn(|b| [along.v[b][0], along.v[b][1], along.v[b][2]])
+}
+
+/// The bodies' centre-of-mass velocities at `(q, q̇)` (frame, rear wheel, fork, front wheel).
+pub fn body_velocities(p: &WhippleParams, q: &[f64; 8], qd: &[f64; 8]) -> [[f64; 3]; 4] {
+    velocities_of(&rates(p, q, qd))
+}
 
 /// What drives a coast beyond gravity: applied loads and the rear wheel's motion.
 #[derive(Clone, Copy)]
@@ -876,7 +899,22 @@ pub fn coast_loaded(
         let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         let cols = columns(p, &q);
         let qd = constrained_rates_with(&cols, y[8], y[9], y[10])?;
-        let qdd = accelerations_with(p, &q, &qd, &cols, &(drive.loads)(t, &q, &qd), drive.motion)?;
+        let along = rates(p, &q, &qd);
+        let loads = (drive.loads)(&LoadInput {
+            t,
+            q: &q,
+            qd: &qd,
+            velocities: velocities_of(&along),
+        });
+        let rows: Vec<([f64; 8], f64)> = (0..5)
+            .map(|r| {
+                (
+                    std::array::from_fn(|i| cols[i].contact[r]),
+                    along.contact_conv[r],
+                )
+            })
+            .collect();
+        let qdd = solve_dynamics(p, &cols, &along, &loads, drive.motion, &rows)?;
         let mut out = [0.0; 11];
         out[..8].copy_from_slice(&qd);
         out[8] = qdd[3];
@@ -1144,7 +1182,7 @@ mod tests {
             camber_per_rad: 0.0,
             relaxation_length_m: 0.005,
         };
-        let none: &Loads<'_> = &|_, _, _| Vec::new();
+        let none: &Loads<'_> = &|_| Vec::new();
         let tyres = coast_on_tyres(
             &p,
             &Tyres {
