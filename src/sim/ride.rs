@@ -469,12 +469,8 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
                 .enumerate()
                 .map(|(i, s)| {
                     let t = release_s + i as f64 * dt;
-                    let d = whipple::tyre_derivative(&p, &tyres, t, s, drive)?;
-                    Some((
-                        std::array::from_fn(|k| s[k]),
-                        std::array::from_fn(|k| s[8 + k]),
-                        std::array::from_fn(|k| d[8 + k]),
-                    ))
+                    let (qd, qdd, _) = whipple::tyre_motion(&p, &tyres, t, s, drive)?;
+                    Some((std::array::from_fn(|k| s[k]), qd, qdd))
                 })
                 .collect::<Option<_>>()
                 .ok_or(RideError::NoUpright)?

@@ -591,8 +591,54 @@ pub struct Span {
     pub dt_s: f64,
 }
 
-/// The state with compliant tyres: coordinates, all eight rates, the two lateral forces (N).
-pub type TyreState = [f64; 18];
+/// The state with compliant tyres: the coordinates, the independent rates (q̇₁, q̇₂, q̇₃, q̇₄,
+/// q̇₇: the contact point sliding over the ground, yaw, roll, steer) and the two lateral
+/// forces (N). Pitch and the wheels' spins follow from the remaining constraints.
+pub type TyreState = [f64; 15];
+
+const TYRE_INDEPENDENT: [usize; 5] = [0, 1, 2, 3, 6];
+const TYRE_DEPENDENT: [usize; 3] = [4, 5, 7];
+
+/// All eight rates of a tyre state: the dependent ones solve the constraints of [`tyre_rows`]
+/// (their directions need only the axles, which every column carries).
+fn tyre_rates_with(cols: &[Rates], y: &TyreState) -> Option<[f64; 8]> {
+    let dir = |a: C3| {
+        let u = a.cross(&C3::z());
+        u / u.norm()
+    };
+    let dirs = [
+        (0usize, dir(cols[2].axle[0])),
+        (1, dir(cols[2].axle[1])),
+        (1, C3::z()),
+    ];
+    let a = SMatrix::<f64, 3, 8>::from_fn(|r, c| cols[c].cv[dirs[r].0].dot(&dirs[r].1));
+    let mut qd = [0.0; 8];
+    for (k, &i) in TYRE_INDEPENDENT.iter().enumerate() {
+        qd[i] = y[8 + k];
+    }
+    let a_dep = SMatrix::<f64, 3, 3>::from_fn(|r, c| a[(r, TYRE_DEPENDENT[c])]);
+    let rhs = SVector::<f64, 3>::from_fn(|r, _| {
+        -TYRE_INDEPENDENT
+            .iter()
+            .map(|&i| a[(r, i)] * qd[i])
+            .sum::<f64>()
+    });
+    let x = a_dep.lu().solve(&rhs)?;
+    for (k, &i) in TYRE_DEPENDENT.iter().enumerate() {
+        qd[i] = x[k];
+    }
+    Some(qd)
+}
+
+/// A tyre state from coordinates and rates that satisfy the constraints, with no lateral force.
+pub fn tyre_state(q: &[f64; 8], qd: &[f64; 8]) -> TyreState {
+    let mut y = [0.0; 15];
+    y[..8].copy_from_slice(q);
+    for (k, &i) in TYRE_INDEPENDENT.iter().enumerate() {
+        y[8 + k] = qd[i];
+    }
+    y
+}
 
 /// The tyre forces as loads and the forces' rates, for `(q, q̇, F)`.
 fn tyre_forces(
@@ -624,19 +670,20 @@ fn tyre_forces(
     (loads, rates_out)
 }
 
-/// The derivative of a [`TyreState`]: `(q̇, q̈, Ḟ)` at time `t`.
-pub fn tyre_derivative(
+/// The motion at a tyre state: all eight rates `q̇`, accelerations `q̈`, and the lateral
+/// forces' rates.
+pub fn tyre_motion(
     p: &WhippleParams,
     tyres: &Tyres,
     t: f64,
     y: &TyreState,
     drive: Drive<'_>,
-) -> Option<TyreState> {
+) -> Option<([f64; 8], [f64; 8], [f64; 2])> {
     let q: [f64; 8] = std::array::from_fn(|i| y[i]);
-    let qd: [f64; 8] = std::array::from_fn(|i| y[8 + i]);
     let cols = columns(p, &q);
+    let qd = tyre_rates_with(&cols, y)?;
     let along = rates(p, &q, &qd);
-    let (mut loads, f_rates) = tyre_forces(&along, &tyres.model, tyres.normal_n, [y[16], y[17]]);
+    let (mut loads, f_rates) = tyre_forces(&along, &tyres.model, tyres.normal_n, [y[13], y[14]]);
     loads.extend((drive.loads)(&LoadInput {
         t,
         q: &q,
@@ -651,17 +698,31 @@ pub fn tyre_derivative(
         drive.motion,
         &tyre_rows(&cols, &along),
     )?;
-    let mut out = [0.0; 18];
+    Some((qd, qdd, f_rates))
+}
+
+/// The derivative of a [`TyreState`] at time `t`.
+pub fn tyre_derivative(
+    p: &WhippleParams,
+    tyres: &Tyres,
+    t: f64,
+    y: &TyreState,
+    drive: Drive<'_>,
+) -> Option<TyreState> {
+    let (qd, qdd, f_rates) = tyre_motion(p, tyres, t, y, drive)?;
+    let mut out = [0.0; 15];
     out[..8].copy_from_slice(&qd);
-    out[8..16].copy_from_slice(&qdd);
-    out[16] = f_rates[0];
-    out[17] = f_rates[1];
+    for (k, &i) in TYRE_INDEPENDENT.iter().enumerate() {
+        out[8 + k] = qdd[i];
+    }
+    out[13] = f_rates[0];
+    out[14] = f_rates[1];
     Some(out)
 }
 
 /// A coast on compliant tyres from `(q, q̇)` with zero lateral forces, sampled every `dt_s`.
-/// After every step the pitch is put back on the ground and the rates onto the remaining
-/// constraints (their least-norm correction).
+/// After every step the pitch is put back on the ground; the rates satisfy the remaining
+/// constraints by construction.
 pub fn coast_on_tyres(
     p: &WhippleParams,
     tyres: &Tyres,
@@ -673,26 +734,12 @@ pub fn coast_on_tyres(
 ) -> Result<Vec<TyreState>, super::ode::OdeError> {
     let rhs = |t: f64, y: &TyreState| tyre_derivative(p, tyres, t, y, drive);
     let project = |y: &mut TyreState| {
-        let mut q: [f64; 8] = std::array::from_fn(|i| y[i]);
+        let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         if let Some(q5) = pitch_on_ground(p, &q, q[4]) {
-            q[4] = q5;
             y[4] = q5;
         }
-        let qd = SVector::<f64, 8>::from_fn(|i, _| y[8 + i]);
-        let cols = columns(p, &q);
-        let along = rates(p, &q, &[0.0; 8]);
-        let rows = tyre_rows(&cols, &along);
-        let a = SMatrix::<f64, 3, 8>::from_fn(|r, c| rows[r].0[c]);
-        if let Some(corr) = (a * a.transpose()).lu().solve(&(a * qd)) {
-            let fixed = qd - a.transpose() * corr;
-            for i in 0..8 {
-                y[8 + i] = fixed[i];
-            }
-        }
     };
-    let mut state: TyreState = [0.0; 18];
-    state[..8].copy_from_slice(q0);
-    state[8..16].copy_from_slice(qd0);
+    let mut state = tyre_state(q0, qd0);
     let Span {
         t0_s,
         duration_s,
