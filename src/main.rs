@@ -138,6 +138,12 @@ enum SimCommand {
     /// A ride (seed §5.4): standstill, push, release, kick at the saddle, catch; the nonlinear
     /// Whipple bicycle with the chosen effects, recorded by a frame and a handlebar sensor.
     Ride(RideArgs),
+    /// The lab's ride campaign (seed §5.4) on the bicycle in DIR/lab_bike.toml, as data/ holds it.
+    Rides {
+        /// Folder to write into (it holds lab_bike.toml).
+        #[arg(long, default_value = "data")]
+        out: PathBuf,
+    },
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
     Campaign {
         /// Folder to write into.
@@ -435,6 +441,14 @@ fn stability(a: StabilityArgs) -> Result<()> {
 fn simulate(s: SimCommand) -> Result<()> {
     let (p, c) = match s {
         SimCommand::Ride(r) => return simulate_ride(r),
+        SimCommand::Rides { out } => {
+            let bike = inertia::bike::LabBike::load(&out.join("lab_bike.toml"))?;
+            let files = sim::campaign::lab_rides(&bike)?;
+            sim::campaign::write_files(&out, &files)
+                .with_context(|| format!("writing under {}", out.display()))?;
+            eprintln!("wrote {} files under {}", files.len(), out.display());
+            return Ok(());
+        }
         SimCommand::Campaign { out } => {
             let files = sim::campaign::lab_campaign();
             sim::campaign::write_files(&out, &files)
