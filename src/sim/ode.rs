@@ -34,16 +34,8 @@ const A: [[f64; 6]; 7] = [
         11.0 / 84.0,
     ],
 ];
-/// Fifth-order weights (the last row of A) and fourth-order ones, for the error estimate.
-const B5: [f64; 7] = [
-    35.0 / 384.0,
-    0.0,
-    500.0 / 1113.0,
-    125.0 / 192.0,
-    -2187.0 / 6784.0,
-    11.0 / 84.0,
-    0.0,
-];
+/// Fourth-order weights, for the error estimate; the fifth-order ones are A's last row
+/// (first same as last), with 0 for the seventh stage.
 const B4: [f64; 7] = [
     5179.0 / 57600.0,
     0.0,
@@ -126,7 +118,7 @@ pub fn integrate<const N: usize>(
         for i in 0..N {
             let (mut d5, mut d4) = (0.0, 0.0);
             for s in 0..7 {
-                d5 += B5[s] * k[s][i];
+                d5 += A[6].get(s).copied().unwrap_or(0.0) * k[s][i];
                 d4 += B4[s] * k[s][i];
             }
             y5[i] += hh * d5;

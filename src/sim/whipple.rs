@@ -1230,26 +1230,31 @@ mod tests {
             relaxation_length_m: 0.005,
         };
         let none: &Loads<'_> = &|_| Vec::new();
-        let tyres = coast_on_tyres(
-            &p,
-            &Tyres {
-                model: stiff,
+        let run = |model: TyreModel| {
+            let tyres = Tyres {
+                model,
                 normal_n: normal,
-            },
-            &q0,
-            &qd0,
-            Span {
+            };
+            let span = Span {
                 t0_s: 0.0,
                 duration_s: 3.0,
                 dt_s: 0.01,
-            },
-            &super::super::ode::Tolerance::default(),
-            Drive {
-                loads: none,
-                motion: Motion::Free,
-            },
-        )
-        .unwrap();
+            };
+            coast_on_tyres(
+                &p,
+                &tyres,
+                &q0,
+                &qd0,
+                span,
+                &super::super::ode::Tolerance::default(),
+                Drive {
+                    loads: none,
+                    motion: Motion::Free,
+                },
+            )
+            .unwrap()
+        };
+        let tyres = run(stiff);
         let peak = no_slip.iter().map(|y| y[3].abs()).fold(0.0, f64::max);
         let worst = no_slip
             .iter()
@@ -1258,31 +1263,11 @@ mod tests {
             .fold(0.0, f64::max);
         assert!(worst < 0.02 * peak, "roll differs by {worst} (peak {peak})");
         // And typical tyres are softer: the weave differs measurably.
-        let typical = TyreModel {
+        let soft = run(TyreModel {
             cornering_per_rad: 11.0,
             camber_per_rad: 0.6,
             relaxation_length_m: 0.18,
-        };
-        let soft = coast_on_tyres(
-            &p,
-            &Tyres {
-                model: typical,
-                normal_n: normal,
-            },
-            &q0,
-            &qd0,
-            Span {
-                t0_s: 0.0,
-                duration_s: 3.0,
-                dt_s: 0.01,
-            },
-            &super::super::ode::Tolerance::default(),
-            Drive {
-                loads: none,
-                motion: Motion::Free,
-            },
-        )
-        .unwrap();
+        });
         let diff = no_slip
             .iter()
             .zip(&soft)
