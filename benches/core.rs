@@ -146,10 +146,19 @@ fn nonlinear_ride_10_s(bencher: divan::Bencher) {
         .bench(|| coast(&p, divan::black_box(y), 10.0, 0.01, &Default::default()).expect("coasts"));
 }
 
-/// A whole simulated ride (standstill, push, 10 s of coast on compliant tyres with every
-/// effect, two sensors written as a log pair).
+/// One of the campaign's rides, whole: a 12 s recording (2 s still, 3 s push, 6 s of coast on
+/// compliant tyres with every effect, 1 s held after the catch), two sensors, the log pair.
 #[divan::bench(sample_count = 10)]
-fn simulated_ride_with_effects(bencher: divan::Bencher) {
+fn simulated_lab_ride_12_s(bencher: divan::Bencher) {
+    use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec};
+    let b = bikeproc::model::Benchmark::meijaard_2007();
+    let spec = RideSpec::lab(5.0, Effects::realistic());
+    bencher.bench(|| simulate_ride(&b, divan::black_box(&spec), 3).expect("rides"));
+}
+
+/// A ride with 10 s of coast on compliant tyres with every effect (a 16 s recording).
+#[divan::bench(sample_count = 10)]
+fn simulated_ride_10_s_coast(bencher: divan::Bencher) {
     use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec};
     let b = bikeproc::model::Benchmark::meijaard_2007();
     let mut spec = RideSpec::lab(5.0, Effects::realistic());

@@ -148,6 +148,10 @@ struct Kinematics<S> {
     /// Rear and front contact points.
     dn: V3<S>,
     fn_: V3<S>,
+    /// The steer axis' point at the rear offset line (anchor of the steer rotation).
+    ce: V3<S>,
+    a: Frame<S>,
+    b: Frame<S>,
     c: Frame<S>,
     d: Frame<S>,
     e: Frame<S>,
@@ -185,6 +189,9 @@ fn kinematics<S: Scalar>(p: &WhippleParams, q: &[S; 8]) -> Kinematics<S> {
         fo,
         dn,
         fn_,
+        ce,
+        a,
+        b,
         c,
         d,
         e,
@@ -419,35 +426,69 @@ pub fn point_velocity(
     [v[0], v[1], v[2]]
 }
 
-/// The velocity Jacobian's columns: the rates of everything per unit rate of each coordinate.
+/// The velocity Jacobian's columns: the rates of everything per unit rate of each coordinate,
+/// from one evaluation of the kinematics. q₁, q₂ translate the whole bicycle over the ground;
+/// every other coordinate is a rotation about a joint axis `a` through an anchor `o` (yaw about
+/// n₃ and roll about a₁ through the rear contact, pitch about b₂ and the rear wheel about c₂
+/// through the rear wheel's centre, steer about c₃ through the steer axis, the front wheel
+/// about e₂ through its centre), turning the bodies downstream of it: their angular velocity
+/// is `a` and a point's velocity is `a × (point − o)`.
 fn columns(p: &WhippleParams, q: &[f64; 8]) -> Vec<Rates> {
-    (0..8)
-        .map(|i| {
-            if i < 2 {
-                // q₁, q₂ translate the whole bicycle over the ground: every point moves with
-                // unit velocity along n₁ or n₂ and nothing turns.
-                let u = if i == 0 { C3::x() } else { C3::y() };
-                let z = C3::zeros();
-                return Rates {
-                    v: [u; 4],
-                    w: [z; 4],
-                    a: [z; 4],
-                    alpha: [z; 4],
-                    contact: [u[0], u[1], u[0], u[1], u[2]],
-                    contact_conv: [0.0; 5],
-                    cv: [u; 2],
-                    ca: [z; 2],
-                    rho: [z; 2],
-                    axle: [z; 2],
-                    axle_d: [z; 2],
-                    r: [M3::zeros(); 4],
-                };
+    let k = kinematics(p, q);
+    let c3 = |x: [f64; 3]| C3::new(x[0], x[1], x[2]);
+    let points = [c3(k.co), c3(k.do_), c3(k.eo), c3(k.fo)];
+    let contacts = [c3(k.dn), c3(k.fn_)];
+    let axles = [c3(k.d[1]), c3(k.f[1])];
+    // (axis, anchor, which bodies turn: frame, rear wheel, fork, front wheel)
+    let joints: [(C3, C3, [bool; 4]); 6] = [
+        (C3::z(), c3(k.dn), [true; 4]),
+        (c3(k.a[0]), c3(k.dn), [true; 4]),
+        (c3(k.b[1]), c3(k.do_), [true; 4]),
+        (c3(k.c[1]), c3(k.do_), [false, true, false, false]),
+        (c3(k.c[2]), c3(k.ce), [false, false, true, true]),
+        (c3(k.e[1]), c3(k.fo), [false, false, false, true]),
+    ];
+    let z = C3::zeros();
+    let blank = || Rates {
+        v: [z; 4],
+        w: [z; 4],
+        a: [z; 4],
+        alpha: [z; 4],
+        contact: [0.0; 5],
+        contact_conv: [0.0; 5],
+        cv: [z; 2],
+        ca: [z; 2],
+        rho: [z; 2],
+        axle: axles,
+        axle_d: [z; 2],
+        r: [M3::zeros(); 4],
+    };
+    let mut out = Vec::with_capacity(8);
+    for u in [C3::x(), C3::y()] {
+        let mut r = blank();
+        r.v = [u; 4];
+        r.cv = [u; 2];
+        r.contact = [u[0], u[1], u[0], u[1], u[2]];
+        out.push(r);
+    }
+    for (axis, anchor, turns) in joints {
+        let mut r = blank();
+        for b in 0..4 {
+            if turns[b] {
+                r.w[b] = axis;
+                r.v[b] = axis.cross(&(points[b] - anchor));
             }
-            let mut e = [0.0; 8];
-            e[i] = 1.0;
-            rates(p, q, &e)
-        })
-        .collect()
+        }
+        // Contact points: the wheel's material point there, v = v_centre + ω × ρ.
+        for (n, wheel) in [(0usize, 1usize), (1, 3)] {
+            let rho = contacts[n] - points[wheel];
+            r.rho[n] = rho;
+            r.cv[n] = r.v[wheel] + r.w[wheel].cross(&rho);
+        }
+        r.contact = [r.cv[0][0], r.cv[0][1], r.cv[1][0], r.cv[1][1], r.cv[1][2]];
+        out.push(r);
+    }
+    out
 }
 
 fn accelerations_with(
