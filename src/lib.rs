@@ -15,6 +15,7 @@
 //! - [`fit`]: a signal → free-decay segment, damped-sinusoid fit, standard errors.
 //! - [`inertia`]: test folders → bar stiffness, moments, tensors (with standard errors).
 //! - [`model`]: bicycle parameters → the linear Whipple model, eigenvalues, stable speeds.
+//! - [`ride`]: a ride's log pair → the frame's roll θ(t) and the steer angle γ(t).
 //! - [`sim`]: the lab simulated from physics (never calls the estimators).
 //! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
 //! - `plot` (feature `plot`): SVG figures for the reports.
@@ -26,6 +27,7 @@ pub mod model;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod report;
+pub mod ride;
 pub mod signal;
 pub mod sim;
 pub mod spectral;

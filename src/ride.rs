@@ -1,0 +1,220 @@
+//! Ride stage (dynamic tests, seed §5.4): a ride's log pair → the frame's roll θ(t) and the
+//! steer angle γ(t).
+//!
+//! In: the angles file (orientation of the frame and handlebar sensors) and its `_cal` file
+//! (accelerations). Out: [`RideSignals`]: θ and γ on the 100 Hz grid (rad; roll positive leaning
+//! right, steer positive turning right, as in the benchmark), with the mountings found.
+//!
+//! How each sensor sits is found from the ride itself, not from the lab's notes (known to a few
+//! degrees): while the bicycle stands still and upright the accelerometers give "up" in each
+//! sensor's frame; while it is pushed straight ahead the frame sensor's horizontal acceleration
+//! gives "forward". Roll is then the frame's tilt about its forward axis relative to the
+//! vertical, independent of the heading (so of the magnetometer's offset and drift); steer is the
+//! handlebar sensor's rotation relative to the frame sensor, about the steer axis, measured from
+//! its orientation at the standstill.
+
+use crate::log::{Log, LogError, ReadOptions};
+use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+use std::path::{Path, PathBuf};
+
+/// Errors of the ride stage: what is wrong with a ride log, named.
+#[derive(Debug, thiserror::Error)]
+pub enum RideError {
+    #[error(transparent)]
+    Log(#[from] LogError),
+    #[error("{path}: {message}")]
+    Ride { path: PathBuf, message: String },
+}
+
+/// A ride's angles on the sample grid.
+#[derive(Debug, Clone)]
+pub struct RideSignals {
+    /// Grid index of each sample (both sensors present).
+    pub index: Vec<u64>,
+    pub sample_rate_hz: f64,
+    /// Roll of the frame (rad).
+    pub roll_rad: Vec<f64>,
+    /// Steer angle (rad).
+    pub steer_rad: Vec<f64>,
+    /// The mounting found for the frame sensor: rotation bicycle axes → sensor axes.
+    pub frame_mounting: UnitQuaternion<f64>,
+}
+
+fn err(path: &Path, message: impl Into<String>) -> RideError {
+    RideError::Ride {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+/// Reads a ride's log pair and extracts θ and γ; `steer_axis_tilt_rad` is λ of the bicycle.
+/// The first `standstill_s` seconds must be the bicycle standing still and upright.
+pub fn read_ride(
+    angles: &Path,
+    steer_axis_tilt_rad: f64,
+    standstill_s: f64,
+) -> Result<RideSignals, RideError> {
+    let opts = ReadOptions::default();
+    let log = Log::open(angles, &opts)?;
+    let cal_path = Log::cal_path(angles);
+    if !cal_path.exists() {
+        return Err(err(angles, format!("the accelerations ({}) are needed to find how the sensors sit, and that file does not exist", cal_path.display())));
+    }
+    let cal = Log::open(&cal_path, &opts)?;
+    let find = |key: &str| {
+        log.sensor(key).ok_or_else(|| {
+            err(
+                angles,
+                format!(
+                    "no `{key}` sensor (sensors: {})",
+                    log.sensors
+                        .iter()
+                        .map(|s| s.label.clone())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })
+    };
+    let (frame, bar) = (find("frame")?, find("handlebar")?);
+    let acc = |id: &str| -> Result<Vec<Vector3<f64>>, RideError> {
+        let col = |ch: &str| {
+            cal.column_index(&format!("{id}_{ch}"))
+                .ok_or_else(|| err(&cal_path, format!("no column {id}_{ch}")))
+        };
+        let (x, y, z) = (col("Acc_X")?, col("Acc_Y")?, col("Acc_Z")?);
+        Ok((0..cal.grid_index.len())
+            .map(|i| Vector3::new(cal.data[x][i], cal.data[y][i], cal.data[z][i]))
+            .collect())
+    };
+    let acc_frame = acc(&frame.id)?;
+    let rate = log.sample_rate_hz;
+    let still_end = (standstill_s * rate).round() as u64;
+    let mean_up = |a: &[Vector3<f64>], idx: &[u64]| -> Option<Vector3<f64>> {
+        let s: Vector3<f64> = a
+            .iter()
+            .zip(idx)
+            .filter(|(_, &g)| g < still_end)
+            .map(|(v, _)| *v)
+            .sum();
+        (s.norm() > 0.0).then(|| s.normalize())
+    };
+    let up_frame = mean_up(&acc_frame, &cal.grid_index)
+        .ok_or_else(|| err(angles, "no standstill at the start"))?;
+    // Forward: the frame sensor's mean horizontal acceleration while pushed (after the standstill,
+    // wherever it exceeds 0.5 m/s²).
+    let g = acc_frame
+        .iter()
+        .zip(&cal.grid_index)
+        .filter(|(_, &i)| i < still_end)
+        .map(|(v, _)| v.norm())
+        .sum::<f64>()
+        / acc_frame
+            .iter()
+            .zip(&cal.grid_index)
+            .filter(|(_, &i)| i < still_end)
+            .count()
+            .max(1) as f64;
+    let mut push = Vector3::zeros();
+    for (a, &i) in acc_frame.iter().zip(&cal.grid_index) {
+        if i >= still_end && i < still_end + (4.0 * rate) as u64 {
+            let horizontal = a - up_frame * a.dot(&up_frame);
+            if horizontal.norm() > 0.5 && (a.norm() - g).abs() < 5.0 {
+                push += horizontal;
+            }
+        }
+    }
+    if push.norm() < 1e-6 {
+        return Err(err(
+            angles,
+            "no push-off found after the standstill: the frame sensor never accelerated forward",
+        ));
+    }
+    let forward = push.normalize();
+    // Bicycle axes in the frame sensor's frame: x forward, y left, z up.
+    let left = up_frame.cross(&forward);
+    let mount = Rotation3::from_basis_unchecked(&[forward, left, up_frame]);
+    let frame_mounting = UnitQuaternion::from_rotation_matrix(&mount);
+    // Pair the two sensors' samples (both files share the grid).
+    let (qf, qb) = (&frame.orientation, &bar.orientation);
+    let rest_n = log
+        .grid_index
+        .iter()
+        .filter(|&&i| i < still_end)
+        .count()
+        .max(1);
+    let rest_rel = crate::signal::mean_rotation(
+        &(0..rest_n)
+            .map(|k| (qf[k] * frame_mounting).inverse() * qb[k])
+            .collect::<Vec<_>>(),
+    )
+    .ok_or_else(|| err(angles, "cannot average the handlebar's rest orientation"))?;
+    // The steer axis in the bicycle's axes (x forward, z up): up and backwards by λ.
+    let (sl, cl) = steer_axis_tilt_rad.sin_cos();
+    let axis = Vector3::new(-sl, 0.0, cl);
+    let mut roll = Vec::with_capacity(qf.len());
+    let mut steer = Vec::with_capacity(qf.len());
+    for k in 0..qf.len() {
+        let body = qf[k] * frame_mounting;
+        // Roll: the body's left axis against the vertical (Z up), heading-free.
+        let left_g = body * Vector3::y();
+        let fwd_g = body * Vector3::x();
+        let up_g = Vector3::z();
+        let level_left = up_g.cross(&fwd_g);
+        let tilt = level_left
+            .cross(&left_g)
+            .dot(&fwd_g)
+            .atan2(level_left.dot(&left_g));
+        roll.push(tilt);
+        let rel = body.inverse() * qb[k] * rest_rel.inverse();
+        steer.push(-rel.scaled_axis().dot(&axis));
+    }
+    Ok(RideSignals {
+        index: log.grid_index.clone(),
+        sample_rate_hz: rate,
+        roll_rad: roll,
+        steer_rad: steer,
+        frame_mounting,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::ride::{simulate_ride, Effects, RideSpec};
+
+    /// The simulator's truth (roll q₄, steer q₇) is what comes out of the sensors, to the
+    /// sensors' noise (RMS within 1.5× of it), for roughly mounted sensors and a drifting
+    /// heading.
+    #[test]
+    fn roll_and_steer_come_back_from_the_sensors() {
+        // The lab's light bicycle (the benchmark's 85 kg rider hardly moves under a 15 N kick).
+        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
+        let ride = simulate_ride(&b, &RideSpec::lab(4.5, Effects::default()), 11).unwrap();
+        let dir = std::env::temp_dir().join(format!("bikeproc_ride_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
+        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
+        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
+        let t = &ride.truth;
+        let (mut sq_roll, mut sq_steer, mut n, mut peak) = (0.0f64, 0.0f64, 0usize, 0.0f64);
+        for (k, &i) in s.index.iter().enumerate() {
+            let i = i as usize;
+            if (i as f64) < t.kick_s * 100.0 || (i as f64) > t.catch_s * 100.0 {
+                continue;
+            }
+            sq_roll += (s.roll_rad[k] - t.roll_rad[i]).powi(2);
+            sq_steer += (s.steer_rad[k] - t.steer_rad[i]).powi(2);
+            n += 1;
+            peak = peak.max(t.roll_rad[i].abs());
+        }
+        std::fs::remove_dir_all(&dir).ok();
+        let (rms_roll, rms_steer) = ((sq_roll / n as f64).sqrt(), (sq_steer / n as f64).sqrt());
+        assert!(peak > 0.02, "the kick moved it: {peak}");
+        // The orientation noise is 0.05° = 0.87 mrad per axis (√2 of it for steer, two sensors).
+        assert!(
+            rms_roll < 1.5 * 0.87e-3 && rms_steer < 1.5 * 1.23e-3,
+            "RMS roll error {rms_roll}, steer {rms_steer} rad"
+        );
+    }
+}
