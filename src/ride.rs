@@ -38,6 +38,11 @@ pub struct RideSignals {
     pub steer_rad: Vec<f64>,
     /// The mounting found for the frame sensor: rotation bicycle axes → sensor axes.
     pub frame_mounting: UnitQuaternion<f64>,
+    /// When the kick struck (s, the peak of the frame's lateral acceleration after the push).
+    pub kick_s: f64,
+    /// When the bicycle was caught or the motion was lost (s): the last moment the frame's
+    /// gyro still shows motion above its noise.
+    pub catch_s: f64,
 }
 
 fn err(path: &Path, message: impl Into<String>) -> RideError {
@@ -169,19 +174,135 @@ pub fn read_ride(
         let rel = body.inverse() * qb[k] * rest_rel.inverse();
         steer.push(-rel.scaled_axis().dot(&axis));
     }
+    // The kick comes before the bicycle leans far: search it before |roll| first exceeds 0.15 rad.
+    let lean_limit = roll
+        .iter()
+        .position(|r| r.abs() > 0.15)
+        .map_or(u64::MAX, |k| log.grid_index[k]);
+    let (kick_s, catch_s) = events(
+        &cal,
+        &frame.id,
+        &acc_frame,
+        &mount,
+        (still_end, lean_limit),
+        rate,
+    )
+    .ok_or_else(|| {
+        err(
+            angles,
+            "no kick found: the frame never accelerated sideways after the push",
+        )
+    })?;
     Ok(RideSignals {
         index: log.grid_index.clone(),
         sample_rate_hz: rate,
         roll_rad: roll,
         steer_rad: steer,
         frame_mounting,
+        kick_s,
+        catch_s,
     })
+}
+
+/// The kick and the catch from the frame sensor's `_cal` data: the kick is the first pulse of
+/// lateral acceleration (in the bicycle's axes, 0.1 s moving mean, less its 1 s moving mean)
+/// after the push's first second and before the bicycle leans past 0.15 rad; the catch is the end of the last stretch where the gyro's rate magnitude
+/// (0.1 s moving mean) exceeds 5× its standstill level.
+fn events(
+    cal: &Log,
+    id: &str,
+    acc: &[Vector3<f64>],
+    mount: &Rotation3<f64>,
+    (still_end, lean_limit): (u64, u64),
+    rate: f64,
+) -> Option<(f64, f64)> {
+    let col = |ch: &str| cal.column_index(&format!("{id}_{ch}"));
+    let (gx, gy, gz) = (col("Gyr_X")?, col("Gyr_Y")?, col("Gyr_Z")?);
+    let n = acc.len();
+    let w = (0.1 * rate).round() as usize;
+    let smooth = |x: &[f64]| -> Vec<f64> {
+        (0..n)
+            .map(|i| {
+                let (lo, hi) = (i.saturating_sub(w / 2), (i + w / 2 + 1).min(n));
+                x[lo..hi].iter().sum::<f64>() / (hi - lo) as f64
+            })
+            .collect()
+    };
+    // Lateral: the bicycle's left axis in sensor coordinates.
+    let left = mount.matrix().column(1).into_owned();
+    let lateral = smooth(&acc.iter().map(|a| a.dot(&left)).collect::<Vec<_>>());
+    let gyro = smooth(
+        &(0..n)
+            .map(|i| Vector3::new(cal.data[gx][i], cal.data[gy][i], cal.data[gz][i]).norm())
+            .collect::<Vec<_>>(),
+    );
+    let after_push = still_end + (1.0 * rate) as u64;
+    // The kick is a short pulse: take the lateral acceleration less its 1 s moving mean (which
+    // carries gravity once the bicycle leans), and its first excursion above half the largest.
+    let slow = {
+        let wide = (1.0 * rate).round() as usize;
+        (0..n)
+            .map(|i| {
+                let (lo, hi) = (i.saturating_sub(wide / 2), (i + wide / 2 + 1).min(n));
+                lateral[lo..hi].iter().sum::<f64>() / (hi - lo) as f64
+            })
+            .collect::<Vec<f64>>()
+    };
+    let pulse: Vec<f64> = (0..n).map(|i| (lateral[i] - slow[i]).abs()).collect();
+    let candidates: Vec<usize> = (0..n)
+        .filter(|&i| cal.grid_index[i] > after_push && cal.grid_index[i] < lean_limit)
+        .collect();
+    let top = candidates.iter().map(|&i| pulse[i]).fold(0.0, f64::max);
+    let first = *candidates.iter().find(|&&i| pulse[i] > 0.5 * top)?;
+    let kick = (first..(first + w * 3).min(n)).max_by(|&a, &b| pulse[a].total_cmp(&pulse[b]))?;
+    let quiet = (0..n)
+        .filter(|&i| cal.grid_index[i] < still_end)
+        .map(|i| gyro[i])
+        .fold(0.0, f64::max)
+        .max(1e-3);
+    let last_moving = (kick..n).rev().find(|&i| gyro[i] > 5.0 * quiet)?;
+    Some((
+        cal.grid_index[kick] as f64 / rate,
+        cal.grid_index[last_moving] as f64 / rate,
+    ))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::sim::ride::{simulate_ride, Effects, RideSpec};
+
+    /// Below the weave speed the bicycle falls after the kick and is caught: the kick is still
+    /// found at the kick, not at the fall, and the catch at the catch.
+    #[test]
+    fn a_falling_ride_has_its_kick_and_catch_where_they_were() {
+        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
+        let ride = simulate_ride(&b, &RideSpec::lab(2.6, Effects::default()), 5).unwrap();
+        let dir = std::env::temp_dir().join(format!("bikeproc_fall_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
+        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
+        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let t = &ride.truth;
+        assert!(
+            t.catch_s < t.kick_s + 5.0,
+            "it should have fallen: caught at {}",
+            t.catch_s
+        );
+        assert!(
+            (s.kick_s - (t.kick_s + 0.05)).abs() < 0.05,
+            "kick at {} s, truth {}",
+            s.kick_s,
+            t.kick_s
+        );
+        assert!(
+            (s.catch_s - t.catch_s).abs() < 0.1,
+            "catch at {} s, truth {}",
+            s.catch_s,
+            t.catch_s
+        );
+    }
 
     /// The simulator's truth (roll q₄, steer q₇) is what comes out of the sensors, to the
     /// sensors' noise (RMS within 1.5× of it), for roughly mounted sensors and a drifting
