@@ -339,3 +339,111 @@ mod tests {
         );
     }
 }
+
+/// The speed from the reed switch: `Sync` pulses one wheel circumference apart (the header's
+/// `Wheel circumference`), the speed between two pulses C/Δt at their midpoint, and a straight
+/// line fitted through them over `[t0_s, t1_s]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SyncSpeed {
+    /// Speed at `at_s` (m/s) and its standard error from the line's fit.
+    pub speed_mps: f64,
+    pub speed_se_mps: f64,
+    /// Its rate of change over the window (m/s²).
+    pub accel_mps2: f64,
+    pub at_s: f64,
+    /// Pulses used.
+    pub pulses: usize,
+}
+
+/// Reads the `Sync` column and fits the speed in `[t0_s, t1_s]`, evaluated at `at_s`. `None`
+/// when the log has no `Sync` column or circumference, or fewer than three pulses there.
+pub fn sync_speed(log: &Log, t0_s: f64, t1_s: f64, at_s: f64) -> Option<SyncSpeed> {
+    let col = log.column_index("Sync")?;
+    let circumference: f64 = log
+        .metadata
+        .iter()
+        .find(|(k, _)| k.eq_ignore_ascii_case("Wheel circumference"))?
+        .1
+        .replace(',', ".")
+        .trim_end_matches('m')
+        .trim()
+        .parse()
+        .ok()?;
+    let rate = log.sample_rate_hz;
+    let pulses: Vec<f64> = log
+        .grid_index
+        .iter()
+        .zip(&log.data[col])
+        .filter(|(_, &v)| v > 0.5)
+        .map(|(&i, _)| i as f64 / rate)
+        .collect();
+    let (mut t, mut v) = (Vec::new(), Vec::new());
+    for w in pulses.windows(2) {
+        let mid = 0.5 * (w[0] + w[1]);
+        if mid >= t0_s && mid <= t1_s && w[1] > w[0] {
+            t.push(mid);
+            v.push(circumference / (w[1] - w[0]));
+        }
+    }
+    if t.len() < 3 {
+        return None;
+    }
+    let (a, b) = crate::spectral::linear_trend(&t, &v);
+    let n = t.len() as f64;
+    let resid = t
+        .iter()
+        .zip(&v)
+        .map(|(ti, vi)| (vi - a - b * ti).powi(2))
+        .sum::<f64>()
+        / (n - 2.0);
+    let tm = t.iter().sum::<f64>() / n;
+    let stt: f64 = t.iter().map(|ti| (ti - tm).powi(2)).sum();
+    let se = (resid * (1.0 / n + (at_s - tm).powi(2) / stt)).sqrt();
+    Some(SyncSpeed {
+        speed_mps: a + b * at_s,
+        speed_se_mps: se,
+        accel_mps2: b,
+        at_s,
+        pulses: t.len() + 1,
+    })
+}
+
+#[cfg(test)]
+mod sync_tests {
+    use super::*;
+    use crate::sim::ride::{simulate_ride, Effects, RideSpec};
+
+    /// On a coasting ride with the reed switch wired, the speed at the middle of the free motion
+    /// is the truth's within 3 standard errors (pulses come every wheel turn, ~0.4 s at 4.5 m/s)
+    /// and the deceleration has the truth's sign and size.
+    #[test]
+    fn the_reed_switch_gives_the_speed_and_its_decay() {
+        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
+        let mut spec = RideSpec::lab(4.5, Effects::realistic());
+        spec.sync = true;
+        let ride = simulate_ride(&b, &spec, 21).unwrap();
+        let log = Log::parse(
+            ride.angles_log.as_bytes(),
+            Path::new("ride.log"),
+            &ReadOptions::default(),
+        )
+        .unwrap();
+        let t = &ride.truth;
+        let mid = 0.5 * (t.kick_s + t.catch_s);
+        let s = sync_speed(&log, t.kick_s, t.catch_s, mid).unwrap();
+        let truth = t.speed_mps[(mid * t.rate_hz).round() as usize];
+        assert!(
+            (s.speed_mps - truth).abs() < 3.0 * s.speed_se_mps.max(0.01),
+            "{s:?} vs {truth}"
+        );
+        let truth_decel = (t.speed_mps[(t.kick_s * 100.0) as usize]
+            - t.speed_mps[(t.catch_s * 100.0) as usize - 1])
+            / (t.catch_s - t.kick_s - 0.01);
+        assert!(
+            (s.accel_mps2 + truth_decel).abs() < 0.05,
+            "{} vs {}",
+            s.accel_mps2,
+            -truth_decel
+        );
+    }
+}
