@@ -137,11 +137,7 @@ fn nonlinear_ride_10_s(bencher: divan::Bencher) {
     use bikeproc::sim::whipple::{coast, upright_state, WhippleParams};
     let p = WhippleParams::from_benchmark(&bikeproc::model::Benchmark::meijaard_2007());
     let (q, qd) = upright_state(&p, 5.0, 0.0, 0.0, 0.5, 0.0).expect("upright");
-    let mut y = [0.0; 11];
-    y[..8].copy_from_slice(&q);
-    y[8] = qd[3];
-    y[9] = qd[5];
-    y[10] = qd[6];
+    let y = bikeproc::sim::whipple::ride_state(&q, &qd);
     bencher
         .bench(|| coast(&p, divan::black_box(y), 10.0, 0.01, &Default::default()).expect("coasts"));
 }

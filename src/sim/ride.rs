@@ -354,13 +354,9 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
     let (q, qd) =
         whipple::upright_state(&p, v0, 0.0, 0.0, 0.01 * rng.normal(), 0.02 * rng.normal())
             .ok_or(RideError::NoUpright)?;
-    let mut y: RideState = [0.0; 11];
-    y[..8].copy_from_slice(&q);
+    let mut y: RideState = whipple::ride_state(&q, &qd);
     y[0] = x;
     y[5] = wheel;
-    y[8] = qd[3];
-    y[9] = qd[5];
-    y[10] = qd[6];
     let kick_s = release_s + spec.kick.after_release_s;
     let e = spec.effects.clone();
     let weight = truth_bike.g * (truth_bike.m_r + truth_bike.m_b + truth_bike.m_h + truth_bike.m_f);
