@@ -12,6 +12,7 @@
 pub mod campaign;
 pub mod imu;
 pub mod jet;
+pub mod linearize;
 pub mod ode;
 pub mod pendulum;
 pub mod ride;

@@ -233,13 +233,51 @@ pub struct RideTruth {
     /// What the lab would write down: the speedometer's reading at release (m/s).
     pub noted_speed_mps: f64,
     pub effects: Effects,
-    /// Mean speed over the free motion (kick to catch) and the truth bicycle's linear
-    /// eigenvalues there (1/s), named as the model names them: weave `[re, im]` (im > 0),
-    /// capsize and castor `[re, im]`.
+    /// Mean speed over the free motion (kick to catch).
     pub mean_free_speed_mps: f64,
-    pub linear_weave: [f64; 2],
-    pub linear_capsize: [f64; 2],
-    pub linear_castor: [f64; 2],
+    /// The truth's weave and capsize eigenvalues over the free motion's speeds (every 0.05 m/s
+    /// from below the slowest to above the fastest): the simulator's own equations, with the
+    /// ride's smooth effects (steer viscous friction, tyres, drag, rolling resistance, masses),
+    /// linearized at the upright straight run ([`super::linearize`]). Coulomb friction has no
+    /// linearization and is left out.
+    pub modes: Vec<TruthModes>,
+}
+
+/// The truth's eigenvalues at one speed (1/s): weave `[re, im]` with im > 0, capsize `[re, im]`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct TruthModes {
+    pub speed_mps: f64,
+    pub weave: [f64; 2],
+    pub capsize: [f64; 2],
+}
+
+impl RideTruth {
+    /// The forward speed at time `t_s` (linear between samples; `None` outside the record).
+    pub fn speed_at(&self, t_s: f64) -> Option<f64> {
+        interpolate(&self.speed_mps, t_s * self.rate_hz)
+    }
+
+    /// The truth's weave eigenvalue at `speed_mps`, linear between the table's speeds; `None`
+    /// outside the table.
+    pub fn weave_at(&self, speed_mps: f64) -> Option<nalgebra::Complex<f64>> {
+        let m = &self.modes;
+        let k = m.windows(2).position(|w| w[0].speed_mps <= speed_mps && speed_mps <= w[1].speed_mps)?;
+        let (a, b) = (m[k], m[k + 1]);
+        let u = (speed_mps - a.speed_mps) / (b.speed_mps - a.speed_mps);
+        Some(nalgebra::Complex::new(
+            a.weave[0] + u * (b.weave[0] - a.weave[0]),
+            a.weave[1] + u * (b.weave[1] - a.weave[1]),
+        ))
+    }
+}
+
+fn interpolate(x: &[f64], at: f64) -> Option<f64> {
+    if !(at >= 0.0) || at > (x.len().checked_sub(1)?) as f64 {
+        return None;
+    }
+    let k = (at.floor() as usize).min(x.len() - 1);
+    let u = at - k as f64;
+    Some(if u == 0.0 { x[k] } else { x[k] + u * (x[k + 1] - x[k]) })
 }
 
 /// A simulated ride: the log pair's text and the truth.
@@ -257,6 +295,73 @@ pub enum RideError {
     NoUpright,
     #[error(transparent)]
     Ode(#[from] super::ode::OdeError),
+}
+
+/// The wheels' static normal loads (rear, front; N): the weight split by the centre of mass.
+fn static_normal_loads(b: &Benchmark) -> [f64; 2] {
+    let mass = b.m_r + b.m_b + b.m_h + b.m_f;
+    let weight = b.g * mass;
+    let x_total = (b.x_b * b.m_b + b.x_h * b.m_h + b.w * b.m_f) / mass;
+    let front = weight * x_total / b.w;
+    [weight - front, front]
+}
+
+/// The loads of a ride beyond gravity and the contacts: steering-head friction, the kick at the
+/// saddle (from `kick_s`), rolling resistance at each wheel and drag on the frame.
+fn ride_loads(
+    bike: &Benchmark,
+    effects: &Effects,
+    kick: &Kick,
+    kick_s: f64,
+) -> impl Fn(&whipple::LoadInput<'_>) -> Vec<Load> {
+    let e = effects.clone();
+    let kick = kick.clone();
+    let normal = static_normal_loads(bike);
+    let (sl, cl) = bike.lambda.sin_cos();
+    // The saddle in the frame's axes relative to its centre of mass.
+    let sx = kick.saddle_x_m - bike.x_b;
+    let sz = kick.saddle_z_m - bike.z_b;
+    let saddle = [sx * cl - sz * sl, 0.0, sx * sl + sz * cl];
+    move |input: &whipple::LoadInput<'_>| -> Vec<Load> {
+        let (t, q, qd) = (input.t, input.q, input.qd);
+        let mut l = Vec::new();
+        l.push(Load::Steer(
+            -e.steer_viscous_nms_per_rad * qd[6]
+                - e.steer_coulomb_nm * (qd[6] / COULOMB_SMOOTHING_RAD_PER_S).tanh(),
+        ));
+        if t >= kick_s && t < kick_s + kick.duration_s {
+            let f = kick.peak_force_n * (PI * (t - kick_s) / kick.duration_s).sin();
+            let (s3, c3) = q[2].sin_cos();
+            l.push(Load::Force {
+                body: Body::Frame,
+                offset_body_m: saddle,
+                force_n: [-s3 * f, c3 * f, 0.0],
+            });
+        }
+        for (k, body) in [Body::RearWheel, Body::FrontWheel].into_iter().enumerate() {
+            let v = input.velocities[if body == Body::RearWheel { 1 } else { 3 }];
+            let sp = (v[0] * v[0] + v[1] * v[1]).sqrt();
+            if sp > 1e-6 && e.rolling_resistance_coeff > 0.0 {
+                let f = e.rolling_resistance_coeff * normal[k] / sp;
+                l.push(Load::Force {
+                    body,
+                    offset_body_m: [0.0; 3],
+                    force_n: [-f * v[0], -f * v[1], 0.0],
+                });
+            }
+        }
+        if e.drag_area_m2 > 0.0 {
+            let v = input.velocities[0];
+            let sp = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let k = 0.5 * AIR_DENSITY_KGPM3 * e.drag_area_m2 * sp;
+            l.push(Load::Force {
+                body: Body::Frame,
+                offset_body_m: [0.0; 3],
+                force_n: [-k * v[0], -k * v[1], -k * v[2]],
+            });
+        }
+        l
+    }
 }
 
 /// Sensor outputs need positions, orientations, velocities and accelerations of two points:
@@ -358,60 +463,8 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
     y[0] = x;
     y[5] = wheel;
     let kick_s = release_s + spec.kick.after_release_s;
-    let e = spec.effects.clone();
-    let weight = truth_bike.g * (truth_bike.m_r + truth_bike.m_b + truth_bike.m_h + truth_bike.m_f);
-    let x_total = (truth_bike.x_b * truth_bike.m_b
-        + truth_bike.x_h * truth_bike.m_h
-        + truth_bike.w * truth_bike.m_f)
-        / (truth_bike.m_r + truth_bike.m_b + truth_bike.m_h + truth_bike.m_f);
-    let normal_front = weight * x_total / truth_bike.w;
-    let normal = [weight - normal_front, normal_front];
-    let kick = spec.kick.clone();
-    let (sl, cl) = truth_bike.lambda.sin_cos();
-    // The saddle in the frame's axes relative to its centre of mass.
-    let sx = kick.saddle_x_m - truth_bike.x_b;
-    let sz = kick.saddle_z_m - truth_bike.z_b;
-    let saddle = [sx * cl - sz * sl, 0.0, sx * sl + sz * cl];
-    let loads = move |input: &whipple::LoadInput<'_>| -> Vec<Load> {
-        let (t, q, qd) = (input.t, input.q, input.qd);
-        let mut l = Vec::new();
-        l.push(Load::Steer(
-            -e.steer_viscous_nms_per_rad * qd[6]
-                - e.steer_coulomb_nm * (qd[6] / COULOMB_SMOOTHING_RAD_PER_S).tanh(),
-        ));
-        if t >= kick_s && t < kick_s + kick.duration_s {
-            let f = kick.peak_force_n * (PI * (t - kick_s) / kick.duration_s).sin();
-            let (s3, c3) = q[2].sin_cos();
-            l.push(Load::Force {
-                body: Body::Frame,
-                offset_body_m: saddle,
-                force_n: [-s3 * f, c3 * f, 0.0],
-            });
-        }
-        for (k, body) in [Body::RearWheel, Body::FrontWheel].into_iter().enumerate() {
-            let v = input.velocities[if body == Body::RearWheel { 1 } else { 3 }];
-            let sp = (v[0] * v[0] + v[1] * v[1]).sqrt();
-            if sp > 1e-6 && e.rolling_resistance_coeff > 0.0 {
-                let f = e.rolling_resistance_coeff * normal[k] / sp;
-                l.push(Load::Force {
-                    body,
-                    offset_body_m: [0.0; 3],
-                    force_n: [-f * v[0], -f * v[1], 0.0],
-                });
-            }
-        }
-        if e.drag_area_m2 > 0.0 {
-            let v = input.velocities[0];
-            let sp = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let k = 0.5 * AIR_DENSITY_KGPM3 * e.drag_area_m2 * sp;
-            l.push(Load::Force {
-                body: Body::Frame,
-                offset_body_m: [0.0; 3],
-                force_n: [-k * v[0], -k * v[1], -k * v[2]],
-            });
-        }
-        l
-    };
+    let normal = static_normal_loads(&truth_bike);
+    let loads = ride_loads(&truth_bike, &spec.effects, &spec.kick, kick_s);
     // Sensors write 3–5 decimals: 1e-8 relative is ample (the constraints are projected anyway).
     let tol = super::ode::Tolerance {
         rtol: 1e-8,
@@ -557,12 +610,40 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
     } else {
         free_speeds.iter().sum::<f64>() / free_speeds.len() as f64
     };
-    // The sealed truth's eigenvalues (the analysis never reads this file).
-    let named = crate::model::Canonical::from_benchmark(&truth_bike)
-        .sweep(&[mean_free])
-        .map(|s| s.eigenvalues[0])
+    // The sealed truth's eigenvalues (the analysis never reads this file), from the
+    // simulator's own equations linearized with the smooth effects (no Coulomb, no kick).
+    let (lo, hi) = free_speeds
+        .iter()
+        .fold((v0, v0), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    let smooth = Effects {
+        steer_coulomb_nm: 0.0,
+        ..spec.effects.clone()
+    };
+    let smooth_loads = ride_loads(&truth_bike, &smooth, &spec.kick, f64::INFINITY);
+    let smooth_drive = whipple::Drive {
+        loads: &smooth_loads,
+        motion: spec.motion,
+    };
+    let grid: Vec<f64> = ((lo / 0.05).floor() as i64 - 1..=(hi / 0.05).ceil() as i64 + 1)
+        .map(|k| k as f64 * 0.05)
+        .filter(|&v| v > 0.2)
+        .collect();
+    let tyres = spec.effects.tyres.map(|model| whipple::Tyres {
+        model,
+        normal_n: normal,
+    });
+    let modes = super::linearize::weave_and_capsize(&p, tyres.as_ref(), smooth_drive, &grid)
+        .map(|m| {
+            grid.iter()
+                .zip(m)
+                .map(|(&speed_mps, (w, c))| TruthModes {
+                    speed_mps,
+                    weave: [w.re, w.im],
+                    capsize: [c.re, c.im],
+                })
+                .collect()
+        })
         .unwrap_or_default();
-    let pair = |z: nalgebra::Complex<f64>| [z.re, z.im];
     Ok(Ride {
         angles_log,
         cal_log,
@@ -577,9 +658,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
             noted_speed_mps: v0 * spec.effects.speedometer_scale,
             effects: spec.effects.clone(),
             mean_free_speed_mps: mean_free,
-            linear_weave: pair(named[0]),
-            linear_capsize: pair(named[2]),
-            linear_castor: pair(named[3]),
+            modes,
         },
     })
 }

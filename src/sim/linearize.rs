@@ -1,0 +1,193 @@
+//! The simulator's own linearization, for the sealed truth of a ride: its nonlinear equations
+//! (with whatever smooth effects they carry: steer viscous friction, compliant tyres, drag,
+//! point masses) differentiated by central differences at the upright straight run, and the
+//! eigenvalues of that Jacobian followed along the speed.
+//!
+//! Independent of the analysis's linear model (`crate::model`): only the eigenvalue routine of
+//! a real matrix is shared, which is linear algebra, not bicycle physics.
+
+use super::whipple::{self, Drive, LoadInput, Tyres, WhippleParams};
+use nalgebra::{Complex, DMatrix};
+
+/// Central-difference step for the state perturbations (rad, rad/s, m/s; N for tyre forces it
+/// is scaled by 100).
+const STEP: f64 = 1e-6;
+
+/// The lateral Jacobian of the simulator's equations at speed `v` (m/s), upright and straight.
+///
+/// Rigid wheels (`tyres` = `None`): the state is (roll, steer, roll rate, steer rate), the
+/// other rates following from the rolling constraints. Compliant tyres: (roll, steer, lateral
+/// velocity, yaw rate, roll rate, steer rate, rear and front lateral force). The loads are
+/// evaluated at time 0.
+pub fn lateral_jacobian(
+    p: &WhippleParams,
+    tyres: Option<&Tyres>,
+    drive: Drive<'_>,
+    v: f64,
+) -> Option<DMatrix<f64>> {
+    match tyres {
+        None => {
+            let f = |x: &[f64]| -> Option<Vec<f64>> {
+                let (q, qd) = whipple::upright_state(p, v, x[0], x[1], x[2], x[3])?;
+                let loads = (drive.loads)(&LoadInput {
+                    t: 0.0,
+                    q: &q,
+                    qd: &qd,
+                    velocities: whipple::body_velocities(p, &q, &qd),
+                });
+                let qdd = whipple::accelerations_loaded(p, &q, &qd, &loads, drive.motion)?;
+                Some(vec![x[2], x[3], qdd[3], qdd[6]])
+            };
+            central_differences(&f, &[1.0; 4])
+        }
+        Some(tyres) => {
+            let (q, qd) = whipple::upright_state(p, v, 0.0, 0.0, 0.0, 0.0)?;
+            let base = whipple::tyre_state(&q, &qd);
+            // Tyre-state indices of roll, steer; q̇₂ (the lateral velocity, with yaw at
+            // zero), q̇₃, q̇₄, q̇₇; the two forces. Yaw and the lateral position are left out:
+            // the run turned or shifted is the same run, and the lateral velocity is taken in
+            // the heading's axes, u = q̇₂ cos q₃ − q̇₁ sin q₃, u̇ = q̈₂ − q̇₁ q̇₃ at q₃ = 0.
+            const IDX: [usize; 8] = [3, 6, 9, 10, 11, 12, 13, 14];
+            let f = |x: &[f64]| -> Option<Vec<f64>> {
+                let mut y = base;
+                for (k, &i) in IDX.iter().enumerate() {
+                    y[i] += x[k];
+                }
+                let q: [f64; 8] = std::array::from_fn(|i| y[i]);
+                y[4] = whipple::pitch_on_ground(p, &q, q[4])?;
+                let d = whipple::tyre_derivative(p, tyres, 0.0, &y, drive)?;
+                let mut out: Vec<f64> = IDX.iter().map(|&i| d[i]).collect();
+                out[2] -= y[8] * y[10];
+                Some(out)
+            };
+            let mut scale = [1.0; 8];
+            scale[6] = 100.0;
+            scale[7] = 100.0;
+            central_differences(&f, &scale)
+        }
+    }
+}
+
+fn central_differences(
+    f: &dyn Fn(&[f64]) -> Option<Vec<f64>>,
+    scale: &[f64],
+) -> Option<DMatrix<f64>> {
+    let n = scale.len();
+    let mut jac = DMatrix::zeros(n, n);
+    for j in 0..n {
+        let h = STEP * scale[j];
+        let mut xp = vec![0.0; n];
+        let mut xm = vec![0.0; n];
+        xp[j] = h;
+        xm[j] = -h;
+        let (fp, fm) = (f(&xp)?, f(&xm)?);
+        for i in 0..n {
+            jac[(i, j)] = (fp[i] - fm[i]) / (2.0 * h);
+        }
+    }
+    Some(jac)
+}
+
+/// The weave and capsize eigenvalues (1/s) at each of `speeds_mps`, followed by continuity:
+/// at the highest speed the weave is the oscillatory eigenvalue of least modulus and capsize
+/// the real one of least modulus; each lower speed takes the eigenvalue nearest the previous
+/// one. Returned in the order of `speeds_mps` (which must be sorted ascending); `None` when a
+/// Jacobian or its eigenvalues cannot be computed.
+pub fn weave_and_capsize(
+    p: &WhippleParams,
+    tyres: Option<&Tyres>,
+    drive: Drive<'_>,
+    speeds_mps: &[f64],
+) -> Option<Vec<(Complex<f64>, Complex<f64>)>> {
+    let mut out = Vec::with_capacity(speeds_mps.len());
+    let mut prev: Option<(Complex<f64>, Complex<f64>)> = None;
+    for &v in speeds_mps.iter().rev() {
+        let ev = crate::model::eigenvalues_dyn(&lateral_jacobian(p, tyres, drive, v)?)?;
+        let nearest = |target: Complex<f64>, upper: bool| {
+            ev.iter()
+                .copied()
+                .filter(|z| !upper || z.im >= 0.0)
+                .min_by(|a, b| (a - target).norm().total_cmp(&(b - target).norm()))
+        };
+        let pair = match prev {
+            None => {
+                let weave = ev
+                    .iter()
+                    .copied()
+                    .filter(|z| z.im > 1e-6)
+                    .min_by(|a, b| a.norm().total_cmp(&b.norm()))?;
+                let capsize = ev
+                    .iter()
+                    .copied()
+                    .filter(|z| z.im.abs() <= 1e-9 * (1.0 + z.re.abs()))
+                    .min_by(|a, b| a.norm().total_cmp(&b.norm()))?;
+                (weave, capsize)
+            }
+            Some((w, c)) => (nearest(w, true)?, nearest(c, true)?),
+        };
+        out.push(pair);
+        prev = Some(pair);
+    }
+    out.reverse();
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Benchmark, Canonical};
+
+    /// Rigid wheels and no loads: the Jacobian's eigenvalues are the benchmark's (Meijaard et
+    /// al. 2007) to 1e-6, weave and capsize named as the model names them.
+    #[test]
+    fn rigid_weave_and_capsize_are_the_benchmark_ones() {
+        let b = Benchmark::meijaard_2007();
+        let p = WhippleParams::from_benchmark(&b);
+        let none = |_: &LoadInput<'_>| Vec::new();
+        let drive = Drive {
+            loads: &none,
+            motion: whipple::Motion::Free,
+        };
+        let speeds = [4.5, 5.0, 6.0, 7.0];
+        let got = weave_and_capsize(&p, None, drive, &speeds).unwrap();
+        let want = Canonical::from_benchmark(&b).sweep(&speeds).unwrap();
+        for (g, w) in got.iter().zip(&want.eigenvalues) {
+            assert!((g.0 - w[0]).norm() < 1e-6, "{g:?} vs {w:?}");
+            assert!((g.1 - w[2]).norm() < 1e-6, "{g:?} vs {w:?}");
+        }
+    }
+
+    /// Very stiff tyres (cornering 2000 /rad, relaxation 1 mm) behave as rolling without slip:
+    /// the weave is the rigid one within 1 %.
+    #[test]
+    fn stiff_tyres_give_the_rigid_weave() {
+        let b = Benchmark::meijaard_2007();
+        let p = WhippleParams::from_benchmark(&b);
+        let none = |_: &LoadInput<'_>| Vec::new();
+        let drive = Drive {
+            loads: &none,
+            motion: whipple::Motion::Free,
+        };
+        let mass = b.m_r + b.m_b + b.m_h + b.m_f;
+        let front = b.g * (b.x_b * b.m_b + b.x_h * b.m_h + b.w * b.m_f) / b.w;
+        let tyres = Tyres {
+            model: whipple::TyreModel {
+                cornering_per_rad: 2000.0,
+                camber_per_rad: 0.0,
+                relaxation_length_m: 0.001,
+            },
+            normal_n: [b.g * mass - front, front],
+        };
+        let speeds = [5.0, 6.0];
+        let rigid = weave_and_capsize(&p, None, drive, &speeds).unwrap();
+        let soft = weave_and_capsize(&p, Some(&tyres), drive, &speeds).unwrap();
+        for (r, s) in rigid.iter().zip(&soft) {
+            assert!(
+                (r.0 - s.0).norm() < 0.01 * r.0.norm(),
+                "rigid {:?}, stiff tyres {:?}",
+                r.0,
+                s.0
+            );
+        }
+    }
+}
