@@ -534,7 +534,7 @@ pub fn lab_rides(
     files.push(("rides.toml".into(), manifest));
     files.push((
         "truth/README.md".into(),
-        "# Sealed truths of the simulated rides\n\nWritten by `bikeproc simulate rides` beside the ride logs: the true speed, roll and steer\nhistories, the effects and their values, and the truth bicycle's linear eigenvalues at the mean\nspeed of the free motion. No analysis command reads these files; tests compare with them.\n"
+        "# Sealed truths of the simulated rides\n\nWritten by `bikeproc simulate rides` beside the ride logs: the true speed, roll and steer\nhistories, the effects and their values, and the truth's weave and capsize eigenvalues every\n0.05 m/s over the free motion's speeds (`modes`: the simulator's own equations with the ride's\nsmooth effects, linearized upright; Coulomb friction has no linearization and is left out).\nNo analysis command reads these files; tests compare with them.\n"
             .into(),
     ));
     files.sort_by(|a, b| a.0.cmp(&b.0));
