@@ -257,30 +257,43 @@ fn linear_step(
     r.is_finite().then_some((p, r))
 }
 
-/// Levenberg–Marquardt on all parameters from `p0`, with Marquardt's diagonal scaling.
-///
-/// `tau` is time from the segment start; the result's covariance is `s² (JᵀJ)⁻¹` with
-/// `s² = RSS / (N − p)`.
-pub fn fit_damped_sinusoid(
-    tau: &[f64],
-    x: &[f64],
-    t_ref_s: f64,
-    p0: &[f64],
-    trend: bool,
-) -> Result<DampedFit, FitError> {
-    let np = if trend { 6 } else { 5 };
-    let n = tau.len();
-    if n <= np + 2 {
-        return Err(FitError::TooShort(n));
-    }
-    let mut p = p0[..np].to_vec();
+/// A nonlinear least-squares problem for [`levenberg_marquardt`]: residuals with their exact
+/// Jacobian, and the cost (the residuals' sum of squares) alone for trial steps.
+pub(crate) trait LeastSquares {
+    /// Residuals and their Jacobian (one row per residual, one column per parameter) at `p`.
+    fn residuals_and_jacobian(&self, p: &[f64], jac: &mut DMatrix<f64>, r: &mut DVector<f64>);
+    /// The sum of squared residuals at `p`.
+    fn cost(&self, p: &[f64]) -> f64;
+}
+
+/// Where [`levenberg_marquardt`] stopped: the parameters, the cost there, the iterations used,
+/// and the Jacobian and residuals at the solution.
+pub(crate) struct Solution {
+    pub params: Vec<f64>,
+    pub cost: f64,
+    pub iterations: usize,
+    pub jacobian: DMatrix<f64>,
+    pub residuals: DVector<f64>,
+}
+
+/// Levenberg–Marquardt on all parameters from `p0` (`n` residuals), with Marquardt's diagonal
+/// scaling; stops when a step no longer lowers the cost, gains less than 1e-15 of it, or moves
+/// no parameter by 1e-12 of its size, or after `max_iterations`.
+pub(crate) fn levenberg_marquardt(
+    problem: &dyn LeastSquares,
+    n: usize,
+    p0: Vec<f64>,
+    max_iterations: usize,
+) -> Solution {
+    let np = p0.len();
+    let mut p = p0;
     let mut jac = DMatrix::zeros(n, np);
     let mut r = DVector::zeros(n);
-    residuals_and_jacobian(&p, trend, tau, x, &mut jac, &mut r);
+    problem.residuals_and_jacobian(&p, &mut jac, &mut r);
     let mut cost = r.norm_squared();
     let mut lambda = 1e-3;
     let mut iterations = 0;
-    for it in 0..500 {
+    for it in 0..max_iterations {
         iterations = it + 1;
         let jt = jac.transpose();
         let h = &jt * &jac;
@@ -298,7 +311,7 @@ pub fn fit_damped_sinusoid(
             };
             let delta = ch.solve(&(-&g));
             let trial: Vec<f64> = p.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
-            let new_cost = rss(&trial, trend, tau, x);
+            let new_cost = problem.cost(&trial);
             let rel_step = delta
                 .iter()
                 .zip(&p)
@@ -315,11 +328,60 @@ pub fn fit_damped_sinusoid(
             }
             lambda *= 10.0;
         }
-        residuals_and_jacobian(&p, trend, tau, x, &mut jac, &mut r);
+        problem.residuals_and_jacobian(&p, &mut jac, &mut r);
         if !improved || small_step {
             break;
         }
     }
+    Solution {
+        params: p,
+        cost,
+        iterations,
+        jacobian: jac,
+        residuals: r,
+    }
+}
+
+/// The damped sinusoid of [`fit_damped_sinusoid`] as a least-squares problem.
+struct Sinusoid<'a> {
+    tau: &'a [f64],
+    x: &'a [f64],
+    trend: bool,
+}
+
+impl LeastSquares for Sinusoid<'_> {
+    fn residuals_and_jacobian(&self, p: &[f64], jac: &mut DMatrix<f64>, r: &mut DVector<f64>) {
+        residuals_and_jacobian(p, self.trend, self.tau, self.x, jac, r);
+    }
+    fn cost(&self, p: &[f64]) -> f64 {
+        rss(p, self.trend, self.tau, self.x)
+    }
+}
+
+/// Levenberg–Marquardt ([`levenberg_marquardt`]) on all parameters from `p0`.
+///
+/// `tau` is time from the segment start; the result's covariance is `s² (JᵀJ)⁻¹` with
+/// `s² = RSS / (N − p)`.
+pub fn fit_damped_sinusoid(
+    tau: &[f64],
+    x: &[f64],
+    t_ref_s: f64,
+    p0: &[f64],
+    trend: bool,
+) -> Result<DampedFit, FitError> {
+    let np = if trend { 6 } else { 5 };
+    let n = tau.len();
+    if n <= np + 2 {
+        return Err(FitError::TooShort(n));
+    }
+    let problem = Sinusoid { tau, x, trend };
+    let Solution {
+        params: mut p,
+        cost,
+        iterations,
+        jacobian: mut jac,
+        residuals: mut r,
+    } = levenberg_marquardt(&problem, n, p0[..np].to_vec(), 500);
     if p[OMEGA] < 0.0 {
         // ω → −ω with b → −b is the same curve.
         p[OMEGA] = -p[OMEGA];
