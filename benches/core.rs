@@ -161,3 +161,16 @@ fn simulated_ride_10_s_coast(bencher: divan::Bencher) {
     spec.coast_s = 10.0;
     bencher.bench(|| simulate_ride(&b, divan::black_box(&spec), 3).expect("rides"));
 }
+
+/// Issue 6: the whole `data/rides.toml` campaign (16 rides: read both files, find the window,
+/// fit, resample 400 times, the model's weave with its standard error), on two threads as
+/// `bikeproc dynamic data/rides.toml` runs it.
+#[divan::bench(sample_count = 10)]
+fn dynamic_campaign_16_rides(bencher: divan::Bencher) {
+    use bikeproc::ride::dynamic::{run_campaign, RideManifest};
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
+    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
+    let modal = bikeproc::ride::modal::ModalOptions::default();
+    bencher.bench(|| run_campaign(&manifest, &model, &modal, 2, &|_, _| {}));
+}

@@ -35,6 +35,9 @@ enum Command {
     /// Stability of a bicycle against speed: stable range, weave and capsize speeds with standard
     /// errors, eigenvalues (linearized Whipple model, Meijaard et al. 2007).
     Stability(StabilityArgs),
+    /// Experimental weave eigenvalue of a ride (its angles log, `_cal` beside it) or of every
+    /// ride of a campaign (rides.toml), against the model at the ride's speed.
+    Dynamic(DynamicArgs),
     /// Write simulated logs from physics.
     #[command(subcommand)]
     Simulate(SimCommand),
@@ -60,6 +63,24 @@ struct PeriodArgs {
     #[arg(long, value_parser = parse_range)]
     segment: Option<(f64, f64)>,
     /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct DynamicArgs {
+    /// A ride's angles log (`ride_03.log`), or a campaign manifest (`rides.toml`).
+    file: PathBuf,
+    /// The speedometer's reading (m/s); without it the log's `Sync` pulses give the speed.
+    /// Campaigns use the noted speeds of their manifest where a log has no `Sync`.
+    #[arg(long)]
+    speed: Option<f64>,
+    /// The bicycle (lab TOML or BicycleParameters file); campaigns default to their manifest's.
+    #[arg(long)]
+    bike: Option<PathBuf>,
+    /// Bootstrap resamples for the check of the standard errors.
+    #[arg(long, default_value_t = 400)]
+    resamples: usize,
     #[arg(long)]
     json: bool,
 }
@@ -142,6 +163,13 @@ enum SimCommand {
     Rides {
         /// Folder to write into (it holds lab_bike.toml).
         #[arg(long, default_value = "data")]
+        out: PathBuf,
+    },
+    /// Rides that went wrong (no kick, too short, sensors swapped, a sensor that did not
+    /// move), as fixtures/rides/ holds them.
+    RideFaults {
+        /// Folder to write into.
+        #[arg(long, default_value = "fixtures/rides")]
         out: PathBuf,
     },
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
@@ -317,6 +345,7 @@ fn main() -> ExitCode {
                     || c.is::<inertia::InertiaError>()
                     || c.is::<inertia::manifest::ManifestError>()
                     || c.is::<bikeproc::model::ParamError>()
+                    || c.is::<bikeproc::ride::RideError>()
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
@@ -329,6 +358,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::CalibrateBar(a) => calibrate_bar(a),
         Command::Inertia(a) => inertia_cmd(a),
         Command::Stability(a) => stability(a),
+        Command::Dynamic(a) => dynamic(a),
         Command::Simulate(s) => simulate(s),
         Command::Report(r) => {
             let written = bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| {
@@ -438,12 +468,96 @@ fn stability(a: StabilityArgs) -> Result<()> {
     emit(a.json, &report, || report.to_text())
 }
 
+fn dynamic(a: DynamicArgs) -> Result<()> {
+    use bikeproc::model::uncertain;
+    use bikeproc::ride::dynamic::{self as dynamic, DynamicOptions, RideManifest};
+    use bikeproc::ride::modal::ModalOptions;
+    use std::io::IsTerminal;
+    let modal = ModalOptions {
+        resamples: a.resamples,
+        ..ModalOptions::default()
+    };
+    if a.file.extension().is_some_and(|e| e == "toml") {
+        let manifest = RideManifest::load(&a.file)?;
+        let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
+        let model = uncertain::load(&bike)?;
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let tty = std::io::stderr().is_terminal();
+        let progress = |done: usize, total: usize| {
+            if tty {
+                let width = 30;
+                let filled = done * width / total.max(1);
+                eprint!(
+                    "\r[{}{}] {done}/{total} rides",
+                    "#".repeat(filled),
+                    " ".repeat(width - filled)
+                );
+                if done == total {
+                    eprintln!();
+                }
+            }
+        };
+        let results = dynamic::run_campaign(&manifest, &model, &modal, threads, &progress);
+        let mut rides = Vec::new();
+        let mut failures = Vec::new();
+        for r in &results {
+            match r {
+                Ok(t) => rides.push(t.summary()),
+                Err(e) => failures.push(e.to_string()),
+            }
+        }
+        #[derive(serde::Serialize)]
+        struct Campaign<'a> {
+            bike: String,
+            rides: &'a [dynamic::Summary],
+            failures: &'a [String],
+        }
+        let out = Campaign {
+            bike: bike.display().to_string(),
+            rides: &rides,
+            failures: &failures,
+        };
+        emit(a.json, &out, || {
+            let mut text: String = rides.iter().map(|r| r.to_text() + "\n").collect();
+            for f in &failures {
+                text += &format!("not analysed: {f}\n");
+            }
+            text
+        })?;
+        if rides.is_empty() {
+            anyhow::bail!("no ride of {} could be analysed", a.file.display());
+        }
+        return Ok(());
+    }
+    let bike = a
+        .bike
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("data/lab_bike.toml"));
+    let model = uncertain::load(&bike)?;
+    let options = DynamicOptions {
+        noted_speed_mps: a.speed,
+        prefer_sync: false,
+        modal,
+    };
+    let test = dynamic::dynamic_test(&a.file, &model, &options)?;
+    let summary = test.summary();
+    emit(a.json, &summary, || summary.to_text())
+}
+
 fn simulate(s: SimCommand) -> Result<()> {
     let (p, c) = match s {
         SimCommand::Ride(r) => return simulate_ride(r),
         SimCommand::Rides { out } => {
             let bike = inertia::bike::LabBike::load(&out.join("lab_bike.toml"))?;
             let files = sim::campaign::lab_rides(&bike)?;
+            sim::campaign::write_files(&out, &files)
+                .with_context(|| format!("writing under {}", out.display()))?;
+            eprintln!("wrote {} files under {}", files.len(), out.display());
+            return Ok(());
+        }
+        SimCommand::RideFaults { out } => {
+            let bike = inertia::bike::LabBike::load(Path::new("data/lab_bike.toml"))?;
+            let files = sim::campaign::ride_fault_fixtures(&bike)?;
             sim::campaign::write_files(&out, &files)
                 .with_context(|| format!("writing under {}", out.display()))?;
             eprintln!("wrote {} files under {}", files.len(), out.display());

@@ -136,6 +136,39 @@ const UNIT_HINTS: &[(&str, &str)] = &[
     ("_kgmm2", "_kgm2"),
 ];
 
+/// Parses a manifest's TOML text, an error naming the file, the line and the key (with a hint
+/// when a key carries a non-SI unit).
+pub fn from_toml<T: serde::de::DeserializeOwned>(
+    file: &Path,
+    text: &str,
+) -> Result<T, ManifestError> {
+    toml::from_str(text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count());
+        let mut message = e.message().trim().to_string();
+        if let Some(key) = message
+            .strip_prefix("unknown field `")
+            .and_then(|r| r.split('`').next())
+        {
+            if let Some((bad, good)) = UNIT_HINTS.iter().find(|(bad, _)| key.ends_with(bad)) {
+                let want = format!("{}{good}", &key[..key.len() - bad.len()]);
+                message = format!("`{key}`: wrong unit; bikeproc takes SI units, write `{want}`");
+            } else {
+                message = format!(
+                    "unknown key `{key}` ({})",
+                    message.lines().next().unwrap_or("")
+                );
+            }
+        }
+        ManifestError {
+            path: file.to_path_buf(),
+            line,
+            message: message.replace('\n', " "),
+        }
+    })
+}
+
 impl Manifest {
     /// Reads `DIR/manifest.toml` (or the file itself when `path` is a file) and checks it.
     pub fn load(path: &Path) -> Result<Manifest, ManifestError> {
@@ -150,32 +183,7 @@ impl Manifest {
             line: None,
             message: format!("cannot read the test manifest: {e}"),
         })?;
-        let mut m: Manifest = toml::from_str(&text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count());
-            let mut message = e.message().trim().to_string();
-            if let Some(key) = message
-                .strip_prefix("unknown field `")
-                .and_then(|r| r.split('`').next())
-            {
-                if let Some((bad, good)) = UNIT_HINTS.iter().find(|(bad, _)| key.ends_with(bad)) {
-                    let want = format!("{}{good}", &key[..key.len() - bad.len()]);
-                    message =
-                        format!("`{key}`: wrong unit; bikeproc takes SI units, write `{want}`");
-                } else {
-                    message = format!(
-                        "unknown key `{key}` ({})",
-                        message.lines().next().unwrap_or("")
-                    );
-                }
-            }
-            ManifestError {
-                path: file.clone(),
-                line,
-                message: message.replace('\n', " "),
-            }
-        })?;
+        let mut m: Manifest = from_toml(&file, &text)?;
         m.dir = dir;
         m.check(&file, &text)?;
         Ok(m)

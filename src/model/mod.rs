@@ -151,9 +151,14 @@ pub fn eigenvalues_dyn(a: &nalgebra::DMatrix<f64>) -> Option<Vec<Complex<f64>>> 
         return None;
     }
     let reversed = nalgebra::DMatrix::from_fn(n, n, |r, c| a[(n - 1 - r, n - 1 - c)]);
-    let schur = [a.clone(), a.transpose(), reversed.clone(), reversed.transpose()]
-        .into_iter()
-        .find_map(|m| nalgebra::Schur::try_new(m, f64::EPSILON, 500))?;
+    let schur = [
+        a.clone(),
+        a.transpose(),
+        reversed.clone(),
+        reversed.transpose(),
+    ]
+    .into_iter()
+    .find_map(|m| nalgebra::Schur::try_new(m, f64::EPSILON, 500))?;
     let mut out: Vec<Complex<f64>> = schur.complex_eigenvalues().iter().copied().collect();
     out.sort_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)));
     Some(out)

@@ -477,7 +477,7 @@ pub fn write_files(root: &std::path::Path, files: &Files) -> std::io::Result<()>
 }
 
 /// The lab's ride campaign (seed §5.4), simulated on the measured bicycle with a truth that
-/// differs from it: 16 rides from 2.6 to 6.4 m/s, each with the realistic effects
+/// differs from it: 16 rides released at 3.4 to 6.5 m/s, each with the realistic effects
 /// ([`super::ride::Effects::realistic`]) varied by ±15 % from ride to ride, the truth frame's
 /// I_xx 6 % above the measured one (the seed's spread between orientations), one speedometer
 /// reading 3 % high for all rides, the reed switch wired on every other ride. Files: `ride_NN.log`
@@ -499,7 +499,7 @@ pub fn lab_rides(
     );
     let mut rng = Rng::new(1954);
     let speeds = [
-        2.6, 2.85, 3.1, 3.35, 3.6, 3.85, 4.1, 4.35, 4.6, 4.85, 5.1, 5.35, 5.6, 5.85, 6.1, 6.4,
+        3.4, 3.6, 3.8, 4.0, 4.2, 4.4, 4.6, 4.8, 5.0, 5.2, 5.4, 5.6, 5.8, 6.0, 6.2, 6.5,
     ];
     for (k, &v) in speeds.iter().enumerate() {
         let mut e = Effects::realistic();
@@ -538,5 +538,51 @@ pub fn lab_rides(
             .into(),
     ));
     files.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(files)
+}
+
+/// Rides that went wrong, for the analysis's diagnoses (`fixtures/rides/`): the lab's bicycle
+/// at 4.5 m/s with the realistic effects, 4 s of coast, and one fault each: no kick
+/// (`no_kick`), the recording stopped 0.9 s after the kick (`too_short`), the sensors' labels
+/// exchanged (`sensors_swapped`), the handlebar sensor lying still off the bicycle
+/// (`handlebar_still`).
+pub fn ride_fault_fixtures(
+    measured: &crate::inertia::bike::LabBike,
+) -> Result<Files, super::ride::RideError> {
+    use super::ride::{simulate_ride, Effects, Fault, RideSpec};
+    let bike = crate::model::lab::lab_to_benchmark(measured);
+    let mut files = Files::new();
+    let cases: [(&str, Option<Fault>, f64); 4] = [
+        ("no_kick", None, 0.0),
+        ("too_short", Some(Fault::EndsAt(5.8 + 0.9)), 15.0),
+        ("sensors_swapped", Some(Fault::SensorsSwapped), 15.0),
+        ("handlebar_still", Some(Fault::HandlebarSensorStill), 15.0),
+    ];
+    let mut readme = String::from(
+        "# Rides that went wrong\n\nWritten by `bikeproc simulate ride-faults --out fixtures/rides` \
+         (deterministic): the lab's bicycle\n(`data/lab_bike.toml`) at 4.5 m/s, realistic effects, one \
+         fault each. `bikeproc dynamic`\nmust name what is wrong (tests/dynamic.rs):\n\n",
+    );
+    for (k, (name, fault, force)) in cases.into_iter().enumerate() {
+        let mut spec = RideSpec::lab(4.5, Effects::realistic());
+        spec.coast_s = 4.0;
+        spec.kick.peak_force_n = force;
+        spec.fault = fault;
+        let ride = simulate_ride(&bike, &spec, 7000 + k as u64)?;
+        files.push((format!("{name}.log").into(), ride.angles_log));
+        files.push((format!("{name}_cal.log").into(), ride.cal_log));
+        let _ = writeln!(
+            readme,
+            "- `{name}.log`: {}",
+            match name {
+                "no_kick" => "nobody kicked: the bicycle coasts upright after the release",
+                "too_short" => "the recording stops 0.9 s after the kick",
+                "sensors_swapped" =>
+                    "the headers call the handlebar sensor `frame` and the frame sensor `handlebar`",
+                _ => "the handlebar sensor lay on the floor through the ride",
+            }
+        );
+    }
+    files.push(("README.md".into(), readme));
     Ok(files)
 }

@@ -1,0 +1,595 @@
+//! The dynamic test of a ride (seed §5.4, §8): log pair → θ, γ → the free motion's window →
+//! the experimental weave eigenvalue with its standard errors → beside the model's at the
+//! ride's speed, the difference in standard errors.
+//!
+//! In: a ride's angles file (its `_cal` file beside it), the bicycle's parametrized model, the
+//! speed (the speedometer's noted reading, or the reed switch's `Sync` column). Out:
+//! [`DynamicTest`]. A campaign ([`RideManifest`], `rides.toml`) runs ride by ride in parallel.
+//!
+//! Every way a ride can be unusable is named: no kick, a recording too short for an eigenvalue,
+//! a sensor that did not move, the two sensors swapped.
+
+use super::modal::{fit_modes, Eigenvalue, ModalError, ModalFit, ModalOptions};
+use super::read::{read_ride, sync_speed, RideError, RideSignals};
+use crate::inertia::manifest::{from_toml, ManifestError};
+use crate::model::uncertain::Parametrized;
+use crate::model::Canonical;
+use nalgebra::Complex;
+use std::path::{Path, PathBuf};
+
+/// The window starts this long after the kick's peak (s): past the pulse (it ends 0.05 s after
+/// the peak), the castor transient and the tyres' lag (starting at 0.15 s biased the weave's
+/// frequency by 0.1 rad/s, 4–7 standard errors, on the simulated campaign at 5–5.5 m/s).
+const AFTER_KICK_S: f64 = 0.4;
+/// Beyond this roll (rad) the motion is no longer small: the window ends there (a fall).
+const MAX_ROLL_RAD: f64 = 0.2;
+/// At most this long a window (s), unless two weave cycles take longer: the coasting bicycle
+/// slows down (0.1–0.2 m/s²) and its eigenvalue drifts; the fit's linear drift (σ̇, ω̇)
+/// describes that over 2–3 s, not over 5 (on the simulated campaign, 3 s windows leave biases
+/// of 2–4 standard errors at 3.5–4.5 m/s).
+const MAX_WINDOW_S: f64 = 2.5;
+/// At least this long a free motion (s) …
+const MIN_WINDOW_S: f64 = 1.0;
+/// … and this many weave cycles.
+const MIN_CYCLES: f64 = 1.5;
+
+/// Where the ride's speed comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedSource {
+    /// The speedometer's reading as noted by the lab (one number; its error is not known).
+    Noted,
+    /// The reed switch's pulses, a line through them over the window.
+    Sync,
+}
+
+/// The speed at which the eigenvalue applies (at the fit's amplitude-weighted time).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Speed {
+    pub speed_mps: f64,
+    /// Standard error (m/s): the line fit's for `Sync`; 0 for a noted reading (unknown).
+    pub speed_se_mps: f64,
+    pub source: SpeedSource,
+    /// The speed's rate of change over the window (m/s², `Sync` only).
+    pub accel_mps2: Option<f64>,
+}
+
+/// Options of [`dynamic_test`].
+#[derive(Debug, Clone, Default)]
+pub struct DynamicOptions {
+    /// The speedometer's reading (m/s); without it the `Sync` column is used.
+    pub noted_speed_mps: Option<f64>,
+    /// Use the `Sync` column when the log has it, the noted reading otherwise (campaigns).
+    pub prefer_sync: bool,
+    pub modal: ModalOptions,
+}
+
+/// The model's weave at the ride's speed, and how far the experiment is from it.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ModelWeave {
+    pub re: f64,
+    pub im: f64,
+    /// Standard errors from the measured parameters' uncertainty and the speed's.
+    pub re_se: f64,
+    pub im_se: f64,
+    /// (experiment − model) / combined standard error, real and imaginary parts.
+    pub re_z: f64,
+    pub im_z: f64,
+    /// The model's mode shape: |γ/θ| and arg(γ/θ) (rad).
+    pub shape_ratio: f64,
+    pub shape_phase_rad: f64,
+}
+
+/// A ride's dynamic test.
+#[derive(Debug, Clone)]
+pub struct DynamicTest {
+    pub path: PathBuf,
+    pub speed: Speed,
+    pub kick_s: f64,
+    pub catch_s: f64,
+    pub fit: ModalFit,
+    pub model: ModelWeave,
+    /// θ and γ from half a second before the kick to half a second after the window (for
+    /// plots): time (s), roll (rad), steer (rad).
+    pub trace: Vec<[f64; 3]>,
+}
+
+fn ride_err(path: &Path, message: impl Into<String>) -> RideError {
+    RideError::Ride {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+/// Runs the dynamic test of the ride whose angles file is `path` against `model`.
+pub fn dynamic_test(
+    path: &Path,
+    model: &Parametrized,
+    options: &DynamicOptions,
+) -> Result<DynamicTest, RideError> {
+    let nominal = model.nominal();
+    let signals = read_ride(path, nominal.lambda, 1.5)?;
+    let fit = fit_window(path, &signals, &options.modal)?;
+    check_sensor_roles(path, &signals, &fit)?;
+    let sync = (options.prefer_sync || options.noted_speed_mps.is_none())
+        .then(|| sync_speed(&signals.log, fit.start_s, fit.end_s, fit.t_ref_s))
+        .flatten();
+    let speed = match (sync, options.noted_speed_mps) {
+        (Some(s), _) => Speed {
+            speed_mps: s.speed_mps,
+            speed_se_mps: s.speed_se_mps,
+            source: SpeedSource::Sync,
+            accel_mps2: Some(s.accel_mps2),
+        },
+        (None, Some(v)) => Speed {
+            speed_mps: v,
+            speed_se_mps: 0.0,
+            source: SpeedSource::Noted,
+            accel_mps2: None,
+        },
+        (None, None) => {
+            return Err(ride_err(
+                path,
+                "no speed: the log has no `Sync` pulses (or no `Wheel circumference` in its \
+                 header) over the free motion; give the speedometer's reading with --speed",
+            ))
+        }
+    };
+    let model = model_weave(path, model, &speed, &fit.weave)?;
+    let rate = signals.sample_rate_hz;
+    let (from, to) = (signals.kick_s - 0.5, fit.end_s + 0.5);
+    let trace = signals
+        .index
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| (k, i as f64 / rate))
+        .filter(|&(_, t)| t >= from && t <= to)
+        .map(|(k, t)| [t, signals.roll_rad[k], signals.steer_rad[k]])
+        .collect();
+    Ok(DynamicTest {
+        path: path.to_path_buf(),
+        speed,
+        kick_s: signals.kick_s,
+        catch_s: signals.catch_s,
+        fit,
+        model,
+        trace,
+    })
+}
+
+/// The free motion's window and its modal fit: from just after the kick to the catch, the
+/// first roll beyond [`MAX_ROLL_RAD`], or where the weave's envelope sinks below three times
+/// the residual noise in both signals, whichever comes first.
+fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<ModalFit, RideError> {
+    let rate = s.sample_rate_hz;
+    let start = s.kick_s + AFTER_KICK_S;
+    let last_sample_s = s.index.last().map_or(0.0, |&i| i as f64 / rate);
+    let mut end = s.catch_s - 0.05;
+    let limit = end;
+    end = end.min(start + MAX_WINDOW_S);
+    if let Some(k) = s
+        .index
+        .iter()
+        .zip(&s.roll_rad)
+        .position(|(&i, r)| i as f64 / rate > start && r.abs() > MAX_ROLL_RAD)
+    {
+        end = end.min(s.index[k] as f64 / rate - 0.05);
+    }
+    let too_short = |end: f64, why: String| {
+        ride_err(
+            path,
+            format!(
+                "too short: the free motion after the kick (at {:.2} s) lasts {:.2} s before {why}; \
+                 an eigenvalue needs at least {MIN_WINDOW_S} s and {MIN_CYCLES} weave cycles",
+                s.kick_s,
+                (end - start).max(0.0),
+            ),
+        )
+    };
+    let ending = |end: f64| -> String {
+        if last_sample_s - end < 0.5 {
+            format!("the log ends (at {last_sample_s:.2} s)")
+        } else if (s.catch_s - 0.05 - end).abs() < 1e-9 {
+            format!("the motion stops (caught at {:.2} s)", s.catch_s)
+        } else {
+            format!("the roll passes {MAX_ROLL_RAD} rad")
+        }
+    };
+    if end - start < MIN_WINDOW_S {
+        return Err(too_short(end, ending(end)));
+    }
+    let fit_between = |a: f64, b: f64| -> Result<ModalFit, RideError> {
+        let (mut t, mut roll, mut steer) = (Vec::new(), Vec::new(), Vec::new());
+        for (k, &i) in s.index.iter().enumerate() {
+            let ti = i as f64 / rate;
+            if ti >= a && ti <= b {
+                t.push(ti);
+                roll.push(s.roll_rad[k]);
+                steer.push(s.steer_rad[k]);
+            }
+        }
+        fit_modes(&t, &roll, &steer, options).map_err(|e| match e {
+            ModalError::TooShort(n) => ride_err(
+                path,
+                format!("too short: only {n} samples between {a:.2} and {b:.2} s after the gaps"),
+            ),
+            ModalError::NoWeave => ride_err(
+                path,
+                format!("no weave: roll and steer between {a:.2} and {b:.2} s show no oscillation that fits"),
+            ),
+        })
+    };
+    let mut fit = fit_between(start, end)?;
+    // A slow weave gets two cycles, even if that takes longer than MAX_WINDOW_S.
+    let two_cycles = start + 2.0 * std::f64::consts::TAU / fit.weave.im;
+    if two_cycles > end && limit > end + 0.1 {
+        end = two_cycles.min(limit);
+        fit = fit_between(start, end)?;
+    }
+    // Where the weave sinks into the noise (a decaying weave only).
+    if fit.weave.re < 0.0 {
+        let at_ref = fit.eval(fit.t_ref_s);
+        let amplitude = [0, 1].map(|c| {
+            // The envelope at t_ref from the fitted curve's local extremes (a quarter period).
+            let quarter = std::f64::consts::FRAC_PI_2 / fit.weave.im;
+            (0..8)
+                .map(|k| fit.eval(fit.t_ref_s + k as f64 * quarter / 4.0)[c].abs())
+                .fold(at_ref[c].abs(), f64::max)
+        });
+        let lost = (0..2)
+            .map(|c| {
+                let ratio = amplitude[c] / (3.0 * fit.residual_rms_rad[c]).max(1e-12);
+                fit.t_ref_s + ratio.max(1.0).ln() / -fit.weave.re
+            })
+            .fold(f64::NEG_INFINITY, f64::max);
+        if lost < end - 0.3 {
+            end = lost.max(start + MIN_WINDOW_S);
+            fit = fit_between(start, end)?;
+        }
+    }
+    let cycles = (end - start) * fit.weave.im / std::f64::consts::TAU;
+    if cycles < MIN_CYCLES {
+        return Err(ride_err(
+            path,
+            format!(
+                "too short: the free motion after the kick (at {:.2} s) holds {cycles:.1} weave \
+                 cycles ({:.2} s at {:.2} rad/s); an eigenvalue needs at least {MIN_CYCLES}",
+                s.kick_s,
+                end - start,
+                fit.weave.im
+            ),
+        ));
+    }
+    Ok(fit)
+}
+
+/// Which sensor is where, from kinematics alone: rolling without (much) slip, the frame turns
+/// at ψ̇ = (v γ + c γ̇) cos λ / w, so its heading rate follows γ with a small γ̇ part
+/// (c/w ≈ 0.05); the handlebar turns at that plus γ̇ cos λ. Regressing the "frame" sensor's
+/// heading rate on γ and γ̇ gives a γ̇ coefficient near 0 when the labels are right and near
+/// ±1 when they are exchanged (γ then comes out with its sign flipped; the heading's sign
+/// depends on the sensors' axis convention, hence the magnitude). Measured: 0.04 on a correct
+/// ride, 0.86 on the swapped fixture.
+fn check_sensor_roles(path: &Path, s: &RideSignals, fit: &ModalFit) -> Result<(), RideError> {
+    let rate = s.sample_rate_hz;
+    let idx: Vec<usize> = (2..s.index.len().saturating_sub(2))
+        .filter(|&k| {
+            let t = s.index[k] as f64 / rate;
+            t >= fit.start_s && t <= fit.end_s && s.index[k + 2] - s.index[k - 2] == 4
+        })
+        .collect();
+    if idx.len() < 20 {
+        return Ok(());
+    }
+    let smooth = |x: &[f64], k: usize| (x[k - 1] + x[k] + x[k + 1]) / 3.0;
+    let rate_of = |x: &[f64], k: usize| (smooth(x, k + 1) - smooth(x, k - 1)) * rate / 2.0;
+    let mut ata = nalgebra::Matrix3::<f64>::zeros();
+    let mut atb = nalgebra::Vector3::<f64>::zeros();
+    for &k in &idx {
+        let row = nalgebra::Vector3::new(1.0, smooth(&s.steer_rad, k), rate_of(&s.steer_rad, k));
+        ata += row * row.transpose();
+        atb += row * rate_of(&s.heading_rad, k);
+    }
+    let Some(sol) = ata.cholesky().map(|c| c.solve(&atb)) else {
+        return Ok(());
+    };
+    if sol[2].abs() > 0.5 {
+        return Err(ride_err(
+            path,
+            format!(
+                "sensors swapped: the sensor labelled `frame` turns with the steer rate \
+                 (heading rate = {:.2}·γ {:+.2}·γ̇; the frame's own has a γ̇ part near 0, the \
+                 handlebar's near ±1); exchange the `frame` and `handlebar` labels in the header",
+                sol[1], sol[2]
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The model's weave at the ride's speed, its standard error (parameters, and the speed's
+/// through dλ/dv), and the experiment's distance from it in combined standard errors.
+fn model_weave(
+    path: &Path,
+    model: &Parametrized,
+    speed: &Speed,
+    exp: &Eigenvalue,
+) -> Result<ModelWeave, RideError> {
+    let v = speed.speed_mps;
+    let no_weave = || {
+        ride_err(
+            path,
+            format!("the model has no weave (oscillatory mode) at {v:.3} m/s to compare with"),
+        )
+    };
+    let h = 0.01;
+    let bands = model.bands(&[v - h, v, v + h]).map_err(|_| no_weave())?;
+    let w = |k: usize| bands.sweep.eigenvalues[k][0];
+    let lambda = w(1);
+    if lambda.im <= 0.0 {
+        return Err(no_weave());
+    }
+    let dv = (w(2) - w(0)) / (2.0 * h);
+    let (pre, pim) = bands.se[1][0];
+    let re_se = (pre.powi(2) + (dv.re * speed.speed_se_mps).powi(2)).sqrt();
+    let im_se = (pim.powi(2) + (dv.im * speed.speed_se_mps).powi(2)).sqrt();
+    let shape = Canonical::from_benchmark(&model.nominal())
+        .mode_shape(v, lambda)
+        .map(|x| x[1] / x[0])
+        .unwrap_or(Complex::new(f64::NAN, f64::NAN));
+    Ok(ModelWeave {
+        re: lambda.re,
+        im: lambda.im,
+        re_se,
+        im_se,
+        re_z: (exp.re - lambda.re) / (exp.re_se.powi(2) + re_se.powi(2)).sqrt(),
+        im_z: (exp.im - lambda.im) / (exp.im_se.powi(2) + im_se.powi(2)).sqrt(),
+        shape_ratio: shape.norm(),
+        shape_phase_rad: shape.arg(),
+    })
+}
+
+/// A campaign of rides (`rides.toml`, version 1): the bicycle and each ride's log with the
+/// speed the lab noted.
+///
+/// ```toml
+/// version = 1
+/// bike = "lab_bike.toml"
+///
+/// [[ride]]
+/// log = "ride_01.log"
+/// noted_speed_mps = 2.7
+/// ```
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RideManifest {
+    pub version: u32,
+    pub bike: PathBuf,
+    #[serde(rename = "ride")]
+    pub rides: Vec<RideEntry>,
+    #[serde(skip)]
+    pub dir: PathBuf,
+}
+
+/// One ride of a campaign.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RideEntry {
+    pub log: PathBuf,
+    pub noted_speed_mps: f64,
+}
+
+impl RideManifest {
+    /// Reads and checks a campaign manifest: version, at least one ride, positive speeds, the
+    /// logs present.
+    pub fn load(path: &Path) -> Result<RideManifest, ManifestError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ManifestError {
+            path: path.to_path_buf(),
+            line: None,
+            message: format!("cannot read the ride manifest: {e}"),
+        })?;
+        let mut m: RideManifest = from_toml(path, &text)?;
+        m.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let line_of = |needle: &str| {
+            text.find(needle)
+                .map(|i| 1 + text[..i].matches('\n').count())
+        };
+        let err = |needle: &str, message: String| ManifestError {
+            path: path.to_path_buf(),
+            line: line_of(needle),
+            message,
+        };
+        if m.version != 1 {
+            return Err(err(
+                "version",
+                format!("version {} (bikeproc reads version 1)", m.version),
+            ));
+        }
+        if m.rides.is_empty() {
+            return Err(err("", "no [[ride]] in the manifest".into()));
+        }
+        for r in &m.rides {
+            let name = r.log.display().to_string();
+            if !(r.noted_speed_mps.is_finite() && r.noted_speed_mps > 0.0) {
+                return Err(err(
+                    &name,
+                    format!(
+                        "{name}: noted_speed_mps = {} is not a speed",
+                        r.noted_speed_mps
+                    ),
+                ));
+            }
+            if !m.dir.join(&r.log).exists() {
+                return Err(err(&name, format!("the log {name} does not exist")));
+            }
+        }
+        Ok(m)
+    }
+
+    /// The bicycle file, relative to the manifest.
+    pub fn bike_path(&self) -> PathBuf {
+        self.dir.join(&self.bike)
+    }
+}
+
+/// Runs every ride of a campaign on `threads` threads (at least one), calling `progress` with
+/// the number done after each; results in the manifest's order.
+pub fn run_campaign(
+    manifest: &RideManifest,
+    model: &Parametrized,
+    modal: &ModalOptions,
+    threads: usize,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Vec<Result<DynamicTest, RideError>> {
+    let n = manifest.rides.len();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<std::sync::Mutex<Option<Result<DynamicTest, RideError>>>> =
+        (0..n).map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..threads.clamp(1, n.max(1)) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                if i >= n {
+                    break;
+                }
+                let ride = &manifest.rides[i];
+                let options = DynamicOptions {
+                    noted_speed_mps: Some(ride.noted_speed_mps),
+                    prefer_sync: true,
+                    modal: *modal,
+                };
+                let r = dynamic_test(&manifest.dir.join(&ride.log), model, &options);
+                if let Ok(mut slot) = results[i].lock() {
+                    *slot = Some(r);
+                }
+                let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                progress(d, n);
+            });
+        }
+    });
+    results
+        .into_iter()
+        .enumerate()
+        .map(|(i, m)| {
+            m.into_inner().ok().flatten().unwrap_or_else(|| {
+                Err(ride_err(
+                    &manifest.rides[i].log,
+                    "the analysis thread stopped before this ride",
+                ))
+            })
+        })
+        .collect()
+}
+
+/// What `bikeproc dynamic` prints for one ride (`--json`), in SI units.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Summary {
+    pub file: String,
+    pub speed_mps: f64,
+    pub speed_se_mps: f64,
+    pub speed_source: SpeedSource,
+    /// Where the eigenvalue applies (s): the window's amplitude-weighted time.
+    pub applies_at_s: f64,
+    pub window_s: [f64; 2],
+    pub weave: Eigenvalue,
+    /// σ̇, ω̇ of the weave over the window (1/s²), when fitted.
+    pub weave_drift: Option<[crate::fit::Estimate; 2]>,
+    /// Real modes beside the weave (1/s).
+    pub real_modes: Vec<crate::fit::Estimate>,
+    pub mode_shape: super::modal::ModeShape,
+    /// Variance accounted for, roll and steer (0–1).
+    pub vaf: Vaf,
+    pub residual_rms_rad: [f64; 2],
+    pub model_weave: ModelWeave,
+}
+
+/// Variance accounted for by the fit, per signal.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct Vaf {
+    pub roll: f64,
+    pub steer: f64,
+}
+
+impl DynamicTest {
+    pub fn summary(&self) -> Summary {
+        let f = &self.fit;
+        Summary {
+            file: self.path.display().to_string(),
+            speed_mps: self.speed.speed_mps,
+            speed_se_mps: self.speed.speed_se_mps,
+            speed_source: self.speed.source,
+            applies_at_s: f.t_ref_s,
+            window_s: [f.start_s, f.end_s],
+            weave: f.weave,
+            weave_drift: f.drift,
+            real_modes: f.real_modes.clone(),
+            mode_shape: f.shape,
+            vaf: Vaf {
+                roll: f.vaf[0],
+                steer: f.vaf[1],
+            },
+            residual_rms_rad: f.residual_rms_rad,
+            model_weave: self.model,
+        }
+    }
+}
+
+impl Summary {
+    /// The human-readable form.
+    pub fn to_text(&self) -> String {
+        let w = &self.weave;
+        let m = &self.model_weave;
+        let mut out = format!("{}\n", self.file);
+        let source = match self.speed_source {
+            SpeedSource::Noted => "noted (speedometer), error unknown".to_string(),
+            SpeedSource::Sync => format!("reed switch, ± {:.3} m/s", self.speed_se_mps),
+        };
+        out += &format!(
+            "  speed            {:.3} m/s ({source}), at t = {:.2} s\n",
+            self.speed_mps, self.applies_at_s
+        );
+        out += &format!(
+            "  window           {:.2} – {:.2} s (after the kick)\n",
+            self.window_s[0], self.window_s[1]
+        );
+        out += &format!(
+            "  weave            {:.4} ± {:.4} {:+.4} ± {:.4} i  1/s   (resampled SE {:.4}, {:.4})\n",
+            w.re, w.re_se, w.im, w.im_se, w.re_se_resampled, w.im_se_resampled
+        );
+        if let Some([sd, wd]) = self.weave_drift {
+            out += &format!(
+                "  drift            dσ/dt {:.3} ± {:.3}, dω/dt {:.3} ± {:.3}  1/s²\n",
+                sd.value, sd.se, wd.value, wd.se
+            );
+        }
+        for r in &self.real_modes {
+            out += &format!("  real mode        {:.3} ± {:.3}  1/s\n", r.value, r.se);
+        }
+        out += &format!(
+            "  mode shape γ/θ   |{:.3} ± {:.3}|, phase {:.1} ± {:.1}°  (model {:.3}, {:.1}°)\n",
+            self.mode_shape.ratio.value,
+            self.mode_shape.ratio.se,
+            self.mode_shape.phase_rad.value.to_degrees(),
+            self.mode_shape.phase_rad.se.to_degrees(),
+            m.shape_ratio,
+            m.shape_phase_rad.to_degrees()
+        );
+        out += &format!(
+            "  fit              VAF roll {:.2} %, steer {:.2} %; residual RMS {:.2} / {:.2} mrad\n",
+            100.0 * self.vaf.roll,
+            100.0 * self.vaf.steer,
+            1e3 * self.residual_rms_rad[0],
+            1e3 * self.residual_rms_rad[1]
+        );
+        out += &format!(
+            "  model weave      {:.4} ± {:.4} {:+.4} ± {:.4} i  1/s\n",
+            m.re, m.re_se, m.im, m.im_se
+        );
+        out += &format!(
+            "  difference       real {:+.1} SE, imaginary {:+.1} SE (combined)\n",
+            m.re_z, m.im_z
+        );
+        out
+    }
+}

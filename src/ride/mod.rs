@@ -1,0 +1,14 @@
+//! Ride stage (dynamic tests, seed §5.4): a ride's log pair → θ(t), γ(t) → the experimental
+//! weave eigenvalue, beside the model's.
+//!
+//! - [`read`]: the log pair → roll θ and steer γ on the 100 Hz grid, the kick and the catch,
+//!   the speed from the reed switch.
+//! - [`dynamic`]: one ride or a campaign: window, speed, fit, the model beside it.
+//! - [`modal`]: θ and γ over the free motion → the modes they share (weave σ ± iω, real
+//!   modes), standard errors, mode shape.
+
+pub mod dynamic;
+pub mod modal;
+pub mod read;
+
+pub use read::*;

@@ -1,0 +1,712 @@
+//! Modal fit of a ride's free motion: θ(t) and γ(t) after the kick → the weave eigenvalue
+//! σ + iω (and real modes where the data support them) with standard errors, and its mode shape.
+//!
+//! Both signals share the modes (the linear model's solution is a sum of modes, each with one
+//! eigenvalue and a fixed roll/steer ratio, seed §3 and Meijaard et al. 2007 §5):
+//!
+//! ```text
+//! θ(t) = e^{στ + ½σ̇τ²} (a_θ cos φ + b_θ sin φ) + Σₖ c_θₖ e^{rₖ τ₀} + o_θ (+ d_θ τ)
+//! γ(t) = e^{στ + ½σ̇τ²} (a_γ cos φ + b_γ sin φ) + Σₖ c_γₖ e^{rₖ τ₀} + o_γ (+ d_γ τ)
+//! φ = ωτ + ½ω̇τ²,   τ = t − t_ref,   τ₀ = t − t_start
+//! ```
+//!
+//! σ̇ and ω̇ (optional) let the eigenvalue drift as the coasting bicycle slows down; with them the
+//! fitted σ, ω are the eigenvalue at `t_ref`, which is put at the amplitude-weighted time of the
+//! window, where the data pin the eigenvalue down and where the speed is read. Which terms the
+//! data support (0–2 real modes, the drift, the trends) is chosen by the Bayesian information
+//! criterion `Σ_s n ln(RSS_s/n) + k ln N` (separate noise levels for θ and γ). Each signal is
+//! weighted by its residual level; standard errors come from the covariance `s² (JᵀWJ)⁻¹`, and
+//! are checked by a moving-block bootstrap of the residuals (one Gauss–Newton step per
+//! resample), which sees correlated residuals the covariance assumes away.
+
+use crate::fit::{levenberg_marquardt, Estimate, LeastSquares};
+use nalgebra::{Complex, DMatrix, DVector};
+
+/// Errors of the modal fit.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ModalError {
+    #[error("the window holds {0} samples: too few to fit the modes")]
+    TooShort(usize),
+    #[error("no weave found: no oscillation in roll and steer after the kick fits")]
+    NoWeave,
+}
+
+/// Which terms beside the weave a fit carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Structure {
+    /// Real modes (capsize, castor) beside the weave: 0, 1 or 2.
+    pub real_modes: usize,
+    /// The weave's eigenvalue drifts linearly in time (σ̇, ω̇).
+    pub drift: bool,
+    /// Linear trends beside the offsets.
+    pub trend: bool,
+}
+
+impl Structure {
+    fn nonlinear(&self) -> usize {
+        2 + if self.drift { 2 } else { 0 } + self.real_modes
+    }
+    /// Linear parameters per signal.
+    fn linear(&self) -> usize {
+        2 + self.real_modes + 1 + usize::from(self.trend)
+    }
+    fn params(&self) -> usize {
+        self.nonlinear() + 2 * self.linear()
+    }
+}
+
+/// An eigenvalue with standard errors: from the covariance, and from the residual resampling.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Eigenvalue {
+    pub re: f64,
+    pub im: f64,
+    pub re_se: f64,
+    pub im_se: f64,
+    /// Correlation of the real and imaginary parts' errors.
+    pub re_im_corr: f64,
+    /// Standard errors from the moving-block bootstrap of the residuals.
+    pub re_se_resampled: f64,
+    pub im_se_resampled: f64,
+}
+
+/// The weave's mode shape: γ/θ as a complex ratio at the eigenvalue with ω > 0.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ModeShape {
+    /// |γ|/|θ| (rad/rad).
+    pub ratio: Estimate,
+    /// arg(γ/θ) (rad): positive when steer leads roll.
+    pub phase_rad: Estimate,
+}
+
+/// The fit of a ride's free motion.
+#[derive(Debug, Clone)]
+pub struct ModalFit {
+    pub structure: Structure,
+    /// The window fitted (s).
+    pub start_s: f64,
+    pub end_s: f64,
+    /// Where the eigenvalue applies: the amplitude-weighted time of the window (s).
+    pub t_ref_s: f64,
+    pub weave: Eigenvalue,
+    /// σ̇, ω̇ (1/s²) when the drift is fitted.
+    pub drift: Option<[Estimate; 2]>,
+    /// The real modes' rates (1/s), slowest first.
+    pub real_modes: Vec<Estimate>,
+    pub shape: ModeShape,
+    /// Variance accounted for, θ and γ (fraction of the window's variance, 0–1).
+    pub vaf: [f64; 2],
+    /// Residual RMS of θ and γ (rad).
+    pub residual_rms_rad: [f64; 2],
+    pub samples: usize,
+    pub bic: f64,
+    params: Vec<f64>,
+}
+
+impl ModalFit {
+    /// The fitted θ and γ at time `t` (s).
+    pub fn eval(&self, t: f64) -> [f64; 2] {
+        let st = self.structure;
+        let p = &self.params;
+        [0, 1].map(|s| model_value(p, st, s, t - self.t_ref_s, t - self.start_s))
+    }
+}
+
+/// The value of signal `s` (0: θ, 1: γ) of the model at τ, τ₀.
+fn model_value(p: &[f64], st: Structure, s: usize, tau: f64, tau0: f64) -> f64 {
+    let (e, cos, sin) = carrier(p, st, tau);
+    let l = st.nonlinear() + s * st.linear();
+    let mut x = e * (p[l] * cos + p[l + 1] * sin);
+    for k in 0..st.real_modes {
+        x += p[l + 2 + k] * (p[real_index(st, k)] * tau0).exp();
+    }
+    x += p[l + 2 + st.real_modes];
+    if st.trend {
+        x += p[l + 3 + st.real_modes] * tau;
+    }
+    x
+}
+
+fn real_index(st: Structure, k: usize) -> usize {
+    2 + if st.drift { 2 } else { 0 } + k
+}
+
+/// The weave's envelope and carrier at τ: `(E, cos φ, sin φ)`.
+fn carrier(p: &[f64], st: Structure, tau: f64) -> (f64, f64, f64) {
+    let (sd, wd) = if st.drift { (p[2], p[3]) } else { (0.0, 0.0) };
+    let e = (p[0] * tau + 0.5 * sd * tau * tau).exp();
+    let (sin, cos) = (p[1] * tau + 0.5 * wd * tau * tau).sin_cos();
+    (e, cos, sin)
+}
+
+/// The weighted least-squares problem: rows 0..n are θ, n..2n are γ, each times its weight.
+struct Problem<'a> {
+    t: &'a [f64],
+    x: [&'a [f64]; 2],
+    weight: [f64; 2],
+    t_ref: f64,
+    t0: f64,
+    st: Structure,
+}
+
+impl Problem<'_> {
+    fn n(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Per-signal residual sums of squares (unweighted, rad²).
+    fn rss(&self, p: &[f64]) -> [f64; 2] {
+        [0, 1].map(|s| {
+            self.t
+                .iter()
+                .zip(self.x[s])
+                .map(|(&t, &x)| {
+                    (model_value(p, self.st, s, t - self.t_ref, t - self.t0) - x).powi(2)
+                })
+                .sum()
+        })
+    }
+
+    /// The linear parameters for fixed nonlinear ones (per signal, normal equations with
+    /// columns scaled to unit norm); `None` when singular.
+    fn project(&self, nonlinear: &[f64]) -> Option<Vec<f64>> {
+        let st = self.st;
+        let nl = st.linear();
+        let mut p = nonlinear.to_vec();
+        p.resize(st.params(), 0.0);
+        for s in 0..2 {
+            let rows: Vec<Vec<f64>> = self.t.iter().map(|&t| self.linear_row(&p, t)).collect();
+            let mut norms = vec![0.0f64; nl];
+            for r in &rows {
+                for (k, v) in r.iter().enumerate() {
+                    norms[k] += v * v;
+                }
+            }
+            let norms: Vec<f64> = norms.iter().map(|v| v.sqrt().max(1e-300)).collect();
+            let mut ata = DMatrix::<f64>::zeros(nl, nl);
+            let mut atb = DVector::<f64>::zeros(nl);
+            for (r, &x) in rows.iter().zip(self.x[s]) {
+                for i in 0..nl {
+                    let ri = r[i] / norms[i];
+                    atb[i] += ri * x;
+                    for j in 0..nl {
+                        ata[(i, j)] += ri * r[j] / norms[j];
+                    }
+                }
+            }
+            let sol = ata.cholesky()?.solve(&atb);
+            let l = st.nonlinear() + s * nl;
+            for i in 0..nl {
+                p[l + i] = sol[i] / norms[i];
+            }
+        }
+        p.iter().all(|v| v.is_finite()).then_some(p)
+    }
+
+    /// The columns of the linear parameters at time t (the same for θ and γ).
+    fn linear_row(&self, p: &[f64], t: f64) -> Vec<f64> {
+        let st = self.st;
+        let tau = t - self.t_ref;
+        let (e, cos, sin) = carrier(p, st, tau);
+        let mut row = vec![e * cos, e * sin];
+        for k in 0..st.real_modes {
+            row.push((p[real_index(st, k)] * (t - self.t0)).exp());
+        }
+        row.push(1.0);
+        if st.trend {
+            row.push(tau);
+        }
+        row
+    }
+}
+
+impl LeastSquares for Problem<'_> {
+    fn residuals_and_jacobian(&self, p: &[f64], jac: &mut DMatrix<f64>, r: &mut DVector<f64>) {
+        let st = self.st;
+        let n = self.n();
+        jac.fill(0.0);
+        for (i, &t) in self.t.iter().enumerate() {
+            let tau = t - self.t_ref;
+            let tau0 = t - self.t0;
+            let (e, cos, sin) = carrier(p, st, tau);
+            let exps: Vec<f64> = (0..st.real_modes)
+                .map(|k| (p[real_index(st, k)] * tau0).exp())
+                .collect();
+            for s in 0..2 {
+                let w = self.weight[s];
+                let row = i + s * n;
+                let l = st.nonlinear() + s * st.linear();
+                let (a, b) = (p[l], p[l + 1]);
+                let osc = a * cos + b * sin;
+                let dosc = -a * sin + b * cos;
+                jac[(row, 0)] = w * tau * e * osc;
+                jac[(row, 1)] = w * tau * e * dosc;
+                if st.drift {
+                    jac[(row, 2)] = w * 0.5 * tau * tau * e * osc;
+                    jac[(row, 3)] = w * 0.5 * tau * tau * e * dosc;
+                }
+                jac[(row, l)] = w * e * cos;
+                jac[(row, l + 1)] = w * e * sin;
+                let mut m = e * osc;
+                for (k, &ex) in exps.iter().enumerate() {
+                    let c = p[l + 2 + k];
+                    m += c * ex;
+                    jac[(row, real_index(st, k))] = w * c * tau0 * ex;
+                    jac[(row, l + 2 + k)] = w * ex;
+                }
+                m += p[l + 2 + st.real_modes];
+                jac[(row, l + 2 + st.real_modes)] = w;
+                if st.trend {
+                    m += p[l + 3 + st.real_modes] * tau;
+                    jac[(row, l + 3 + st.real_modes)] = w * tau;
+                }
+                r[row] = w * (m - self.x[s][i]);
+            }
+        }
+    }
+
+    fn cost(&self, p: &[f64]) -> f64 {
+        let rss = self.rss(p);
+        self.weight[0].powi(2) * rss[0] + self.weight[1].powi(2) * rss[1]
+    }
+}
+
+/// The white-noise level of a smooth signal sampled finely: the RMS of its second differences
+/// over √6 (the motion's own second difference is (ωΔt)² of its amplitude, negligible at 100 Hz).
+fn noise_level(x: &[f64]) -> f64 {
+    let d: Vec<f64> = x.windows(3).map(|w| w[0] - 2.0 * w[1] + w[2]).collect();
+    (d.iter().map(|v| v * v).sum::<f64>() / d.len().max(1) as f64 / 6.0).sqrt()
+}
+
+/// The dominant angular frequency (rad/s) of θ and γ together over 1–20 rad/s: the largest
+/// weighted periodogram on a 0.02 rad/s grid, each signal less its least-squares parabola
+/// (a slow real mode's drift would otherwise leak into the low frequencies).
+fn dominant_omega(t: &[f64], x: [&[f64]; 2], weight: [f64; 2]) -> f64 {
+    let mut best = (0.0, 1.0);
+    let centred: Vec<Vec<f64>> = x.iter().map(|s| less_parabola(t, s)).collect();
+    let mut omega = 1.0;
+    while omega <= 20.0 {
+        let mut power = 0.0;
+        for (s, xs) in centred.iter().enumerate() {
+            let (mut c, mut sn) = (0.0, 0.0);
+            for (&ti, &xi) in t.iter().zip(xs) {
+                let (si, ci) = (omega * (ti - t[0])).sin_cos();
+                c += xi * ci;
+                sn += xi * si;
+            }
+            power += weight[s].powi(2) * (c * c + sn * sn);
+        }
+        if power > best.0 {
+            best = (power, omega);
+        }
+        omega += 0.02;
+    }
+    best.1
+}
+
+fn less_parabola(t: &[f64], x: &[f64]) -> Vec<f64> {
+    let t0 = t[0];
+    let span = (t[t.len() - 1] - t0).max(1e-9);
+    let mut ata = nalgebra::Matrix3::<f64>::zeros();
+    let mut atb = nalgebra::Vector3::<f64>::zeros();
+    for (&ti, &xi) in t.iter().zip(x) {
+        let u = (ti - t0) / span;
+        let row = nalgebra::Vector3::new(1.0, u, u * u);
+        ata += row * row.transpose();
+        atb += row * xi;
+    }
+    let c = ata
+        .cholesky()
+        .map_or(nalgebra::Vector3::zeros(), |ch| ch.solve(&atb));
+    t.iter()
+        .zip(x)
+        .map(|(&ti, &xi)| {
+            let u = (ti - t0) / span;
+            xi - c[0] - c[1] * u - c[2] * u * u
+        })
+        .collect()
+}
+
+/// Options of [`fit_modes`].
+#[derive(Debug, Clone, Copy)]
+pub struct ModalOptions {
+    /// Bootstrap resamples for the check of the standard errors.
+    pub resamples: usize,
+    /// Seed of the resampling.
+    pub seed: u64,
+}
+
+impl Default for ModalOptions {
+    fn default() -> Self {
+        ModalOptions {
+            resamples: 400,
+            seed: 1,
+        }
+    }
+}
+
+/// One structure fitted: parameters, weighted cost, per-signal RSS, BIC.
+struct Candidate {
+    st: Structure,
+    params: Vec<f64>,
+    rss: [f64; 2],
+    bic: f64,
+}
+
+fn bic(rss: [f64; 2], n: usize, k: usize) -> f64 {
+    let nf = n as f64;
+    nf * (rss[0] / nf).ln() + nf * (rss[1] / nf).ln() + k as f64 * (2.0 * nf).ln()
+}
+
+/// Fits θ and γ (rad) sampled at `t_s` (s, ascending: the free motion's window) jointly.
+pub fn fit_modes(
+    t_s: &[f64],
+    roll_rad: &[f64],
+    steer_rad: &[f64],
+    options: &ModalOptions,
+) -> Result<ModalFit, ModalError> {
+    let n = t_s.len();
+    if n < 40 || roll_rad.len() != n || steer_rad.len() != n {
+        return Err(ModalError::TooShort(n));
+    }
+    let x = [roll_rad, steer_rad];
+    let noise = [noise_level(roll_rad), noise_level(steer_rad)];
+    let weight = noise.map(|s| 1.0 / s.max(1e-9));
+    let t0 = t_s[0];
+    let mut problem = Problem {
+        t: t_s,
+        x,
+        weight,
+        t_ref: t0,
+        t0,
+        st: Structure {
+            real_modes: 0,
+            drift: false,
+            trend: true,
+        },
+    };
+    // Starting point: ω from the periodogram, σ by a search (variable projection).
+    let omega0 = dominant_omega(t_s, x, weight);
+    let base = (0..=50)
+        .map(|k| -4.0 + 0.12 * k as f64)
+        .filter_map(|sigma| {
+            let p = problem.project(&[sigma, omega0])?;
+            Some((problem.cost(&p), p))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .ok_or(ModalError::NoWeave)?
+        .1;
+    let base = solve(&problem, base).ok_or(ModalError::NoWeave)?;
+    let (sigma, omega) = if plausible(&base.params) {
+        (base.params[0], base.params[1])
+    } else {
+        (0.0, omega0)
+    };
+    // Every structure, each from the base eigenvalue and the best starting real rates.
+    let mut best: Option<Candidate> = None;
+    for real_modes in 0..=2 {
+        for drift in [true] {
+            for trend in [false, true] {
+                problem.st = Structure {
+                    real_modes,
+                    drift,
+                    trend,
+                };
+                let Some(c) = fit_structure(&problem, sigma, omega) else {
+                    continue;
+                };
+                if best.as_ref().is_none_or(|b| c.bic < b.bic) {
+                    best = Some(c);
+                }
+            }
+        }
+    }
+    let best = best.ok_or(ModalError::NoWeave)?;
+    problem.st = best.st;
+    // Re-weight by the residual levels, and move t_ref to the amplitude-weighted time.
+    problem.weight = best.rss.map(|r| 1.0 / (r / n as f64).sqrt().max(1e-12));
+    let mut params = best.params;
+    for _ in 0..2 {
+        let t_ref = amplitude_weighted_time(t_s, &params, problem.st, problem.t_ref);
+        params = rereference(&problem, &params, t_ref).ok_or(ModalError::NoWeave)?;
+        problem.t_ref = t_ref;
+        params = solve(&problem, params).ok_or(ModalError::NoWeave)?.params;
+    }
+    finish(&problem, params, options)
+}
+
+/// A structure fitted from the base eigenvalue: the real modes start from the best of a grid
+/// of rates (by the projected cost), then Levenberg–Marquardt on everything. `None` when it
+/// fails or lands somewhere unphysical (real rates beyond ±60 /s, two equal real modes).
+fn fit_structure(problem: &Problem<'_>, sigma: f64, omega: f64) -> Option<Candidate> {
+    const RATES: [f64; 5] = [-0.3, -1.0, -3.0, -8.0, -20.0];
+    let st = problem.st;
+    let head: Vec<f64> = if st.drift {
+        vec![sigma, omega, 0.0, 0.0]
+    } else {
+        vec![sigma, omega]
+    };
+    let starts: Vec<Vec<f64>> = match st.real_modes {
+        0 => vec![vec![]],
+        1 => RATES.iter().map(|&r| vec![r]).collect(),
+        _ => RATES
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &a)| RATES[i + 1..].iter().map(move |&b| vec![a, b]))
+            .collect(),
+    };
+    let p0 = starts
+        .iter()
+        .filter_map(|rates| {
+            let mut nl = head.clone();
+            nl.extend(rates);
+            let p = problem.project(&nl)?;
+            Some((problem.cost(&p), p))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))?
+        .1;
+    let sol = solve(problem, p0)?;
+    let mut p = sol.params;
+    if !plausible(&p) {
+        return None;
+    }
+    let rates: Vec<f64> = (0..st.real_modes).map(|k| p[real_index(st, k)]).collect();
+    if rates.iter().any(|r| !(-60.0..=5.0).contains(r))
+        || (rates.len() == 2 && (rates[0] - rates[1]).abs() < 0.05 * rates[0].abs().max(0.1))
+    {
+        return None;
+    }
+    // Slowest real mode first.
+    if rates.len() == 2 && rates[1] > rates[0] {
+        let (i, j) = (real_index(st, 0), real_index(st, 1));
+        p.swap(i, j);
+        for s in 0..2 {
+            let l = st.nonlinear() + s * st.linear();
+            p.swap(l + 2, l + 3);
+        }
+    }
+    let rss = problem.rss(&p);
+    Some(Candidate {
+        st,
+        bic: bic(rss, problem.n(), st.params()),
+        params: p,
+        rss,
+    })
+}
+
+/// Levenberg–Marquardt from `p0`, with ω made positive; `None` when it ends non-finite.
+fn solve(problem: &Problem<'_>, p0: Vec<f64>) -> Option<crate::fit::Solution> {
+    let mut sol = levenberg_marquardt(problem, 2 * problem.n(), p0, 200);
+    if sol.params[1] < 0.0 {
+        // ω → −ω (and ω̇, b) is the same curve.
+        let st = problem.st;
+        sol.params[1] = -sol.params[1];
+        if st.drift {
+            sol.params[3] = -sol.params[3];
+        }
+        for s in 0..2 {
+            let l = st.nonlinear() + s * st.linear();
+            sol.params[l + 1] = -sol.params[l + 1];
+        }
+        let n = 2 * problem.n();
+        problem.residuals_and_jacobian(&sol.params, &mut sol.jacobian, &mut DVector::zeros(n));
+    }
+    (sol.params.iter().all(|v| v.is_finite()) && sol.cost.is_finite()).then_some(sol)
+}
+
+/// An oscillation that is one: 0.5 ≤ ω ≤ 40 rad/s, |σ| ≤ ω (less than critically damped-ish).
+fn plausible(p: &[f64]) -> bool {
+    (0.5..=40.0).contains(&p[1]) && p[0].abs() <= p[1]
+}
+
+/// Σ t E(t)² / Σ E(t)²: where the weave's squared envelope puts the data's weight.
+fn amplitude_weighted_time(t: &[f64], p: &[f64], st: Structure, t_ref: f64) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for &ti in t {
+        let e = carrier(p, st, ti - t_ref).0;
+        num += ti * e * e;
+        den += e * e;
+    }
+    if den > 0.0 && num.is_finite() {
+        num / den
+    } else {
+        t_ref
+    }
+}
+
+/// The same curve with τ measured from `t_ref`: σ and ω (with drift) moved to the new time, the
+/// linear parameters solved afresh.
+fn rereference(problem: &Problem<'_>, p: &[f64], t_ref: f64) -> Option<Vec<f64>> {
+    let st = problem.st;
+    let delta = t_ref - problem.t_ref;
+    let mut nl = p[..st.nonlinear()].to_vec();
+    if st.drift {
+        nl[0] += p[2] * delta;
+        nl[1] += p[3] * delta;
+    }
+    let moved = Problem {
+        t_ref,
+        st,
+        ..*problem
+    };
+    moved.project(&nl)
+}
+
+/// Covariance, resampling check, mode shape and fit quality of the final parameters.
+fn finish(
+    problem: &Problem<'_>,
+    params: Vec<f64>,
+    options: &ModalOptions,
+) -> Result<ModalFit, ModalError> {
+    let st = problem.st;
+    let n = problem.n();
+    let np = st.params();
+    let mut jac = DMatrix::zeros(2 * n, np);
+    let mut r = DVector::zeros(2 * n);
+    problem.residuals_and_jacobian(&params, &mut jac, &mut r);
+    let dof = (2 * n - np) as f64;
+    let s2 = r.norm_squared() / dof;
+    let h = jac.transpose() * &jac;
+    let hinv = h.cholesky().ok_or(ModalError::NoWeave)?.inverse();
+    let cov = &hinv * s2;
+    let se = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    let resampled = block_bootstrap(&jac, &r, &hinv, n, params[1], problem, options);
+    let weave = Eigenvalue {
+        re: params[0],
+        im: params[1],
+        re_se: se(0),
+        im_se: se(1),
+        re_im_corr: cov[(0, 1)] / (se(0) * se(1)).max(1e-300),
+        re_se_resampled: resampled[0],
+        im_se_resampled: resampled[1],
+    };
+    let drift = st.drift.then(|| {
+        [
+            Estimate {
+                value: params[2],
+                se: se(2),
+            },
+            Estimate {
+                value: params[3],
+                se: se(3),
+            },
+        ]
+    });
+    let real_modes = (0..st.real_modes)
+        .map(|k| Estimate {
+            value: params[real_index(st, k)],
+            se: se(real_index(st, k)),
+        })
+        .collect();
+    let shape = mode_shape(&params, &cov, st);
+    let rss = problem.rss(&params);
+    let vaf = [0, 1].map(|s| {
+        let x = problem.x[s];
+        let m = x.iter().sum::<f64>() / n as f64;
+        let var: f64 = x.iter().map(|v| (v - m).powi(2)).sum();
+        1.0 - rss[s] / var.max(1e-300)
+    });
+    Ok(ModalFit {
+        structure: st,
+        start_s: problem.t0,
+        end_s: problem.t[n - 1],
+        t_ref_s: problem.t_ref,
+        weave,
+        drift,
+        real_modes,
+        shape,
+        vaf,
+        residual_rms_rad: rss.map(|r| (r / n as f64).sqrt()),
+        samples: n,
+        bic: bic(rss, n, np),
+        params,
+    })
+}
+
+/// γ/θ of the weave: A_s = a_s − i b_s (so that the signal is Re(A_s e^{λτ})), the ratio
+/// A_γ/A_θ, its modulus and argument with delta-method standard errors.
+fn mode_shape(p: &[f64], cov: &DMatrix<f64>, st: Structure) -> ModeShape {
+    let lt = st.nonlinear();
+    let lg = lt + st.linear();
+    let idx = [lt, lt + 1, lg, lg + 1];
+    let ratio = |v: [f64; 4]| Complex::new(v[2], -v[3]) / Complex::new(v[0], -v[1]);
+    let v0 = idx.map(|i| p[i]);
+    let z0 = ratio(v0);
+    let grad = |f: &dyn Fn(Complex<f64>) -> f64| -> [f64; 4] {
+        std::array::from_fn(|k| {
+            let h = 1e-7 * v0[k].abs().max(1e-6);
+            let (mut a, mut b) = (v0, v0);
+            a[k] += h;
+            b[k] -= h;
+            (f(ratio(a)) - f(ratio(b))) / (2.0 * h)
+        })
+    };
+    let var = |g: [f64; 4]| -> f64 {
+        let mut v = 0.0;
+        for i in 0..4 {
+            for j in 0..4 {
+                v += g[i] * g[j] * cov[(idx[i], idx[j])];
+            }
+        }
+        v.max(0.0)
+    };
+    let arg0 = z0.arg();
+    let modulus = |z: Complex<f64>| z.norm();
+    let arg = |z: Complex<f64>| (z / Complex::from_polar(1.0, arg0)).arg();
+    ModeShape {
+        ratio: Estimate {
+            value: z0.norm(),
+            se: var(grad(&modulus)).sqrt(),
+        },
+        phase_rad: Estimate {
+            value: arg0,
+            se: var(grad(&arg)).sqrt(),
+        },
+    }
+}
+
+/// Standard errors of σ and ω from a moving-block bootstrap of the weighted residuals (blocks
+/// of one weave period, per signal), each resample's parameters one Gauss–Newton step from the
+/// fit: δp = (JᵀJ)⁻¹ Jᵀ r*.
+fn block_bootstrap(
+    jac: &DMatrix<f64>,
+    r: &DVector<f64>,
+    hinv: &DMatrix<f64>,
+    n: usize,
+    omega: f64,
+    problem: &Problem<'_>,
+    options: &ModalOptions,
+) -> [f64; 2] {
+    if options.resamples < 2 {
+        return [f64::NAN; 2];
+    }
+    let dt = (problem.t[n - 1] - problem.t[0]) / (n - 1).max(1) as f64;
+    let block = ((2.0 * std::f64::consts::PI / omega.max(0.1) / dt).round() as usize).clamp(1, n);
+    // Rows 0 and 1 of (JᵀJ)⁻¹Jᵀ: the gain of σ and ω on each residual.
+    let gain = hinv.rows(0, 2) * jac.transpose();
+    let mut rng = crate::sim::rng::Rng::new(options.seed);
+    let (mut sum, mut sum2) = ([0.0f64; 2], [0.0f64; 2]);
+    let mut star = vec![0.0; 2 * n];
+    for _ in 0..options.resamples {
+        for s in 0..2 {
+            let mut k = 0;
+            while k < n {
+                let start = (rng.uniform() * (n - block + 1) as f64) as usize;
+                for j in 0..block.min(n - k) {
+                    star[s * n + k + j] = r[s * n + start + j];
+                }
+                k += block;
+            }
+        }
+        for q in 0..2 {
+            let d: f64 = (0..2 * n).map(|i| gain[(q, i)] * star[i]).sum();
+            sum[q] += d;
+            sum2[q] += d * d;
+        }
+    }
+    let b = options.resamples as f64;
+    [0, 1].map(|q| {
+        ((sum2[q] - sum[q] * sum[q] / b) / (b - 1.0))
+            .max(0.0)
+            .sqrt()
+    })
+}
