@@ -544,31 +544,27 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
     emit(a.json, &summary, || summary.to_text())
 }
 
+/// Writes generated files under `out` and says how many.
+fn write_generated(out: &Path, files: &sim::campaign::Files) -> Result<()> {
+    sim::campaign::write_files(out, files)
+        .with_context(|| format!("writing under {}", out.display()))?;
+    eprintln!("wrote {} files under {}", files.len(), out.display());
+    Ok(())
+}
+
 fn simulate(s: SimCommand) -> Result<()> {
     let (p, c) = match s {
         SimCommand::Ride(r) => return simulate_ride(r),
         SimCommand::Rides { out } => {
             let bike = inertia::bike::LabBike::load(&out.join("lab_bike.toml"))?;
-            let files = sim::campaign::lab_rides(&bike)?;
-            sim::campaign::write_files(&out, &files)
-                .with_context(|| format!("writing under {}", out.display()))?;
-            eprintln!("wrote {} files under {}", files.len(), out.display());
-            return Ok(());
+            return write_generated(&out, &sim::campaign::lab_rides(&bike)?);
         }
         SimCommand::RideFaults { out } => {
             let bike = inertia::bike::LabBike::load(Path::new("data/lab_bike.toml"))?;
-            let files = sim::campaign::ride_fault_fixtures(&bike)?;
-            sim::campaign::write_files(&out, &files)
-                .with_context(|| format!("writing under {}", out.display()))?;
-            eprintln!("wrote {} files under {}", files.len(), out.display());
-            return Ok(());
+            return write_generated(&out, &sim::campaign::ride_fault_fixtures(&bike)?);
         }
         SimCommand::Campaign { out } => {
-            let files = sim::campaign::lab_campaign();
-            sim::campaign::write_files(&out, &files)
-                .with_context(|| format!("writing under {}", out.display()))?;
-            eprintln!("wrote {} files under {}", files.len(), out.display());
-            return Ok(());
+            return write_generated(&out, &sim::campaign::lab_campaign());
         }
         SimCommand::Torsion(t) => (
             pendulum::Pendulum::Torsion(pendulum::Torsion {

@@ -17,8 +17,7 @@ fn root() -> PathBuf {
 /// The lab's bicycle as measured (the analysis's model) and the campaign's truth bicycle.
 fn bikes() -> (uncertain::Parametrized, Benchmark) {
     let path = root().join("data/lab_bike.toml");
-    let mut truth = LabBike::load(&path).unwrap();
-    truth.frame.ixx_kgm2 *= 1.06;
+    let truth = bikeproc::sim::campaign::truth_bike(&LabBike::load(&path).unwrap());
     (uncertain::load(&path).unwrap(), lab_to_benchmark(&truth))
 }
 

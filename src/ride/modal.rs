@@ -396,8 +396,8 @@ pub fn fit_modes(
         .ok_or(ModalError::NoWeave)?
         .1;
     let base = solve(&problem, base).ok_or(ModalError::NoWeave)?;
-    let (sigma, omega) = if plausible(&base.params) {
-        (base.params[0], base.params[1])
+    let (sigma, omega) = if plausible(&base) {
+        (base[0], base[1])
     } else {
         (0.0, omega0)
     };
@@ -429,7 +429,7 @@ pub fn fit_modes(
         let t_ref = amplitude_weighted_time(t_s, &params, problem.st, problem.t_ref);
         params = rereference(&problem, &params, t_ref).ok_or(ModalError::NoWeave)?;
         problem.t_ref = t_ref;
-        params = solve(&problem, params).ok_or(ModalError::NoWeave)?.params;
+        params = solve(&problem, params).ok_or(ModalError::NoWeave)?;
     }
     finish(&problem, params, options)
 }
@@ -464,8 +464,7 @@ fn fit_structure(problem: &Problem<'_>, sigma: f64, omega: f64) -> Option<Candid
         })
         .min_by(|a, b| a.0.total_cmp(&b.0))?
         .1;
-    let sol = solve(problem, p0)?;
-    let mut p = sol.params;
+    let mut p = solve(problem, p0)?;
     if !plausible(&p) {
         return None;
     }
@@ -493,24 +492,24 @@ fn fit_structure(problem: &Problem<'_>, sigma: f64, omega: f64) -> Option<Candid
     })
 }
 
-/// Levenberg–Marquardt from `p0`, with ω made positive; `None` when it ends non-finite.
-fn solve(problem: &Problem<'_>, p0: Vec<f64>) -> Option<crate::fit::Solution> {
-    let mut sol = levenberg_marquardt(problem, 2 * problem.n(), p0, 200);
-    if sol.params[1] < 0.0 {
+/// Levenberg–Marquardt from `p0`, the parameters with ω made positive; `None` when it ends
+/// non-finite.
+fn solve(problem: &Problem<'_>, p0: Vec<f64>) -> Option<Vec<f64>> {
+    let sol = levenberg_marquardt(problem, 2 * problem.n(), p0, 200);
+    let mut p = sol.params;
+    if p[1] < 0.0 {
         // ω → −ω (and ω̇, b) is the same curve.
         let st = problem.st;
-        sol.params[1] = -sol.params[1];
+        p[1] = -p[1];
         if st.drift {
-            sol.params[3] = -sol.params[3];
+            p[3] = -p[3];
         }
         for s in 0..2 {
             let l = st.nonlinear() + s * st.linear();
-            sol.params[l + 1] = -sol.params[l + 1];
+            p[l + 1] = -p[l + 1];
         }
-        let n = 2 * problem.n();
-        problem.residuals_and_jacobian(&sol.params, &mut sol.jacobian, &mut DVector::zeros(n));
     }
-    (sol.params.iter().all(|v| v.is_finite()) && sol.cost.is_finite()).then_some(sol)
+    (p.iter().all(|v| v.is_finite()) && sol.cost.is_finite()).then_some(p)
 }
 
 /// An oscillation that is one: 0.5 ≤ ω ≤ 40 rad/s, |σ| ≤ ω (less than critically damped-ish).

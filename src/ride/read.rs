@@ -97,15 +97,21 @@ pub fn read_ride(
             .map(|i| Vector3::new(cal.data[x][i], cal.data[y][i], cal.data[z][i]))
             .collect())
     };
-    let acc_frame = acc(&frame.id)?;
+    let accs = [acc(&frame.id)?, acc(&bar.id)?];
     let rate = log.sample_rate_hz;
-    for (sensor, label) in [(frame, "frame"), (bar, "handlebar")] {
+    for ((sensor, label), a) in [(frame, "frame"), (bar, "handlebar")]
+        .into_iter()
+        .zip(&accs)
+    {
+        let first = sensor
+            .orientation
+            .first()
+            .ok_or_else(|| err(angles, format!("the {label} sensor has no samples")))?;
         let turned = sensor
             .orientation
             .iter()
-            .map(|q| q.angle_to(&sensor.orientation[0]))
+            .map(|q| q.angle_to(first))
             .fold(0.0, f64::max);
-        let a = acc(&sensor.id)?;
         let g0 = a.first().map_or(0.0, |v| v.norm());
         let shaken = a.iter().map(|v| (v.norm() - g0).abs()).fold(0.0, f64::max);
         if turned < 0.5f64.to_radians() && shaken < 0.3 {
@@ -121,6 +127,7 @@ pub fn read_ride(
             ));
         }
     }
+    let [acc_frame, _] = accs;
     let still_end = (standstill_s * rate).round() as u64;
     let mean_up = |a: &[Vector3<f64>], idx: &[u64]| -> Option<Vector3<f64>> {
         let s: Vector3<f64> = a

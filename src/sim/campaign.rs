@@ -476,6 +476,14 @@ pub fn write_files(root: &std::path::Path, files: &Files) -> std::io::Result<()>
     Ok(())
 }
 
+/// The campaign's truth bicycle: the measured one with the frame's I_xx 6 % higher (the seed's
+/// spread between orientations).
+pub fn truth_bike(measured: &crate::inertia::bike::LabBike) -> crate::inertia::bike::LabBike {
+    let mut truth = measured.clone();
+    truth.frame.ixx_kgm2 *= 1.06;
+    truth
+}
+
 /// The lab's ride campaign (seed §5.4), simulated on the measured bicycle with a truth that
 /// differs from it: 16 rides released at 3.4 to 6.5 m/s, each with the realistic effects
 /// ([`super::ride::Effects::realistic`]) varied by ±15 % from ride to ride, the truth frame's
@@ -487,9 +495,7 @@ pub fn lab_rides(
     measured: &crate::inertia::bike::LabBike,
 ) -> Result<Files, super::ride::RideError> {
     use super::ride::{simulate_ride, Effects, RideSpec};
-    let mut truth_bike = measured.clone();
-    truth_bike.frame.ixx_kgm2 *= 1.06;
-    let bike = crate::model::lab::lab_to_benchmark(&truth_bike);
+    let bike = crate::model::lab::lab_to_benchmark(&truth_bike(measured));
     let mut files = Files::new();
     let mut manifest = String::from(
         "# The lab's dynamic tests (seed §5.4), simulated: push, release, a kick at the saddle, catch.\n\

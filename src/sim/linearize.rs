@@ -137,19 +137,23 @@ mod tests {
     use super::*;
     use crate::model::{Benchmark, Canonical};
 
+    fn no_loads(_: &LoadInput<'_>) -> Vec<whipple::Load> {
+        Vec::new()
+    }
+
+    const FREE: Drive<'static> = Drive {
+        loads: &no_loads,
+        motion: whipple::Motion::Free,
+    };
+
     /// Rigid wheels and no loads: the Jacobian's eigenvalues are the benchmark's (Meijaard et
     /// al. 2007) to 1e-6, weave and capsize named as the model names them.
     #[test]
     fn rigid_weave_and_capsize_are_the_benchmark_ones() {
         let b = Benchmark::meijaard_2007();
         let p = WhippleParams::from_benchmark(&b);
-        let none = |_: &LoadInput<'_>| Vec::new();
-        let drive = Drive {
-            loads: &none,
-            motion: whipple::Motion::Free,
-        };
         let speeds = [4.5, 5.0, 6.0, 7.0];
-        let got = weave_and_capsize(&p, None, drive, &speeds).unwrap();
+        let got = weave_and_capsize(&p, None, FREE, &speeds).unwrap();
         let want = Canonical::from_benchmark(&b).sweep(&speeds).unwrap();
         for (g, w) in got.iter().zip(&want.eigenvalues) {
             assert!((g.0 - w[0]).norm() < 1e-6, "{g:?} vs {w:?}");
@@ -163,24 +167,17 @@ mod tests {
     fn stiff_tyres_give_the_rigid_weave() {
         let b = Benchmark::meijaard_2007();
         let p = WhippleParams::from_benchmark(&b);
-        let none = |_: &LoadInput<'_>| Vec::new();
-        let drive = Drive {
-            loads: &none,
-            motion: whipple::Motion::Free,
-        };
-        let mass = b.m_r + b.m_b + b.m_h + b.m_f;
-        let front = b.g * (b.x_b * b.m_b + b.x_h * b.m_h + b.w * b.m_f) / b.w;
         let tyres = Tyres {
             model: whipple::TyreModel {
                 cornering_per_rad: 2000.0,
                 camber_per_rad: 0.0,
                 relaxation_length_m: 0.001,
             },
-            normal_n: [b.g * mass - front, front],
+            normal_n: super::super::ride::static_normal_loads(&b),
         };
         let speeds = [5.0, 6.0];
-        let rigid = weave_and_capsize(&p, None, drive, &speeds).unwrap();
-        let soft = weave_and_capsize(&p, Some(&tyres), drive, &speeds).unwrap();
+        let rigid = weave_and_capsize(&p, None, FREE, &speeds).unwrap();
+        let soft = weave_and_capsize(&p, Some(&tyres), FREE, &speeds).unwrap();
         for (r, s) in rigid.iter().zip(&soft) {
             assert!(
                 (r.0 - s.0).norm() < 0.01 * r.0.norm(),

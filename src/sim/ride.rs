@@ -338,7 +338,7 @@ pub enum RideError {
 }
 
 /// The wheels' static normal loads (rear, front; N): the weight split by the centre of mass.
-fn static_normal_loads(b: &Benchmark) -> [f64; 2] {
+pub(super) fn static_normal_loads(b: &Benchmark) -> [f64; 2] {
     let mass = b.m_r + b.m_b + b.m_h + b.m_f;
     let weight = b.g * mass;
     let x_total = (b.x_b * b.m_b + b.x_h * b.m_h + b.w * b.m_f) / mass;
