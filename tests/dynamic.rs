@@ -75,7 +75,6 @@ fn parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
 /// Acceptance 1: the campaign in data/, each ride's weave within 2.5 standard errors of the
 /// truth file's value at the speed where the fit applies, for at least 90 % of the rides.
 #[test]
-#[ignore = "issue 6 open: 12 of 16 rides inside; the coasting bicycle's slowing down biases the slower rides' long windows"]
 fn campaign_weave_within_2_5_se_of_truth() {
     let dir = root().join("data");
     let manifest = RideManifest::load(&dir.join("rides.toml")).unwrap();
@@ -109,7 +108,6 @@ fn campaign_weave_within_2_5_se_of_truth() {
 /// speed held by the rear wheel so that the truth's eigenvalue is one number), the normalized
 /// errors of the weave's parts have a standard deviation between 0.8 and 1.25.
 #[test]
-#[ignore = "issue 6 open: measured std 1.76 (real part), 1.17 (imaginary) on 200 rides"]
 fn standard_errors_are_calibrated_on_200_rides() {
     let (model, bike) = bikes();
     let n = 200;
@@ -144,7 +142,6 @@ fn standard_errors_are_calibrated_on_200_rides() {
 /// With every effect off, the fitted weave is the linear model's (of the truth bicycle, at the
 /// true speed) within 2.5 standard errors for at least 90 % of 20 rides.
 #[test]
-#[ignore = "issue 6 open: 13 of 20 inside; the fitted damping is 2–4 SE above the linear model's"]
 fn without_effects_the_weave_is_the_linear_models() {
     let (model, bike) = bikes();
     let linear = Canonical::from_benchmark(&bike);
