@@ -340,12 +340,73 @@ pub struct Continuation<'a> {
     pub color_real: RGBColor,
 }
 
+/// Points with error bars at ±2 standard errors in x and y: `(x, y, x_se, y_se)`. A dot per
+/// point (the series named `name`) and a segment per bar.
+pub fn error_bars(points: &[(f64, f64, f64, f64)], color: RGBColor, name: &str) -> Vec<Series> {
+    let mut out = vec![Series {
+        name: name.to_string(),
+        points: points.iter().map(|p| (p.0, p.1)).collect(),
+        color,
+        mark: Mark::Dots,
+    }];
+    for &(x, y, sx, sy) in points {
+        for seg in [
+            vec![(x, y - 2.0 * sy), (x, y + 2.0 * sy)],
+            vec![(x - 2.0 * sx, y), (x + 2.0 * sx, y)],
+        ] {
+            out.push(Series {
+                name: String::new(),
+                points: seg,
+                color,
+                mark: Mark::Line,
+            });
+        }
+    }
+    out
+}
+
+/// A ride's roll and steer (degrees) against time: the measured angles thin, the fitted curves
+/// over the fitted window (shaded) bold. `measured` and `fitted` rows are (t s, θ rad, γ rad).
+pub fn ride_svg(
+    title: &str,
+    measured: &[[f64; 3]],
+    fitted: &[[f64; 3]],
+    window_s: (f64, f64),
+) -> Result<String, PlotError> {
+    let (blue, red) = (RGBColor(30, 80, 200), RGBColor(200, 40, 40));
+    let column = |rows: &[[f64; 3]], k: usize| -> Vec<(f64, f64)> {
+        rows.iter().map(|r| (r[0], r[k].to_degrees())).collect()
+    };
+    let series = [
+        ("roll θ, measured", column(measured, 1), blue, Mark::Thin),
+        ("steer γ, measured", column(measured, 2), red, Mark::Thin),
+        ("roll θ, fitted modes", column(fitted, 1), blue, Mark::Line),
+        ("steer γ, fitted modes", column(fitted, 2), red, Mark::Line),
+    ]
+    .map(|(name, points, color, mark)| Series {
+        name: name.to_string(),
+        points,
+        color,
+        mark,
+    });
+    chart_shaded(
+        title,
+        "time in the log (s)",
+        "angle (degrees)",
+        &series,
+        false,
+        &[(window_s.0, window_s.1, RGBColor(120, 120, 120))],
+    )
+}
+
 /// Real parts (solid) and imaginary parts (dashed) of the eigenvalues against speed, as the
-/// seed's Figs. 14–17, for one or several bicycles; stable ranges shaded; bands at ±2 se.
+/// seed's Figs. 14–17, for one or several bicycles; stable ranges shaded; bands at ±2 se;
+/// `extra` series (measured eigenvalues) drawn on top.
 pub fn continuation_svg(
     title: &str,
     bikes: &[Continuation<'_>],
     y_range: (f64, f64),
+    extra: &[Series],
 ) -> Result<String, PlotError> {
     let mut series = Vec::new();
     let mut shades = Vec::new();
@@ -427,6 +488,7 @@ pub fn continuation_svg(
         color: WHITE,
         mark: Mark::Dots,
     });
+    series.extend_from_slice(extra);
     chart_shaded(
         title,
         "speed (m/s)",
