@@ -15,12 +15,15 @@
 //! - [`fit`]: a signal → free-decay segment, damped-sinusoid fit, standard errors.
 //! - [`inertia`]: test folders → bar stiffness, moments, tensors (with standard errors).
 //! - [`model`]: bicycle parameters → the linear Whipple model, eigenvalues, stable speeds.
-//! - [`ride`]: a ride's log pair → the frame's roll θ(t) and the steer angle γ(t).
+//! - [`ride`]: a ride's log pair → θ(t), γ(t), the weave eigenvalue after the kick, the model's.
+//! - [`gap`]: a campaign's eigenvalues and the measured bicycle → where they part, which
+//!   unmodelled effect explains it, how far it shrinks on rides left out.
 //! - [`sim`]: the lab simulated from physics (never calls the estimators).
 //! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
 //! - `plot` (feature `plot`): SVG figures for the reports.
 
 pub mod fit;
+pub mod gap;
 pub mod inertia;
 pub mod log;
 pub mod model;

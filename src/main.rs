@@ -38,6 +38,9 @@ enum Command {
     /// Experimental weave eigenvalue of a ride (its angles log, `_cal` beside it) or of every
     /// ride of a campaign (rides.toml), against the model at the ride's speed.
     Dynamic(DynamicArgs),
+    /// The sim-to-real gap of a campaign (rides.toml): where the rides part from the model,
+    /// which unmodelled effect explains it, how far it shrinks on rides left out.
+    Gap(GapArgs),
     /// Write simulated logs from physics.
     #[command(subcommand)]
     Simulate(SimCommand),
@@ -81,6 +84,17 @@ struct DynamicArgs {
     /// Bootstrap resamples for the check of the standard errors.
     #[arg(long, default_value_t = 400)]
     resamples: usize,
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct GapArgs {
+    /// A campaign manifest (`rides.toml`).
+    file: PathBuf,
+    /// The bicycle (lab TOML or BicycleParameters file); defaults to the manifest's.
+    #[arg(long)]
+    bike: Option<PathBuf>,
     #[arg(long)]
     json: bool,
 }
@@ -359,6 +373,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Inertia(a) => inertia_cmd(a),
         Command::Stability(a) => stability(a),
         Command::Dynamic(a) => dynamic(a),
+        Command::Gap(a) => gap(a),
         Command::Simulate(s) => simulate(s),
         Command::Report(r) => {
             let written = bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| {
@@ -468,11 +483,37 @@ fn stability(a: StabilityArgs) -> Result<()> {
     emit(a.json, &report, || report.to_text())
 }
 
+/// A progress bar on standard error when it is a terminal: `[####    ] done/total what`.
+fn progress_bar(what: &str, done: usize, total: usize) {
+    use std::io::IsTerminal;
+    if std::io::stderr().is_terminal() {
+        let width = 30;
+        let filled = done * width / total.max(1);
+        eprint!(
+            "\r[{}{}] {done}/{total} {what}",
+            "#".repeat(filled),
+            " ".repeat(width - filled)
+        );
+        if done == total {
+            eprintln!();
+        }
+    }
+}
+
+fn gap(a: GapArgs) -> Result<()> {
+    use bikeproc::ride::dynamic::RideManifest;
+    let manifest = RideManifest::load(&a.file)?;
+    let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
+    let model = bikeproc::model::uncertain::load(&bike)?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let d = bikeproc::gap::diagnose_campaign(&manifest, &model, threads, &progress_bar)?;
+    emit(a.json, &d, || d.to_text())
+}
+
 fn dynamic(a: DynamicArgs) -> Result<()> {
     use bikeproc::model::uncertain;
     use bikeproc::ride::dynamic::{self as dynamic, DynamicOptions, RideManifest};
     use bikeproc::ride::modal::ModalOptions;
-    use std::io::IsTerminal;
     let modal = ModalOptions {
         resamples: a.resamples,
         ..ModalOptions::default()
@@ -482,22 +523,9 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
         let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
         let model = uncertain::load(&bike)?;
         let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let tty = std::io::stderr().is_terminal();
-        let progress = |done: usize, total: usize| {
-            if tty {
-                let width = 30;
-                let filled = done * width / total.max(1);
-                eprint!(
-                    "\r[{}{}] {done}/{total} rides",
-                    "#".repeat(filled),
-                    " ".repeat(width - filled)
-                );
-                if done == total {
-                    eprintln!();
-                }
-            }
-        };
-        let results = dynamic::run_campaign(&manifest, &model, &modal, threads, &progress);
+        let results = dynamic::run_campaign(&manifest, &model, &modal, threads, &|done, total| {
+            progress_bar("rides", done, total)
+        });
         let mut rides = Vec::new();
         let mut failures = Vec::new();
         for r in &results {

@@ -186,6 +186,31 @@ impl Parametrized {
     }
 }
 
+impl Parametrized {
+    /// The weave eigenvalue at each of `speeds` (any order) and the covariance of their parts,
+    /// `[re₀, im₀, re₁, im₁, …]`, propagated from the parameters' (correlated across speeds:
+    /// one parameter set makes every speed's eigenvalue).
+    pub fn weave_covariance(
+        &self,
+        speeds: &[f64],
+    ) -> Result<(Vec<Complex<f64>>, nalgebra::DMatrix<f64>), ParamError> {
+        let nominal = Canonical::from_benchmark(&self.benchmark_at(self.inputs.values()));
+        let sweep = nominal.sweep(speeds)?;
+        let (_, cov) = propagate(&self.inputs, |x| {
+            let c = Canonical::from_benchmark(&self.benchmark_at(x));
+            let mut out = Vec::with_capacity(2 * speeds.len());
+            for (i, &v) in speeds.iter().enumerate() {
+                let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
+                let w = super::match_order(&sweep.eigenvalues[i], &ev)[0];
+                out.push(w.re);
+                out.push(w.im);
+            }
+            out
+        });
+        Ok((sweep.eigenvalues.iter().map(|e| e[0]).collect(), cov))
+    }
+}
+
 /// Loads any bicycle file as a parametrized model: a lab bicycle (TOML with `[geometry]`)
 /// keeps its measured inputs; other files are their own benchmark parameters.
 pub fn load(path: &Path) -> Result<Parametrized, ParamError> {

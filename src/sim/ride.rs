@@ -48,6 +48,10 @@ pub struct Effects {
     pub speedometer_scale: f64,
     /// Lateral tyre compliance in place of the lateral no-slip constraints (none: knife edges).
     pub tyres: Option<whipple::TyreModel>,
+    /// The sensors' sample rate / the nominal 100 Hz (their clock running fast when above 1):
+    /// the logs' time stamps stay at the nominal rate, so every rate read from them (the
+    /// eigenvalues, the `Sync` speed) is the true one divided by this.
+    pub clock_scale: f64,
 }
 
 impl Default for Effects {
@@ -60,6 +64,7 @@ impl Default for Effects {
             extra_masses: vec![],
             speedometer_scale: 1.0,
             tyres: None,
+            clock_scale: 1.0,
         }
     }
 }
@@ -100,6 +105,7 @@ impl Effects {
                 },
             ],
             speedometer_scale: 1.03,
+            clock_scale: 1.0,
             tyres: Some(whipple::TyreModel {
                 cornering_per_rad: 11.0,
                 camber_per_rad: 0.6,
@@ -255,6 +261,8 @@ impl RideSpec {
 /// The truth of a simulated ride: never an input of the analysis.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RideTruth {
+    /// Samples per second of the logs' time (per sample: the arrays below). Times are the
+    /// logs' (the sensors' clock); speeds and eigenvalues are physical (true time).
     pub rate_hz: f64,
     pub release_s: f64,
     pub kick_s: f64,
@@ -450,13 +458,14 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
     let mut rng = Rng::new(seed);
     let truth_bike = with_point_masses(bike, &spec.effects.extra_masses);
     let p = WhippleParams::from_benchmark(&truth_bike);
+    // The logs' nominal rate; the sensors sample every `dt` of true time.
     let rate = 100.0;
-    let dt = 1.0 / rate;
+    let dt = 1.0 / (rate * spec.effects.clock_scale);
     let heading = rng.range(0.0, 2.0 * PI);
     let (frame_sensor, bar_sensor) = ([0.05, 0.0, -0.25], [0.0, 0.0, -0.45]);
     // Held phase: upright, straight, the speed ramping up (cosine) to the release speed.
     let release_s = spec.standstill_s + spec.push_s;
-    let n_hold = (release_s * rate).round() as usize;
+    let n_hold = (release_s / dt).round() as usize;
     let upright = whipple::upright_state(&p, 0.0, 0.0, 0.0, 0.0, 0.0)
         .ok_or(RideError::NoUpright)?
         .0;
@@ -725,9 +734,10 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
         cal_log,
         truth: RideTruth {
             rate_hz: rate,
-            release_s,
-            kick_s,
-            catch_s,
+            // In the logs' time (the sensors' clock).
+            release_s: release_s * spec.effects.clock_scale,
+            kick_s: kick_s * spec.effects.clock_scale,
+            catch_s: catch_s * spec.effects.clock_scale,
             speed_mps: speed,
             roll_rad: roll,
             steer_rad: steer,

@@ -1,0 +1,230 @@
+//! The library of candidate effects: each an extension of the linear model with physical
+//! parameters, bounds, the value that means "no effect" and a plausible range. In: the
+//! measured bicycle's benchmark parameters and an effect's parameter values. Out: the extended
+//! linear bicycle, and the weave it predicts for a ride (at the ride's speed as the ride
+//! reported it).
+
+use super::linear::LinearBike;
+use super::Observation;
+use crate::model::{Benchmark, Canonical};
+use crate::ride::dynamic::SpeedSource;
+use nalgebra::Complex;
+
+/// One physical parameter of an effect.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    /// The search's bounds.
+    pub lo: f64,
+    pub hi: f64,
+    /// The value at which the effect is absent.
+    pub none: f64,
+    /// The range a real bicycle and lab make plausible.
+    pub plausible: (f64, f64),
+}
+
+/// An effect the Whipple model of the measured bicycle leaves out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    /// Viscous friction in the steering head: a torque −c δ̇.
+    SteerDamping,
+    /// A point mass at the front frame's centre of mass (a lamp, a bag, a sensor box).
+    FrontMass,
+    /// A point mass at the rear frame's centre of mass.
+    FrameMass,
+    /// A measured parameter off by a factor.
+    FrameIxx,
+    FrameIzz,
+    FrameIxz,
+    FrontIxx,
+    FrontIzz,
+    Trail,
+    /// Both wheels' spin inertias.
+    WheelSpin,
+    /// The rear frame's centre of mass height (−z_B).
+    FrameCgHeight,
+    /// The rear frame's centre of mass, x_B.
+    FrameCgX,
+    /// The speedometer reads `k` times the true speed (rides whose speed is the noted reading).
+    SpeedScale,
+    /// The sensors sample at `s` times the nominal rate: every rate read from the logs (the
+    /// eigenvalue, the `Sync` speed) is the true one over `s`.
+    TimeScale,
+}
+
+const FACTOR: ParamSpec = ParamSpec {
+    name: "factor",
+    unit: "",
+    lo: 0.5,
+    hi: 1.6,
+    none: 1.0,
+    plausible: (0.8, 1.25),
+};
+
+impl Effect {
+    /// Every candidate, in a fixed order.
+    pub const ALL: [Effect; 14] = [
+        Effect::SteerDamping,
+        Effect::FrontMass,
+        Effect::FrameMass,
+        Effect::FrameIxx,
+        Effect::FrameIzz,
+        Effect::FrameIxz,
+        Effect::FrontIxx,
+        Effect::FrontIzz,
+        Effect::Trail,
+        Effect::WheelSpin,
+        Effect::FrameCgHeight,
+        Effect::FrameCgX,
+        Effect::SpeedScale,
+        Effect::TimeScale,
+    ];
+
+    /// The name used in reports and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::SteerDamping => "steer_damping",
+            Effect::FrontMass => "front_mass",
+            Effect::FrameMass => "frame_mass",
+            Effect::FrameIxx => "frame_ixx",
+            Effect::FrameIzz => "frame_izz",
+            Effect::FrameIxz => "frame_ixz",
+            Effect::FrontIxx => "front_ixx",
+            Effect::FrontIzz => "front_izz",
+            Effect::Trail => "trail",
+            Effect::WheelSpin => "wheel_spin",
+            Effect::FrameCgHeight => "frame_cg_height",
+            Effect::FrameCgX => "frame_cg_x",
+            Effect::SpeedScale => "speed_scale",
+            Effect::TimeScale => "time_scale",
+        }
+    }
+
+    /// What it is, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Effect::SteerDamping => "viscous steer damping",
+            Effect::FrontMass => "added mass on the front frame",
+            Effect::FrameMass => "added mass on the rear frame",
+            Effect::FrameIxx => "the rear frame's I_xx off by a factor",
+            Effect::FrameIzz => "the rear frame's I_zz off by a factor",
+            Effect::FrameIxz => "the rear frame's I_xz off by a factor",
+            Effect::FrontIxx => "the front frame's I_xx off by a factor",
+            Effect::FrontIzz => "the front frame's I_zz off by a factor",
+            Effect::Trail => "the trail off by a factor",
+            Effect::WheelSpin => "the wheels' spin inertia off by a factor",
+            Effect::FrameCgHeight => "the rear frame's centre of mass height off by a factor",
+            Effect::FrameCgX => "the rear frame's centre of mass x off by a factor",
+            Effect::SpeedScale => "a speedometer scale error",
+            Effect::TimeScale => "a sensor clock error (time scale)",
+        }
+    }
+
+    /// Its parameter (every effect of the library has one).
+    pub fn param(self) -> ParamSpec {
+        match self {
+            Effect::SteerDamping => ParamSpec {
+                name: "c",
+                unit: "N·m·s/rad",
+                lo: 0.0,
+                hi: 3.0,
+                none: 0.0,
+                plausible: (0.0, 1.0),
+            },
+            Effect::FrontMass | Effect::FrameMass => ParamSpec {
+                name: "mass",
+                unit: "kg",
+                lo: 0.0,
+                hi: 6.0,
+                none: 0.0,
+                plausible: (0.0, 3.0),
+            },
+            Effect::SpeedScale => ParamSpec {
+                name: "k",
+                unit: "",
+                lo: 0.8,
+                hi: 1.25,
+                none: 1.0,
+                plausible: (0.9, 1.1),
+            },
+            Effect::TimeScale => ParamSpec {
+                name: "s",
+                unit: "",
+                lo: 0.9,
+                hi: 1.1,
+                none: 1.0,
+                plausible: (0.97, 1.03),
+            },
+            _ => FACTOR,
+        }
+    }
+}
+
+/// Adds a point mass `m` at the body's own centre of mass: the mass grows, the centre of mass
+/// and the inertia about it stay.
+fn add_mass(b: &mut Benchmark, front: bool, m: f64) {
+    if front {
+        b.m_h += m;
+    } else {
+        b.m_b += m;
+    }
+}
+
+/// The measured bicycle with `effects` at `params` (one value each, in order): its
+/// parameters changed, and its extra terms.
+pub fn linear_bike(base: &Benchmark, effects: &[Effect], params: &[f64]) -> LinearBike {
+    let mut b = *base;
+    let mut damping = 0.0;
+    for (&e, &p) in effects.iter().zip(params) {
+        match e {
+            Effect::SteerDamping => damping += p,
+            Effect::FrontMass => add_mass(&mut b, true, p),
+            Effect::FrameMass => add_mass(&mut b, false, p),
+            Effect::FrameIxx => b.i_bxx *= p,
+            Effect::FrameIzz => b.i_bzz *= p,
+            Effect::FrameIxz => b.i_bxz *= p,
+            Effect::FrontIxx => b.i_hxx *= p,
+            Effect::FrontIzz => b.i_hzz *= p,
+            Effect::Trail => b.c *= p,
+            Effect::WheelSpin => {
+                b.i_ryy *= p;
+                b.i_fyy *= p;
+            }
+            Effect::FrameCgHeight => b.z_b *= p,
+            Effect::FrameCgX => b.x_b *= p,
+            Effect::SpeedScale | Effect::TimeScale => {}
+        }
+    }
+    LinearBike {
+        canonical: Canonical::from_benchmark(&b),
+        steer_damping_nms_per_rad: damping,
+    }
+}
+
+/// The weave the extended model predicts for a ride, as the ride would report it: at the
+/// true speed behind the reported one (a noted reading over the speedometer's scale; a `Sync`
+/// speed times the clock's), the eigenvalue over the clock's scale. `guess` picks the branch
+/// (the unextended model's weave at the ride's speed). `None` when there is no weave there.
+pub fn predict(
+    bike: &LinearBike,
+    effects: &[Effect],
+    params: &[f64],
+    obs: &Observation,
+    guess: Complex<f64>,
+) -> Option<Complex<f64>> {
+    let mut v = obs.speed_mps;
+    let mut clock = 1.0;
+    for (&e, &p) in effects.iter().zip(params) {
+        match e {
+            Effect::SpeedScale if obs.speed_source == SpeedSource::Noted => v /= p,
+            Effect::TimeScale => clock = p,
+            _ => {}
+        }
+    }
+    if obs.speed_source == SpeedSource::Sync {
+        v *= clock;
+    }
+    Some(bike.weave_near(v, guess)? / clock)
+}

@@ -1,0 +1,288 @@
+//! Fitting the candidate effects to a campaign's eigenvalues: generalized least squares with
+//! the full covariance (each ride's fit errors, its speed's, and the model's from the measured
+//! parameters, correlated across rides), a bounded Nelder–Mead search after a grid, standard
+//! errors from the χ² curvature, and leave-one-ride-out predictions.
+
+use super::effects::{linear_bike, predict, Effect};
+use super::Observation;
+use crate::model::Benchmark;
+use nalgebra::{Complex, DMatrix, DVector};
+
+/// A campaign ready to fit: the rides, the measured bicycle, each ride's unextended weave (the
+/// branch to follow) and the covariance of the residuals.
+pub struct Campaign<'a> {
+    pub obs: &'a [Observation],
+    pub base: &'a Benchmark,
+    pub guesses: Vec<Complex<f64>>,
+    /// Covariance of `[re₀, im₀, re₁, im₁, …]` of the residuals (experiment − model).
+    pub cov: DMatrix<f64>,
+}
+
+/// χ² of a subset of rides, with its covariance's Cholesky factor.
+pub struct Subset<'c, 'a> {
+    campaign: &'c Campaign<'a>,
+    rides: Vec<usize>,
+    chol: nalgebra::Cholesky<f64, nalgebra::Dyn>,
+}
+
+impl<'a> Campaign<'a> {
+    /// The residuals of `rides` (experiment − prediction), `None` when a ride has no weave.
+    pub fn residuals(
+        &self,
+        effects: &[Effect],
+        params: &[f64],
+        rides: &[usize],
+    ) -> Option<DVector<f64>> {
+        let bike = linear_bike(self.base, effects, params);
+        let mut r = DVector::zeros(2 * rides.len());
+        for (k, &i) in rides.iter().enumerate() {
+            let o = &self.obs[i];
+            let p = predict(&bike, effects, params, o, self.guesses[i])?;
+            r[2 * k] = o.weave.re - p.re;
+            r[2 * k + 1] = o.weave.im - p.im;
+        }
+        Some(r)
+    }
+
+    /// The subset of `rides`; `None` when its covariance is not positive definite.
+    pub fn subset(&self, rides: Vec<usize>) -> Option<Subset<'_, 'a>> {
+        let idx: Vec<usize> = rides.iter().flat_map(|&i| [2 * i, 2 * i + 1]).collect();
+        let cov = self.cov.select_rows(idx.iter()).select_columns(idx.iter());
+        Some(Subset {
+            campaign: self,
+            chol: cov.cholesky()?,
+            rides,
+        })
+    }
+
+    /// Ride `i`'s own 2×2 covariance, inverted; `None` when singular.
+    pub fn ride_precision(&self, i: usize) -> Option<nalgebra::Matrix2<f64>> {
+        let c = nalgebra::Matrix2::new(
+            self.cov[(2 * i, 2 * i)],
+            self.cov[(2 * i, 2 * i + 1)],
+            self.cov[(2 * i + 1, 2 * i)],
+            self.cov[(2 * i + 1, 2 * i + 1)],
+        );
+        c.try_inverse()
+    }
+
+    /// (experiment − prediction) of ride `i` in its own standard errors, squared and summed
+    /// over the two parts; `None` when the prediction fails.
+    pub fn ride_chi2(&self, effects: &[Effect], params: &[f64], i: usize) -> Option<f64> {
+        let r = self.residuals(effects, params, &[i])?;
+        let r = nalgebra::Vector2::new(r[0], r[1]);
+        Some((r.transpose() * self.ride_precision(i)? * r)[(0, 0)])
+    }
+}
+
+impl Subset<'_, '_> {
+    /// rᵀ Σ⁻¹ r; infinite where the model has no weave.
+    pub fn chi2(&self, effects: &[Effect], params: &[f64]) -> f64 {
+        match self.campaign.residuals(effects, params, &self.rides) {
+            Some(r) => {
+                let w = self.chol.l().solve_lower_triangular(&r);
+                w.map_or(f64::INFINITY, |w| w.norm_squared())
+            }
+            None => f64::INFINITY,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.rides.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.rides.is_empty()
+    }
+}
+
+/// A fit of an effect (or a pair) to a subset of rides.
+#[derive(Debug, Clone)]
+pub struct EffectFit {
+    pub params: Vec<f64>,
+    pub chi2: f64,
+}
+
+/// Minimizes `f` over the box `lo ≤ x ≤ hi` by Nelder–Mead from `start` (clamped to the box),
+/// initial steps `step`; stops when the simplex spans less than `1e-6` of the box in every
+/// direction or after `max_evals`.
+pub fn nelder_mead(
+    f: &dyn Fn(&[f64]) -> f64,
+    start: &[f64],
+    step: &[f64],
+    lo: &[f64],
+    hi: &[f64],
+    max_evals: usize,
+) -> (Vec<f64>, f64) {
+    let n = start.len();
+    let clamp = |x: Vec<f64>| -> Vec<f64> {
+        x.iter()
+            .enumerate()
+            .map(|(i, v)| v.clamp(lo[i], hi[i]))
+            .collect()
+    };
+    let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(n + 1);
+    let x0 = clamp(start.to_vec());
+    simplex.push((x0.clone(), f(&x0)));
+    for i in 0..n {
+        let mut x = x0.clone();
+        x[i] = if x[i] + step[i] <= hi[i] {
+            x[i] + step[i]
+        } else {
+            x[i] - step[i]
+        };
+        let x = clamp(x);
+        let fx = f(&x);
+        simplex.push((x, fx));
+    }
+    let mut evals = n + 1;
+    while evals < max_evals {
+        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let spread = (0..n).all(|i| {
+            let (mn, mx) = simplex
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), s| {
+                    (a.min(s.0[i]), b.max(s.0[i]))
+                });
+            mx - mn <= 1e-6 * (hi[i] - lo[i])
+        });
+        if spread {
+            break;
+        }
+        let centroid: Vec<f64> = (0..n)
+            .map(|i| simplex[..n].iter().map(|s| s.0[i]).sum::<f64>() / n as f64)
+            .collect();
+        let worst = simplex[n].clone();
+        let along = |t: f64| -> Vec<f64> {
+            clamp(
+                (0..n)
+                    .map(|i| centroid[i] + t * (worst.0[i] - centroid[i]))
+                    .collect(),
+            )
+        };
+        let xr = along(-1.0);
+        let fr = f(&xr);
+        evals += 1;
+        if fr < simplex[0].1 {
+            let xe = along(-2.0);
+            let fe = f(&xe);
+            evals += 1;
+            simplex[n] = if fe < fr { (xe, fe) } else { (xr, fr) };
+        } else if fr < simplex[n - 1].1 {
+            simplex[n] = (xr, fr);
+        } else {
+            let xc = along(0.5);
+            let fc = f(&xc);
+            evals += 1;
+            if fc < worst.1 {
+                simplex[n] = (xc, fc);
+            } else {
+                let best = simplex[0].0.clone();
+                for s in simplex.iter_mut().skip(1) {
+                    let x: Vec<f64> = (0..n).map(|i| best[i] + 0.5 * (s.0[i] - best[i])).collect();
+                    s.1 = f(&x);
+                    s.0 = x;
+                    evals += 1;
+                }
+            }
+        }
+    }
+    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (x, fx) = simplex.swap_remove(0);
+    (x, fx)
+}
+
+/// The bounds of `effects`' parameters.
+fn bounds(effects: &[Effect]) -> (Vec<f64>, Vec<f64>) {
+    (
+        effects.iter().map(|e| e.param().lo).collect(),
+        effects.iter().map(|e| e.param().hi).collect(),
+    )
+}
+
+/// Fits `effects` to `subset`: the best point of a grid over the bounds (25 points for one
+/// parameter, 11 × 11 for two), then Nelder–Mead.
+pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
+    let (lo, hi) = bounds(effects);
+    let f = |x: &[f64]| subset.chi2(effects, x);
+    let per: usize = if effects.len() == 1 { 25 } else { 11 };
+    let mut best = (vec![0.0; effects.len()], f64::INFINITY);
+    let total = per.pow(effects.len() as u32);
+    for k in 0..total {
+        let mut rem = k;
+        let x: Vec<f64> = (0..effects.len())
+            .map(|i| {
+                let j = rem % per;
+                rem /= per;
+                lo[i] + (hi[i] - lo[i]) * j as f64 / (per - 1) as f64
+            })
+            .collect();
+        let fx = f(&x);
+        if fx < best.1 {
+            best = (x, fx);
+        }
+    }
+    let step: Vec<f64> = (0..effects.len())
+        .map(|i| (hi[i] - lo[i]) / (per - 1) as f64)
+        .collect();
+    refine(subset, effects, &best.0, &step)
+}
+
+/// Nelder–Mead from `start` with initial steps `step`.
+pub fn refine(
+    subset: &Subset<'_, '_>,
+    effects: &[Effect],
+    start: &[f64],
+    step: &[f64],
+) -> EffectFit {
+    let (lo, hi) = bounds(effects);
+    let f = |x: &[f64]| subset.chi2(effects, x);
+    let (params, chi2) = nelder_mead(&f, start, step, &lo, &hi, 400);
+    EffectFit { params, chi2 }
+}
+
+/// Standard errors of fitted parameters from the χ² curvature, `cov = 2 H⁻¹` (central
+/// differences, steps of 1e-3 of each range), inflated by √(χ²/dof) when that exceeds 1 (the
+/// scatter the covariance does not explain). `NaN` where the curvature is not positive.
+pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
+    let n = effects.len();
+    let (lo, hi) = bounds(effects);
+    let h: Vec<f64> = (0..n).map(|i| 1e-3 * (hi[i] - lo[i])).collect();
+    let f = |x: &[f64]| subset.chi2(effects, x);
+    let at = |d: &[(usize, f64)]| -> f64 {
+        let mut x = fit.params.clone();
+        for &(i, s) in d {
+            x[i] += s * h[i];
+        }
+        f(&x)
+    };
+    let f0 = fit.chi2;
+    let mut hess = DMatrix::zeros(n, n);
+    for i in 0..n {
+        hess[(i, i)] = (at(&[(i, 1.0)]) - 2.0 * f0 + at(&[(i, -1.0)])) / (h[i] * h[i]);
+        for j in 0..i {
+            let v = (at(&[(i, 1.0), (j, 1.0)])
+                - at(&[(i, 1.0), (j, -1.0)])
+                - at(&[(i, -1.0), (j, 1.0)])
+                + at(&[(i, -1.0), (j, -1.0)]))
+                / (4.0 * h[i] * h[j]);
+            hess[(i, j)] = v;
+            hess[(j, i)] = v;
+        }
+    }
+    let dof = (2 * subset.len()).saturating_sub(n).max(1) as f64;
+    let birge = (fit.chi2 / dof).max(1.0);
+    match (hess * 0.5).try_inverse() {
+        Some(inv) => (0..n)
+            .map(|i| {
+                let v = inv[(i, i)] * birge;
+                if v > 0.0 && v.is_finite() {
+                    v.sqrt()
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect(),
+        None => vec![f64::NAN; n],
+    }
+}

@@ -1,0 +1,710 @@
+//! Gap stage: where measurement and model part, which unmodelled effect causes it, and how far
+//! the gap shrinks once that effect is in the model.
+//!
+//! In: a campaign's dynamic tests (each ride's weave eigenvalue with its standard errors and its
+//! speed, [`crate::ride::dynamic`]) and the measured bicycle with its parameters' uncertainty
+//! ([`crate::model::uncertain`]). Out: a [`Diagnosis`]:
+//! - **where**: each ride's residual (experiment − model) in units of the combined standard
+//!   error (the ride's fit and speed, and the model's from the measured parameters, correlated
+//!   across rides), the residuals by speed band, a χ² test of the whole campaign, and whether
+//!   the parameters' own uncertainty could explain the gap;
+//! - **which**: every effect of [`effects`] fitted to the campaign by generalized least squares
+//!   on the eigenvalues, ranked by leave-one-ride-out prediction (each ride predicted by the
+//!   effect fitted to the others), pairs of the best effects when no single one closes the gap,
+//!   effects the held-out test cannot tell apart reported as tied;
+//! - **how far**: the held-out RMS normalized residual before and after.
+//!
+//! The diagnosis uses only linear extensions of the model ([`linear`], [`effects`]); the
+//! simulator's nonlinear effects are separate code.
+
+pub mod effects;
+pub mod fit;
+pub mod linear;
+mod stats;
+
+use crate::model::uncertain::Parametrized;
+use crate::ride::dynamic::{DynamicTest, SpeedSource};
+use effects::Effect;
+use fit::{fit_effects, param_se, refine, Campaign};
+use nalgebra::{Complex, DMatrix};
+use std::fmt::Write as _;
+
+/// One ride's experimental weave, as the dynamic test gave it.
+#[derive(Debug, Clone)]
+pub struct Observation {
+    pub ride: String,
+    pub speed_mps: f64,
+    pub speed_se_mps: f64,
+    pub speed_source: SpeedSource,
+    pub weave: Complex<f64>,
+    pub re_se: f64,
+    pub im_se: f64,
+}
+
+impl Observation {
+    pub fn from_test(ride: &str, t: &DynamicTest) -> Observation {
+        Observation {
+            ride: ride.to_string(),
+            speed_mps: t.speed.speed_mps,
+            speed_se_mps: t.speed.speed_se_mps,
+            speed_source: t.speed.source,
+            weave: Complex::new(t.fit.weave.re, t.fit.weave.im),
+            re_se: t.fit.weave.re_se,
+            im_se: t.fit.weave.im_se,
+        }
+    }
+}
+
+/// Errors of the diagnosis itself (the model cannot be evaluated).
+#[derive(Debug, thiserror::Error)]
+pub enum GapError {
+    #[error(transparent)]
+    Model(#[from] crate::model::ParamError),
+    #[error("the covariance of the residuals is not positive definite")]
+    Covariance,
+}
+
+/// A ride's residual against the unextended model.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct RideResidual {
+    pub ride: String,
+    pub speed_mps: f64,
+    /// Experiment − model (1/s), real and imaginary parts.
+    pub re: f64,
+    pub im: f64,
+    /// Combined standard errors (experiment, speed and model).
+    pub re_se: f64,
+    pub im_se: f64,
+    pub re_z: f64,
+    pub im_z: f64,
+}
+
+/// The residuals of the rides in one speed band, weighted means.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BandResidual {
+    pub speeds_mps: [f64; 2],
+    pub rides: usize,
+    pub re: crate::fit::Estimate,
+    pub im: crate::fit::Estimate,
+}
+
+/// One candidate (an effect or a pair) fitted and tested out of sample.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Ranked {
+    /// Its name: an effect's, or two joined by " + ".
+    pub effect: String,
+    pub effects: Vec<Effect>,
+    pub params: Vec<f64>,
+    pub params_se: Vec<f64>,
+    pub units: Vec<&'static str>,
+    /// χ² of the fit to every ride, its degrees of freedom and the BIC `χ² + k ln(2N)`.
+    pub chi2: f64,
+    pub bic: f64,
+    /// RMS of the held-out rides' residuals in their own standard errors, without and with
+    /// the effect (each ride predicted from a fit to the others).
+    pub heldout_rms_before: f64,
+    pub heldout_rms_after: f64,
+    /// The same as sums of squared normalized residuals (Σz² over 2N parts).
+    pub heldout_chi2_before: f64,
+    pub heldout_chi2_after: f64,
+    /// Every fitted value inside its plausible range.
+    pub plausible: bool,
+}
+
+/// The diagnosis of a campaign.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Diagnosis {
+    /// `false` when the campaign cannot support a conclusion (then `reason` says why and
+    /// nothing is ranked).
+    pub conclusive: bool,
+    pub reason: Option<String>,
+    pub rides_used: usize,
+    /// Rides left out, with why.
+    pub rides_failed: Vec<String>,
+    pub residuals: Vec<RideResidual>,
+    pub bands: Vec<BandResidual>,
+    /// The campaign's χ² against the unextended model with the full covariance, its degrees of
+    /// freedom and p-value; the same without the model's parameter error.
+    pub chi2: f64,
+    pub dof: usize,
+    pub p_value: f64,
+    pub chi2_without_parameter_error: f64,
+    pub p_value_without_parameter_error: f64,
+    /// p < 0.01.
+    pub significant: bool,
+    /// The gap is significant without the parameters' uncertainty but not with it.
+    pub parameters_could_explain: bool,
+    /// Best first.
+    pub ranking: Vec<Ranked>,
+    /// Candidates the held-out test cannot tell from the best (the best included), when more
+    /// than one.
+    pub tied: Vec<String>,
+    pub verdict: String,
+}
+
+/// The significance level of the campaign's test.
+pub const SIGNIFICANCE: f64 = 0.01;
+/// Candidates whose held-out Σz² is within this of the best's are tied with it.
+pub const TIE_CHI2: f64 = 2.0;
+/// Fewer usable rides than this support no conclusion.
+pub const MIN_RIDES: usize = 4;
+/// Speeds spanning less than this (m/s) are "a single speed".
+pub const MIN_SPEED_SPAN_MPS: f64 = 0.5;
+/// How many of the best single effects are tried in pairs.
+const PAIR_POOL: usize = 4;
+
+/// Options of [`diagnose`].
+#[derive(Debug, Clone)]
+pub struct GapOptions {
+    /// Threads for the candidates' held-out fits.
+    pub threads: usize,
+}
+
+impl Default for GapOptions {
+    fn default() -> Self {
+        GapOptions { threads: 1 }
+    }
+}
+
+/// Runs the dynamic test of every ride of `manifest` (on `threads` threads) and diagnoses the
+/// campaign against `model`; `progress(stage, done, total)` with stage "rides" then
+/// "candidates".
+pub fn diagnose_campaign(
+    manifest: &crate::ride::dynamic::RideManifest,
+    model: &Parametrized,
+    threads: usize,
+    progress: &(dyn Fn(&str, usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
+    let results = crate::ride::dynamic::run_campaign(
+        manifest,
+        model,
+        &crate::ride::modal::ModalOptions::default(),
+        threads,
+        &|done, total| progress("rides", done, total),
+    );
+    let mut rides = Vec::new();
+    let mut failed = Vec::new();
+    for (entry, r) in manifest.rides.iter().zip(&results) {
+        let name = entry
+            .log
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        match r {
+            Ok(t) => rides.push(Observation::from_test(&name, t)),
+            Err(e) => failed.push(format!("{name}: {e}")),
+        }
+    }
+    diagnose(
+        &rides,
+        &failed,
+        model,
+        &GapOptions { threads },
+        &|done, total| progress("candidates", done, total),
+    )
+}
+
+/// Diagnoses a campaign: `rides` are the rides that gave an eigenvalue, `failed` the names and
+/// reasons of those that did not. `progress(done, total)` after each candidate.
+pub fn diagnose(
+    rides: &[Observation],
+    failed: &[String],
+    model: &Parametrized,
+    options: &GapOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
+    let n = rides.len();
+    let mut d = Diagnosis {
+        conclusive: false,
+        reason: None,
+        rides_used: n,
+        rides_failed: failed.to_vec(),
+        residuals: Vec::new(),
+        bands: Vec::new(),
+        chi2: f64::NAN,
+        dof: 2 * n,
+        p_value: f64::NAN,
+        chi2_without_parameter_error: f64::NAN,
+        p_value_without_parameter_error: f64::NAN,
+        significant: false,
+        parameters_could_explain: false,
+        ranking: Vec::new(),
+        tied: Vec::new(),
+        verdict: String::new(),
+    };
+    if let Some(reason) = insufficiency(rides, failed) {
+        d.verdict = format!("No conclusion: {reason}.");
+        d.reason = Some(reason);
+        return Ok(d);
+    }
+    // The model at the rides' speeds, its covariance, and the speeds' contribution.
+    let speeds: Vec<f64> = rides.iter().map(|o| o.speed_mps).collect();
+    let (guesses, model_cov) = model.weave_covariance(&speeds)?;
+    let base = model.nominal();
+    let mut exp_cov = DMatrix::zeros(2 * n, 2 * n);
+    let unextended = linear::LinearBike {
+        canonical: crate::model::Canonical::from_benchmark(&base),
+        steer_damping_nms_per_rad: 0.0,
+    };
+    for (i, o) in rides.iter().enumerate() {
+        exp_cov[(2 * i, 2 * i)] = o.re_se.powi(2);
+        exp_cov[(2 * i + 1, 2 * i + 1)] = o.im_se.powi(2);
+        if o.speed_se_mps > 0.0 {
+            let h = 1e-4;
+            let dv = match (
+                unextended.weave_near(o.speed_mps + h, guesses[i]),
+                unextended.weave_near(o.speed_mps - h, guesses[i]),
+            ) {
+                (Some(a), Some(b)) => (a - b) / (2.0 * h),
+                _ => Complex::new(0.0, 0.0),
+            };
+            let g = [dv.re * o.speed_se_mps, dv.im * o.speed_se_mps];
+            for a in 0..2 {
+                for b in 0..2 {
+                    exp_cov[(2 * i + a, 2 * i + b)] += g[a] * g[b];
+                }
+            }
+        }
+    }
+    let all: Vec<usize> = (0..n).collect();
+    let campaign = Campaign {
+        obs: rides,
+        base: &base,
+        guesses: guesses.clone(),
+        cov: &exp_cov + &model_cov,
+    };
+    let full = campaign.subset(all.clone()).ok_or(GapError::Covariance)?;
+    let r0 = campaign
+        .residuals(&[], &[], &all)
+        .ok_or(GapError::Covariance)?;
+    d.chi2 = full.chi2(&[], &[]);
+    d.p_value = stats::chi2_sf(d.chi2, 2 * n);
+    d.chi2_without_parameter_error = exp_cov
+        .clone()
+        .cholesky()
+        .and_then(|c| c.l().solve_lower_triangular(&r0))
+        .map_or(f64::NAN, |w| w.norm_squared());
+    d.p_value_without_parameter_error = stats::chi2_sf(d.chi2_without_parameter_error, 2 * n);
+    d.significant = d.p_value < SIGNIFICANCE;
+    d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
+    d.residuals = rides
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let (re_se, im_se) = (
+                campaign.cov[(2 * i, 2 * i)].sqrt(),
+                campaign.cov[(2 * i + 1, 2 * i + 1)].sqrt(),
+            );
+            RideResidual {
+                ride: o.ride.clone(),
+                speed_mps: o.speed_mps,
+                re: r0[2 * i],
+                im: r0[2 * i + 1],
+                re_se,
+                im_se,
+                re_z: r0[2 * i] / re_se,
+                im_z: r0[2 * i + 1] / im_se,
+            }
+        })
+        .collect();
+    d.bands = speed_bands(&d.residuals);
+    d.conclusive = true;
+    d.ranking = rank(&campaign, options, progress)?;
+    d.tied = tied(&d.ranking);
+    d.verdict = verdict(&d);
+    Ok(d)
+}
+
+/// Why a campaign cannot support a conclusion, if it cannot.
+fn insufficiency(rides: &[Observation], failed: &[String]) -> Option<String> {
+    if rides.len() < MIN_RIDES {
+        return Some(format!(
+            "{} usable ride{} ({} failed); at least {MIN_RIDES} are needed to fit an effect and test it on rides left out",
+            rides.len(),
+            if rides.len() == 1 { "" } else { "s" },
+            failed.len()
+        ));
+    }
+    let (lo, hi) = rides
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
+            (a.min(o.speed_mps), b.max(o.speed_mps))
+        });
+    if hi - lo < MIN_SPEED_SPAN_MPS {
+        return Some(format!(
+            "the rides span {lo:.2}–{hi:.2} m/s, a single speed: effects that shift the eigenvalue along the speed axis cannot be told from those that shift it across (at least {MIN_SPEED_SPAN_MPS} m/s of spread is needed)"
+        ));
+    }
+    if failed.len() > rides.len() {
+        return Some(format!(
+            "{} of {} rides failed: the {} that remain may be the ones the model happens to fit",
+            failed.len(),
+            failed.len() + rides.len(),
+            rides.len()
+        ));
+    }
+    None
+}
+
+/// Weighted mean residuals in 1 m/s bands.
+fn speed_bands(res: &[RideResidual]) -> Vec<BandResidual> {
+    let mut bands: Vec<BandResidual> = Vec::new();
+    let mut keys: Vec<i64> = res.iter().map(|r| r.speed_mps.floor() as i64).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    for k in keys {
+        let inside: Vec<&RideResidual> = res
+            .iter()
+            .filter(|r| r.speed_mps.floor() as i64 == k)
+            .collect();
+        let mean = |f: &dyn Fn(&RideResidual) -> (f64, f64)| {
+            let (mut sw, mut swx) = (0.0, 0.0);
+            for r in &inside {
+                let (x, se) = f(r);
+                let w = 1.0 / (se * se);
+                sw += w;
+                swx += w * x;
+            }
+            crate::fit::Estimate {
+                value: swx / sw,
+                se: 1.0 / sw.sqrt(),
+            }
+        };
+        bands.push(BandResidual {
+            speeds_mps: [k as f64, k as f64 + 1.0],
+            rides: inside.len(),
+            re: mean(&|r| (r.re, r.re_se)),
+            im: mean(&|r| (r.im, r.im_se)),
+        });
+    }
+    bands
+}
+
+/// Held-out Σz² of a candidate: each ride predicted by the candidate refitted without it
+/// (from the full fit), in the ride's own standard errors.
+fn heldout(campaign: &Campaign<'_>, effects: &[Effect], full_fit: &[f64]) -> f64 {
+    let n = campaign.obs.len();
+    let mut total = 0.0;
+    for i in 0..n {
+        let others: Vec<usize> = (0..n).filter(|&j| j != i).collect();
+        let params = match campaign.subset(others) {
+            Some(s) => {
+                let step: Vec<f64> = effects
+                    .iter()
+                    .map(|e| 0.05 * (e.param().hi - e.param().lo))
+                    .collect();
+                refine(&s, effects, full_fit, &step).params
+            }
+            None => full_fit.to_vec(),
+        };
+        total += campaign
+            .ride_chi2(effects, &params, i)
+            .unwrap_or(f64::INFINITY);
+    }
+    total
+}
+
+/// Fits and tests every effect, then pairs of the best ones; sorted by held-out RMS.
+fn rank(
+    campaign: &Campaign<'_>,
+    options: &GapOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Vec<Ranked>, GapError> {
+    let n = campaign.obs.len();
+    let before = (0..n)
+        .map(|i| campaign.ride_chi2(&[], &[], i).unwrap_or(f64::INFINITY))
+        .sum::<f64>();
+    let rms = |s: f64| (s / (2 * n) as f64).sqrt();
+    let total = Effect::ALL.len() + PAIR_POOL * (PAIR_POOL - 1) / 2;
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let evaluate = |effects: Vec<Effect>| -> Option<Ranked> {
+        let full = campaign.subset((0..n).collect())?;
+        let f = fit_effects(&full, &effects);
+        let se = param_se(&full, &effects, &f);
+        let held = heldout(campaign, &effects, &f.params);
+        progress(
+            done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
+            total,
+        );
+        let name = effects
+            .iter()
+            .map(|e| e.name())
+            .collect::<Vec<_>>()
+            .join(" + ");
+        Some(Ranked {
+            effect: name,
+            plausible: effects.iter().zip(&f.params).all(|(e, &p)| {
+                let (a, b) = e.param().plausible;
+                (a..=b).contains(&p)
+            }),
+            units: effects.iter().map(|e| e.param().unit).collect(),
+            effects,
+            bic: f.chi2 + f.params.len() as f64 * ((2 * n) as f64).ln(),
+            chi2: f.chi2,
+            params: f.params,
+            params_se: se,
+            heldout_rms_before: rms(before),
+            heldout_rms_after: rms(held),
+            heldout_chi2_before: before,
+            heldout_chi2_after: held,
+        })
+    };
+    let singles: Vec<Vec<Effect>> = Effect::ALL.iter().map(|&e| vec![e]).collect();
+    let mut ranked: Vec<Ranked> = parallel_map(&singles, options.threads, &evaluate)
+        .into_iter()
+        .flatten()
+        .collect();
+    sort(&mut ranked);
+    // Pairs of the best singles: kept when they beat every single out of sample by more than
+    // a tie and by the BIC.
+    let pool: Vec<Effect> = ranked
+        .iter()
+        .take(PAIR_POOL)
+        .map(|r| r.effects[0])
+        .collect();
+    let mut pairs = Vec::new();
+    for a in 0..pool.len() {
+        for b in a + 1..pool.len() {
+            let mut p = vec![pool[a], pool[b]];
+            p.sort();
+            pairs.push(p);
+        }
+    }
+    let best_single = ranked.first().cloned();
+    for r in parallel_map(&pairs, options.threads, &evaluate)
+        .into_iter()
+        .flatten()
+    {
+        if let Some(b) = &best_single {
+            if b.heldout_chi2_after - r.heldout_chi2_after > TIE_CHI2 && r.bic < b.bic {
+                ranked.push(r);
+            }
+        }
+    }
+    sort(&mut ranked);
+    Ok(ranked)
+}
+
+fn sort(ranked: &mut [Ranked]) {
+    ranked.sort_by(|a, b| {
+        a.heldout_rms_after
+            .total_cmp(&b.heldout_rms_after)
+            .then_with(|| a.effect.cmp(&b.effect))
+    });
+}
+
+/// The candidates within [`TIE_CHI2`] of the best's held-out Σz² (empty when only the best).
+fn tied(ranked: &[Ranked]) -> Vec<String> {
+    let Some(best) = ranked.first() else {
+        return Vec::new();
+    };
+    let t: Vec<String> = ranked
+        .iter()
+        .filter(|r| r.heldout_chi2_after - best.heldout_chi2_after <= TIE_CHI2)
+        .map(|r| r.effect.clone())
+        .collect();
+    if t.len() > 1 {
+        t
+    } else {
+        Vec::new()
+    }
+}
+
+/// Runs `f` over `items` on up to `threads` threads, results in order.
+fn parallel_map<T: Sync + Clone, R: Send>(
+    items: &[T],
+    threads: usize,
+    f: &(dyn Fn(T) -> R + Sync),
+) -> Vec<R> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let slots: Vec<std::sync::Mutex<Option<R>>> =
+        items.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..threads.max(1).min(items.len().max(1)) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                if i >= items.len() {
+                    break;
+                }
+                let r = f(items[i].clone());
+                if let Ok(mut s) = slots[i].lock() {
+                    *s = Some(r);
+                }
+            });
+        }
+    });
+    slots
+        .into_iter()
+        .filter_map(|s| s.into_inner().ok().flatten())
+        .collect()
+}
+
+/// The diagnosis in words.
+fn verdict(d: &Diagnosis) -> String {
+    let mut v = String::new();
+    let part = |name: &str, unit: &str, sel: &dyn Fn(&RideResidual) -> (f64, f64, f64)| {
+        let (mut sw, mut swx, mut beyond) = (0.0, 0.0, 0);
+        for r in &d.residuals {
+            let (x, se, z) = sel(r);
+            sw += 1.0 / (se * se);
+            swx += x / (se * se);
+            if z.abs() > 2.0 {
+                beyond += 1;
+            }
+        }
+        let (mean, se) = (swx / sw, 1.0 / sw.sqrt());
+        let dir = if mean < 0.0 { "lower" } else { "higher" };
+        format!(
+            "{name} {dir} than the model's by {:.3} ± {:.3} {unit} on average ({beyond} of {} rides beyond 2σ)",
+            mean.abs(),
+            se,
+            d.residuals.len()
+        )
+    };
+    let _ = write!(
+        v,
+        "{}; {}. ",
+        part("Weave frequency", "rad/s", &|r| (r.im, r.im_se, r.im_z)),
+        part("weave damping rate (σ)", "1/s", &|r| (
+            r.re, r.re_se, r.re_z
+        ))
+    );
+    let _ = write!(
+        v,
+        "Campaign χ² = {:.1} for {} degrees of freedom (p = {}), with the measured parameters' uncertainty included: ",
+        d.chi2,
+        d.dof,
+        stats::format_p(d.p_value)
+    );
+    if !d.significant {
+        v.push_str(if d.parameters_could_explain {
+            "no significant gap; without the parameters' uncertainty there would be one, so it is within what the inertia measurements allow."
+        } else {
+            "no significant gap."
+        });
+        return v;
+    }
+    v.push_str(
+        "a significant gap, which the measured parameters' own uncertainty cannot explain. ",
+    );
+    let Some(best) = d.ranking.first() else {
+        v.push_str("No candidate could be fitted.");
+        return v;
+    };
+    let params: Vec<String> = best
+        .effects
+        .iter()
+        .zip(best.params.iter().zip(&best.params_se))
+        .map(|(e, (p, se))| {
+            let spec = e.param();
+            format!(
+                "{} {} = {p:.3} ± {se:.3}{}{}",
+                e.name(),
+                spec.name,
+                if spec.unit.is_empty() { "" } else { " " },
+                spec.unit
+            )
+        })
+        .collect();
+    let shrink = 1.0 - best.heldout_rms_after / best.heldout_rms_before;
+    if d.tied.len() > 1 {
+        let _ = write!(
+            v,
+            "The rides left out cannot tell apart: {} (held-out RMS within {TIE_CHI2} in Σz²); the best of them, ",
+            d.tied.join(", ")
+        );
+    } else {
+        v.push_str("Best explanation: ");
+    }
+    let _ = write!(
+        v,
+        "{} ({}), {}: held-out RMS normalized residual {:.2} → {:.2} ({:.0} % smaller).",
+        best.effect,
+        params.join(", "),
+        if best.plausible {
+            "a physically plausible value"
+        } else {
+            "a value outside the plausible range"
+        },
+        best.heldout_rms_before,
+        best.heldout_rms_after,
+        100.0 * shrink
+    );
+    v
+}
+
+impl Diagnosis {
+    /// The human-readable form.
+    pub fn to_text(&self) -> String {
+        let mut out = String::new();
+        if !self.conclusive {
+            let _ = writeln!(out, "{}", self.verdict);
+            for f in &self.rides_failed {
+                let _ = writeln!(out, "  not analysed: {f}");
+            }
+            return out;
+        }
+        let _ = writeln!(
+            out,
+            "Where: experiment − model, in combined standard errors ({} rides)",
+            self.rides_used
+        );
+        let _ = writeln!(
+            out,
+            "  {:<10} {:>9} {:>18} {:>6} {:>18} {:>6}",
+            "ride", "speed m/s", "Δσ 1/s", "z", "Δω rad/s", "z"
+        );
+        for r in &self.residuals {
+            let _ = writeln!(
+                out,
+                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1}",
+                r.ride, r.speed_mps, r.re, r.re_se, r.re_z, r.im, r.im_se, r.im_z
+            );
+        }
+        for b in &self.bands {
+            let _ = writeln!(
+                out,
+                "  band {:.0}–{:.0} m/s ({} rides): Δσ {:.3} ± {:.3}, Δω {:.3} ± {:.3}",
+                b.speeds_mps[0], b.speeds_mps[1], b.rides, b.re.value, b.re.se, b.im.value, b.im.se
+            );
+        }
+        let _ = writeln!(
+            out,
+            "  χ² {:.1} / {} (p {}); without the parameters' uncertainty {:.1} (p {})",
+            self.chi2,
+            self.dof,
+            stats::format_p(self.p_value),
+            self.chi2_without_parameter_error,
+            stats::format_p(self.p_value_without_parameter_error)
+        );
+        let _ = writeln!(out, "Which: candidates by held-out RMS normalized residual");
+        let _ = writeln!(
+            out,
+            "  {:<28} {:>30} {:>8} {:>8} {:>9}",
+            "effect", "parameters", "before", "after", "plausible"
+        );
+        for r in &self.ranking {
+            let params: Vec<String> = r
+                .params
+                .iter()
+                .zip(&r.params_se)
+                .zip(&r.units)
+                .map(|((p, se), u)| format!("{p:.3} ± {se:.3} {u}").trim_end().to_string())
+                .collect();
+            let _ = writeln!(
+                out,
+                "  {:<28} {:>30} {:>8.2} {:>8.2} {:>9}",
+                r.effect,
+                params.join(", "),
+                r.heldout_rms_before,
+                r.heldout_rms_after,
+                if r.plausible { "yes" } else { "no" }
+            );
+        }
+        for f in &self.rides_failed {
+            let _ = writeln!(out, "  not analysed: {f}");
+        }
+        let _ = writeln!(out, "Verdict: {}", self.verdict);
+        out
+    }
+}
