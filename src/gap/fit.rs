@@ -3,7 +3,7 @@
 //! parameters, correlated across rides), a bounded Nelder–Mead search after a grid, standard
 //! errors from the χ² curvature, and leave-one-ride-out predictions.
 
-use super::effects::{linear_bike, predict, Effect};
+use super::effects::{linear_bike, predict, specs, Effect};
 use super::Observation;
 use crate::model::Benchmark;
 use nalgebra::{Complex, DMatrix, DVector};
@@ -194,23 +194,29 @@ pub fn nelder_mead(
 
 /// The bounds of `effects`' parameters.
 fn bounds(effects: &[Effect]) -> (Vec<f64>, Vec<f64>) {
+    let s = specs(effects);
     (
-        effects.iter().map(|e| e.param().lo).collect(),
-        effects.iter().map(|e| e.param().hi).collect(),
+        s.iter().map(|p| p.lo).collect(),
+        s.iter().map(|p| p.hi).collect(),
     )
 }
 
 /// Fits `effects` to `subset`: the best point of a grid over the bounds (25 points for one
-/// parameter, 11 × 11 for two), then Nelder–Mead.
+/// parameter, 11 × 11 for two, 7 per parameter beyond), then Nelder–Mead.
 pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
     let (lo, hi) = bounds(effects);
+    let np = lo.len();
     let f = |x: &[f64]| subset.chi2(effects, x);
-    let per: usize = if effects.len() == 1 { 25 } else { 11 };
-    let mut best = (vec![0.0; effects.len()], f64::INFINITY);
-    let total = per.pow(effects.len() as u32);
+    let per: usize = match np {
+        1 => 25,
+        2 => 11,
+        _ => 7,
+    };
+    let mut best = (lo.clone(), f64::INFINITY);
+    let total = per.pow(np as u32);
     for k in 0..total {
         let mut rem = k;
-        let x: Vec<f64> = (0..effects.len())
+        let x: Vec<f64> = (0..np)
             .map(|i| {
                 let j = rem % per;
                 rem /= per;
@@ -222,7 +228,7 @@ pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
             best = (x, fx);
         }
     }
-    let step: Vec<f64> = (0..effects.len())
+    let step: Vec<f64> = (0..np)
         .map(|i| (hi[i] - lo[i]) / (per - 1) as f64)
         .collect();
     refine(subset, effects, &best.0, &step)
@@ -245,8 +251,8 @@ pub fn refine(
 /// differences, steps of 1e-3 of each range), inflated by √(χ²/dof) when that exceeds 1 (the
 /// scatter the covariance does not explain). `NaN` where the curvature is not positive.
 pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
-    let n = effects.len();
     let (lo, hi) = bounds(effects);
+    let n = lo.len();
     let h: Vec<f64> = (0..n).map(|i| 1e-3 * (hi[i] - lo[i])).collect();
     let f = |x: &[f64]| subset.chi2(effects, x);
     let at = |d: &[(usize, f64)]| -> f64 {

@@ -1,25 +1,74 @@
-//! The linear model extended by the candidate effects that add terms rather than change
-//! parameters: viscous steer damping. In: canonical matrices (of a possibly modified parameter
-//! set) and the extra terms. Out: the state matrix and its eigenvalues at a speed.
+//! The linear model extended by the candidate effects that add terms or states rather than
+//! change parameters: viscous steer damping and compliant tyres. In: a (possibly modified)
+//! parameter set and the extra terms. Out: the state matrix and its eigenvalues at a speed.
 //!
-//! `M q̈ + (v C₁ + D) q̇ + (g K₀ + v² K₂) q = 0`, `D = [[0, 0], [0, c]]`: a steering-head torque
-//! `−c δ̇` beside the Whipple model's (Meijaard et al. 2007, eq. 1 with a steer damper, as in
-//! Schwab, Meijaard & Kooijman 2012 for a bicycle's headset).
+//! Rigid wheels: `M q̈ + (v C₁ + D) q̇ + (g K₀ + v² K₂) q = 0`, q = (φ, δ), `D = [[0, 0], [0, c]]`
+//! (Meijaard et al. 2007, eq. 1, with a steering-head torque `−c δ̇`).
+//!
+//! Compliant tyres ([`LinearTyres`]): the lateral no-slip constraints give way to lateral
+//! forces at the contacts, so the rear contact's lateral position y and the heading ψ join
+//! roll and steer, `q = (y, ψ, φ, δ)`:
+//!
+//! ```text
+//! M_q q̈ + (G_q + D) q̇ + g K_q q = J_rᵀ F_r + J_fᵀ F_f
+//! (σ/v) Ḟ_i + F_i = N_i (C_α α_i + C_γ γ_i),   α_r = ψ − ẏ/v,
+//! α_f = ψ + δ cos λ − (ẏ + w ψ̇ − c cos λ δ̇)/v,   γ_r = φ,   γ_f = φ + δ sin λ
+//! ```
+//!
+//! built from the bodies: each centre of mass moves sideways by `y + x ψ − z φ` (+ `δ u` on the
+//! front assembly, u its lever about the steer axis, Meijaard et al. eq. A 16), each body turns
+//! by `(φ, 0, ψ)` (+ `δ (sin λ, 0, cos λ)` in front); `M_q = Σ m JₜᵀJₜ + J_ωᵀ I J_ω`, the wheels'
+//! spin momentum `H = −I_yy v/r ŷ` gives `G_q = −Σ J_ωᵀ [H]ₓ J_ω`, and gravity acts on (φ, δ)
+//! only, through the Whipple model's `K₀` (the potential's Hessian with the front wheel on the
+//! ground). The contacts move sideways by `J_r q = y` and `J_f q = y + w ψ − c cos λ δ` (Pacejka,
+//! Tire and Vehicle Dynamics, ch. 1 and 11, for the force lag). In the limit of stiff tyres and
+//! no lag it is the Whipple model (tested).
 
-use crate::model::Canonical;
-use nalgebra::{Complex, DMatrix};
+use crate::model::{Benchmark, Canonical};
+use nalgebra::{Complex, DMatrix, Matrix3, Vector3};
+
+/// Linear tyres: lateral force per unit normal load per radian of slip and of camber, and the
+/// force's lag.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearTyres {
+    pub cornering_per_rad: f64,
+    pub camber_per_rad: f64,
+    pub relaxation_length_m: f64,
+}
 
 /// The Whipple model with the extra terms.
 #[derive(Debug, Clone, Copy)]
 pub struct LinearBike {
+    /// The parameters (for the compliant tyres' full lateral equations).
+    pub bike: Benchmark,
     pub canonical: Canonical,
     /// Viscous steer damping c (N·m·s/rad).
     pub steer_damping_nms_per_rad: f64,
+    pub tyres: Option<LinearTyres>,
 }
 
 impl LinearBike {
-    /// The state matrix of `(φ, δ, φ̇, δ̇)` at speed `v` (m/s); `None` when M is singular.
+    /// The Whipple model of `bike` with nothing added.
+    pub fn whipple(bike: &Benchmark) -> LinearBike {
+        LinearBike {
+            bike: *bike,
+            canonical: Canonical::from_benchmark(bike),
+            steer_damping_nms_per_rad: 0.0,
+            tyres: None,
+        }
+    }
+
+    /// The state matrix at speed `v` (m/s): of `(φ, δ, φ̇, δ̇)` with rigid wheels, of
+    /// `(ψ, φ, δ, ẏ, ψ̇, φ̇, δ̇, F_r, F_f)` with tyres (y itself is neutral and left out).
+    /// `None` when a mass matrix is singular or v is not positive with tyres.
     pub fn state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
+        match self.tyres {
+            None => self.rigid_state_matrix(v),
+            Some(t) => self.tyre_state_matrix(v, &t),
+        }
+    }
+
+    fn rigid_state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
         let c = &self.canonical;
         let minv = c.m.try_inverse()?;
         let k = minv * (c.k0 * c.g + c.k2 * (v * v));
@@ -38,6 +87,131 @@ impl LinearBike {
         Some(a)
     }
 
+    fn tyre_state_matrix(&self, v: f64, t: &LinearTyres) -> Option<DMatrix<f64>> {
+        if v <= 0.0 || t.relaxation_length_m <= 0.0 {
+            return None;
+        }
+        let p = &self.bike;
+        let (sl, cl) = p.lambda.sin_cos();
+        // Bodies: mass, centre of mass (x, z), inertia (xx, yy, zz, xz), front assembly?
+        let bodies = [
+            (p.m_r, 0.0, -p.r_r, [p.i_rxx, p.i_ryy, p.i_rxx, 0.0], false),
+            (
+                p.m_b,
+                p.x_b,
+                p.z_b,
+                [p.i_bxx, p.i_byy, p.i_bzz, p.i_bxz],
+                false,
+            ),
+            (
+                p.m_h,
+                p.x_h,
+                p.z_h,
+                [p.i_hxx, p.i_hyy, p.i_hzz, p.i_hxz],
+                true,
+            ),
+            (p.m_f, p.w, -p.r_f, [p.i_fxx, p.i_fyy, p.i_fxx, 0.0], true),
+        ];
+        let mut m = DMatrix::<f64>::zeros(4, 4);
+        let mut g = DMatrix::<f64>::zeros(4, 4);
+        for (k, &(mass, x, z, i, front)) in bodies.iter().enumerate() {
+            // Lateral displacement of the centre of mass per (y, ψ, φ, δ).
+            let u = if front {
+                (x - p.w - p.c) * cl - z * sl
+            } else {
+                0.0
+            };
+            let jt = [1.0, x, -z, u];
+            // Rotation (about x, y, z) per (y, ψ, φ, δ).
+            let mut jw = DMatrix::<f64>::zeros(3, 4);
+            jw[(0, 2)] = 1.0;
+            jw[(2, 1)] = 1.0;
+            if front {
+                jw[(0, 3)] = sl;
+                jw[(2, 3)] = cl;
+            }
+            let inertia = Matrix3::new(i[0], 0.0, i[3], 0.0, i[1], 0.0, i[3], 0.0, i[2]);
+            let inertia = DMatrix::from_column_slice(3, 3, inertia.as_slice());
+            for a in 0..4 {
+                for b in 0..4 {
+                    m[(a, b)] += mass * jt[a] * jt[b];
+                }
+            }
+            m += jw.transpose() * &inertia * &jw;
+            // The wheels' spin: H = −I_yy v/r ŷ; Ω × H = −[H]ₓ Ω.
+            if k == 0 || k == 3 {
+                let r = if k == 0 { p.r_r } else { p.r_f };
+                let h = Vector3::new(0.0, -i[1] * v / r, 0.0);
+                let hx = h.cross_matrix();
+                let hx = DMatrix::from_column_slice(3, 3, hx.as_slice());
+                g -= jw.transpose() * hx * &jw;
+            }
+        }
+        g[(3, 3)] += self.steer_damping_nms_per_rad;
+        let mut k = DMatrix::<f64>::zeros(4, 4);
+        let k0 = self.canonical.k0 * self.canonical.g;
+        for a in 0..2 {
+            for b in 0..2 {
+                k[(2 + a, 2 + b)] = k0[(a, b)];
+            }
+        }
+        // Static normal loads.
+        let m_t = p.m_r + p.m_b + p.m_h + p.m_f;
+        let x_t = (p.x_b * p.m_b + p.x_h * p.m_h + p.w * p.m_f) / m_t;
+        let n_f = m_t * p.g * x_t / p.w;
+        let n_r = m_t * p.g - n_f;
+        let jr = [1.0, 0.0, 0.0, 0.0];
+        let jf = [1.0, p.w, 0.0, -p.c * cl];
+        let minv = m.try_inverse()?;
+        // State: (ψ, φ, δ, ẏ, ψ̇, φ̇, δ̇, F_r, F_f); q index 1..4 ↔ state 0..3, q̇ ↔ 3..7.
+        let mut a = DMatrix::<f64>::zeros(9, 9);
+        // ψ̇, φ̇, δ̇ are states 4, 5, 6.
+        a[(0, 4)] = 1.0;
+        a[(1, 5)] = 1.0;
+        a[(2, 6)] = 1.0;
+        // q̈ = M⁻¹(−G q̇ − K q + J_rᵀ F_r + J_fᵀ F_f), rows ẏ..δ̇ are states 3..6.
+        let q_state = [None, Some(0), Some(1), Some(2)];
+        let qd_state = [3, 4, 5, 6];
+        for row in 0..4 {
+            for col in 0..4 {
+                let mut kq = 0.0;
+                let mut gq = 0.0;
+                for j in 0..4 {
+                    kq += minv[(row, j)] * k[(j, col)];
+                    gq += minv[(row, j)] * g[(j, col)];
+                }
+                if let Some(sc) = q_state[col] {
+                    a[(qd_state[row], sc)] -= kq;
+                }
+                a[(qd_state[row], qd_state[col])] -= gq;
+            }
+            let (mut fr, mut ff) = (0.0, 0.0);
+            for j in 0..4 {
+                fr += minv[(row, j)] * jr[j];
+                ff += minv[(row, j)] * jf[j];
+            }
+            a[(qd_state[row], 7)] = fr;
+            a[(qd_state[row], 8)] = ff;
+        }
+        // Force lag: Ḟ = (v/σ)(N (C_α α + C_γ γ) − F).
+        let rate = v / t.relaxation_length_m;
+        // α_r = ψ − ẏ/v; γ_r = φ.
+        let (ca, cg) = (t.cornering_per_rad, t.camber_per_rad);
+        a[(7, 0)] += rate * n_r * ca;
+        a[(7, 3)] += -rate * n_r * ca / v;
+        a[(7, 1)] += rate * n_r * cg;
+        a[(7, 7)] = -rate;
+        // α_f = ψ + δ cos λ − (ẏ + w ψ̇ − c cos λ δ̇)/v; γ_f = φ + δ sin λ.
+        a[(8, 0)] += rate * n_f * ca;
+        a[(8, 2)] += rate * n_f * (ca * cl + cg * sl);
+        a[(8, 3)] += -rate * n_f * ca / v;
+        a[(8, 4)] += -rate * n_f * ca * p.w / v;
+        a[(8, 6)] += rate * n_f * ca * p.c * cl / v;
+        a[(8, 1)] += rate * n_f * cg;
+        a[(8, 8)] = -rate;
+        Some(a)
+    }
+
     /// The oscillatory eigenvalue (im > 0) nearest `guess` at speed `v`; `None` when there is
     /// none or the eigenvalues cannot be computed.
     pub fn weave_near(&self, v: f64, guess: Complex<f64>) -> Option<Complex<f64>> {
@@ -51,18 +225,18 @@ impl LinearBike {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::Benchmark;
+
+    fn benchmark() -> Benchmark {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../shared/reference/bicycleparameters/BenchmarkBenchmark.txt");
+        Benchmark::load(&path).unwrap()
+    }
 
     /// Without damping the extended model is the benchmark's: Meijaard et al. 2007, Table 2,
     /// weave at 5 m/s −0.77534188219585 ± 4.46486771378823 i.
     #[test]
     fn without_damping_it_is_the_benchmark() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../shared/reference/bicycleparameters/BenchmarkBenchmark.txt");
-        let bike = LinearBike {
-            canonical: Canonical::from_benchmark(&Benchmark::load(&path).unwrap()),
-            steer_damping_nms_per_rad: 0.0,
-        };
+        let bike = LinearBike::whipple(&benchmark());
         let w = bike.weave_near(5.0, Complex::new(-0.7, 4.5)).unwrap();
         assert!((w.re + 0.77534188219585).abs() < 1e-10, "{w}");
         assert!((w.im - 4.46486771378823).abs() < 1e-10, "{w}");
@@ -72,20 +246,34 @@ mod tests {
     /// (the trace of the state matrix, minus) grows by c (M⁻¹)₂₂.
     #[test]
     fn damping_adds_to_the_trace() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../shared/reference/bicycleparameters/BenchmarkBenchmark.txt");
-        let canonical = Canonical::from_benchmark(&Benchmark::load(&path).unwrap());
-        let free = LinearBike {
-            canonical,
-            steer_damping_nms_per_rad: 0.0,
-        };
+        let free = LinearBike::whipple(&benchmark());
         let damped = LinearBike {
             steer_damping_nms_per_rad: 0.4,
             ..free
         };
-        let minv = canonical.m.try_inverse().unwrap();
+        let minv = free.canonical.m.try_inverse().unwrap();
         let dt =
             free.state_matrix(3.0).unwrap().trace() - damped.state_matrix(3.0).unwrap().trace();
         assert!((dt - 0.4 * minv[(1, 1)]).abs() < 1e-12);
+    }
+
+    /// Stiff tyres without lag are rolling without slip: the weave of the 9-state model is the
+    /// benchmark's (Table 2) at 3, 5 and 8 m/s, to 1e-3 with C_α = 1e5 /rad, σ = 1e-4 m.
+    #[test]
+    fn stiff_tyres_are_the_whipple_model() {
+        let rigid = LinearBike::whipple(&benchmark());
+        let stiff = LinearBike {
+            tyres: Some(LinearTyres {
+                cornering_per_rad: 1e5,
+                camber_per_rad: 0.0,
+                relaxation_length_m: 1e-4,
+            }),
+            ..rigid
+        };
+        for v in [3.0, 5.0, 8.0] {
+            let a = rigid.weave_near(v, Complex::new(-0.5, 4.0)).unwrap();
+            let b = stiff.weave_near(v, a).unwrap();
+            assert!((a - b).norm() < 1e-3 * a.norm(), "{v}: {a} vs {b}");
+        }
     }
 }

@@ -33,7 +33,12 @@ use std::fmt::Write as _;
 #[derive(Debug, Clone)]
 pub struct Observation {
     pub ride: String,
+    /// The speed where the eigenvalue applies (m/s): the `Sync` speed, or the noted reading
+    /// plus `speed_correction_mps`.
     pub speed_mps: f64,
+    /// For a noted reading: the slowing from the release to where the eigenvalue applies
+    /// (m/s, negative), from the campaign's `Sync` rides ([`decay_law`]); 0 otherwise.
+    pub speed_correction_mps: f64,
     pub speed_se_mps: f64,
     pub speed_source: SpeedSource,
     pub weave: Complex<f64>,
@@ -46,6 +51,7 @@ impl Observation {
         Observation {
             ride: ride.to_string(),
             speed_mps: t.speed.speed_mps,
+            speed_correction_mps: 0.0,
             speed_se_mps: t.speed.speed_se_mps,
             speed_source: t.speed.source,
             weave: Complex::new(t.fit.weave.re, t.fit.weave.im),
@@ -107,6 +113,9 @@ pub struct Ranked {
     /// The same as sums of squared normalized residuals (Σz² over 2N parts).
     pub heldout_chi2_before: f64,
     pub heldout_chi2_after: f64,
+    /// Each held-out ride's z² (its two parts), in the campaign's order.
+    #[serde(skip)]
+    pub heldout_per_ride: Vec<f64>,
     /// Every fitted value inside its plausible range.
     pub plausible: bool,
 }
@@ -144,14 +153,24 @@ pub struct Diagnosis {
 
 /// The significance level of the campaign's test.
 pub const SIGNIFICANCE: f64 = 0.01;
-/// Candidates whose held-out Σz² is within this of the best's are tied with it.
+/// The best candidate is told from another when the rides left out favour it by more than this
+/// in Σz² …
 pub const TIE_CHI2: f64 = 2.0;
+/// … and by more than this many standard errors of the ride-by-ride difference.
+pub const TIE_SE: f64 = 2.0;
 /// Fewer usable rides than this support no conclusion.
 pub const MIN_RIDES: usize = 4;
 /// Speeds spanning less than this (m/s) are "a single speed".
 pub const MIN_SPEED_SPAN_MPS: f64 = 0.5;
-/// How many of the best single effects are tried in pairs.
+/// Pairs tried: the best single effect with every other, and the next `PAIR_POOL − 1` best
+/// among themselves.
 const PAIR_POOL: usize = 4;
+/// A single effect closes the gap when the rides left out are predicted within this RMS
+/// normalized residual (two standard errors); pairs are tried only when none does.
+pub const CLOSED_RMS: f64 = 2.0;
+/// A pair must beat the best single effect's held-out Σz² by this much (the 1 % point of χ²
+/// with one degree of freedom: the pair's extra parameter) and by the BIC.
+pub const PAIR_GAIN_CHI2: f64 = 6.63;
 
 /// Options of [`diagnose`].
 #[derive(Debug, Clone)]
@@ -184,6 +203,7 @@ pub fn diagnose_campaign(
     );
     let mut rides = Vec::new();
     let mut failed = Vec::new();
+    let law = decay_law(results.iter().filter_map(|r| r.as_ref().ok()));
     for (entry, r) in manifest.rides.iter().zip(&results) {
         let name = entry
             .log
@@ -191,7 +211,23 @@ pub fn diagnose_campaign(
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         match r {
-            Ok(t) => rides.push(Observation::from_test(&name, t)),
+            Ok(t) => {
+                let mut o = Observation::from_test(&name, t);
+                if let (SpeedSource::Noted, Some(release), Some(law)) =
+                    (t.speed.source, t.release_s, &law)
+                {
+                    // Corrected when the campaign's slowing is measured (beyond 2 standard
+                    // errors at this speed); a decay the Sync rides cannot see is left out.
+                    let dt = (t.fit.t_ref_s - release).max(0.0);
+                    let (a, a_se) = law.at(o.speed_mps);
+                    if a.abs() > 2.0 * a_se {
+                        o.speed_correction_mps = a * dt;
+                        o.speed_mps += a * dt;
+                        o.speed_se_mps = a_se * dt;
+                    }
+                }
+                rides.push(o);
+            }
             Err(e) => failed.push(format!("{name}: {e}")),
         }
     }
@@ -202,6 +238,83 @@ pub fn diagnose_campaign(
         &GapOptions { threads },
         &|done, total| progress("candidates", done, total),
     )
+}
+
+/// The campaign's slowing against speed, `a(v) = c₀ + c₂ v²` (rolling resistance and air drag,
+/// and whatever the kick and the weave exchange with the forward motion), fitted to the `Sync`
+/// rides' mean rate of change from the release to the window's end: the lab notes the
+/// speedometer at the release, the eigenvalue applies seconds later.
+#[derive(Debug, Clone, Copy)]
+pub struct DecayLaw {
+    pub c0_mps2: f64,
+    pub c2_per_m: f64,
+    /// Covariance of (c₀, c₂): the rides' scatter about the law through the fit.
+    pub cov: [[f64; 2]; 2],
+}
+
+impl DecayLaw {
+    /// a(v) and its standard error.
+    pub fn at(&self, v: f64) -> (f64, f64) {
+        let x = [1.0, v * v];
+        let var: f64 = (0..2)
+            .map(|i| (0..2).map(|j| x[i] * self.cov[i][j] * x[j]).sum::<f64>())
+            .sum();
+        (self.c0_mps2 + self.c2_per_m * v * v, var.max(0.0).sqrt())
+    }
+}
+
+/// The decay law of the rides with a measured deceleration: `c₀ + c₂ v²` from three or more,
+/// a constant from one or two, `None` from none.
+pub fn decay_law<'a>(tests: impl Iterator<Item = &'a DynamicTest>) -> Option<DecayLaw> {
+    let pts: Vec<(f64, f64)> = tests
+        .filter_map(|t| Some((t.speed.speed_mps, t.speed.accel_since_release_mps2?)))
+        .collect();
+    let n = pts.len();
+    if n == 0 {
+        return None;
+    }
+    let mean = pts.iter().map(|p| p.1).sum::<f64>() / n as f64;
+    if n < 3 {
+        // One ride says nothing of its own scatter: its value's size stands in.
+        let sd = if n == 2 {
+            (pts[0].1 - pts[1].1).abs() / std::f64::consts::SQRT_2
+        } else {
+            mean.abs()
+        };
+        return Some(DecayLaw {
+            c0_mps2: mean,
+            c2_per_m: 0.0,
+            cov: [[sd * sd / n as f64, 0.0], [0.0, 0.0]],
+        });
+    }
+    let (mut s11, mut s12, mut s22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(v, a) in &pts {
+        let x = v * v;
+        s11 += 1.0;
+        s12 += x;
+        s22 += x * x;
+        b1 += a;
+        b2 += a * x;
+    }
+    let det = s11 * s22 - s12 * s12;
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let c0 = (s22 * b1 - s12 * b2) / det;
+    let c2 = (s11 * b2 - s12 * b1) / det;
+    let rss: f64 = pts
+        .iter()
+        .map(|&(v, a)| (a - c0 - c2 * v * v).powi(2))
+        .sum();
+    let s2 = rss / (n - 2) as f64;
+    Some(DecayLaw {
+        c0_mps2: c0,
+        c2_per_m: c2,
+        cov: [
+            [s2 * s22 / det, -s2 * s12 / det],
+            [-s2 * s12 / det, s2 * s11 / det],
+        ],
+    })
 }
 
 /// Diagnoses a campaign: `rides` are the rides that gave an eigenvalue, `failed` the names and
@@ -242,10 +355,7 @@ pub fn diagnose(
     let (guesses, model_cov) = model.weave_covariance(&speeds)?;
     let base = model.nominal();
     let mut exp_cov = DMatrix::zeros(2 * n, 2 * n);
-    let unextended = linear::LinearBike {
-        canonical: crate::model::Canonical::from_benchmark(&base),
-        steer_damping_nms_per_rad: 0.0,
-    };
+    let unextended = linear::LinearBike::whipple(&base);
     for (i, o) in rides.iter().enumerate() {
         exp_cov[(2 * i, 2 * i)] = o.re_se.powi(2);
         exp_cov[(2 * i + 1, 2 * i + 1)] = o.im_se.powi(2);
@@ -310,7 +420,9 @@ pub fn diagnose(
     d.bands = speed_bands(&d.residuals);
     d.conclusive = true;
     d.ranking = rank(&campaign, options, progress)?;
-    d.tied = tied(&d.ranking);
+    if d.significant {
+        d.tied = tied(&d.ranking);
+    }
     d.verdict = verdict(&d);
     Ok(d)
 }
@@ -380,28 +492,30 @@ fn speed_bands(res: &[RideResidual]) -> Vec<BandResidual> {
     bands
 }
 
-/// Held-out Σz² of a candidate: each ride predicted by the candidate refitted without it
-/// (from the full fit), in the ride's own standard errors.
-fn heldout(campaign: &Campaign<'_>, effects: &[Effect], full_fit: &[f64]) -> f64 {
+/// Held-out z² of each ride for a candidate: the ride predicted by the candidate refitted
+/// without it (from the full fit), in the ride's own standard errors.
+fn heldout(campaign: &Campaign<'_>, effects: &[Effect], full_fit: &[f64]) -> Vec<f64> {
     let n = campaign.obs.len();
-    let mut total = 0.0;
+    let mut per_ride = Vec::with_capacity(n);
     for i in 0..n {
         let others: Vec<usize> = (0..n).filter(|&j| j != i).collect();
         let params = match campaign.subset(others) {
             Some(s) => {
-                let step: Vec<f64> = effects
+                let step: Vec<f64> = effects::specs(effects)
                     .iter()
-                    .map(|e| 0.05 * (e.param().hi - e.param().lo))
+                    .map(|p| 0.05 * (p.hi - p.lo))
                     .collect();
                 refine(&s, effects, full_fit, &step).params
             }
             None => full_fit.to_vec(),
         };
-        total += campaign
-            .ride_chi2(effects, &params, i)
-            .unwrap_or(f64::INFINITY);
+        per_ride.push(
+            campaign
+                .ride_chi2(effects, &params, i)
+                .unwrap_or(f64::INFINITY),
+        );
     }
-    total
+    per_ride
 }
 
 /// Fits and tests every effect, then pairs of the best ones; sorted by held-out RMS.
@@ -415,13 +529,14 @@ fn rank(
         .map(|i| campaign.ride_chi2(&[], &[], i).unwrap_or(f64::INFINITY))
         .sum::<f64>();
     let rms = |s: f64| (s / (2 * n) as f64).sqrt();
-    let total = Effect::ALL.len() + PAIR_POOL * (PAIR_POOL - 1) / 2;
+    let total = 2 * Effect::ALL.len() - 1 + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let evaluate = |effects: Vec<Effect>| -> Option<Ranked> {
         let full = campaign.subset((0..n).collect())?;
         let f = fit_effects(&full, &effects);
         let se = param_se(&full, &effects, &f);
-        let held = heldout(campaign, &effects, &f.params);
+        let per_ride = heldout(campaign, &effects, &f.params);
+        let held: f64 = per_ride.iter().sum();
         progress(
             done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
             total,
@@ -433,11 +548,11 @@ fn rank(
             .join(" + ");
         Some(Ranked {
             effect: name,
-            plausible: effects.iter().zip(&f.params).all(|(e, &p)| {
-                let (a, b) = e.param().plausible;
-                (a..=b).contains(&p)
-            }),
-            units: effects.iter().map(|e| e.param().unit).collect(),
+            plausible: effects::specs(&effects)
+                .iter()
+                .zip(&f.params)
+                .all(|(spec, &p)| (spec.plausible.0..=spec.plausible.1).contains(&p)),
+            units: effects::specs(&effects).iter().map(|p| p.unit).collect(),
             effects,
             bic: f.chi2 + f.params.len() as f64 * ((2 * n) as f64).ln(),
             chi2: f.chi2,
@@ -447,6 +562,7 @@ fn rank(
             heldout_rms_after: rms(held),
             heldout_chi2_before: before,
             heldout_chi2_after: held,
+            heldout_per_ride: per_ride,
         })
     };
     let singles: Vec<Vec<Effect>> = Effect::ALL.iter().map(|&e| vec![e]).collect();
@@ -455,19 +571,36 @@ fn rank(
         .flatten()
         .collect();
     sort(&mut ranked);
-    // Pairs of the best singles: kept when they beat every single out of sample by more than
-    // a tie and by the BIC.
+    if ranked
+        .first()
+        .is_none_or(|b| b.heldout_rms_after <= CLOSED_RMS)
+    {
+        return Ok(ranked);
+    }
+    // No single effect closes the gap: pairs of the best singles, kept when they beat every
+    // single out of sample by PAIR_GAIN_CHI2 and by the BIC.
     let pool: Vec<Effect> = ranked
         .iter()
         .take(PAIR_POOL)
         .map(|r| r.effects[0])
         .collect();
-    let mut pairs = Vec::new();
-    for a in 0..pool.len() {
-        for b in a + 1..pool.len() {
-            let mut p = vec![pool[a], pool[b]];
-            p.sort();
+    // The best single with every other effect, and the next best among themselves.
+    let mut pairs: Vec<Vec<Effect>> = Vec::new();
+    let mut add = |a: Effect, b: Effect| {
+        let mut p = vec![a, b];
+        p.sort();
+        if a != b && !pairs.contains(&p) {
             pairs.push(p);
+        }
+    };
+    if let Some(&first) = pool.first() {
+        for &e in &Effect::ALL {
+            add(first, e);
+        }
+    }
+    for a in 1..pool.len() {
+        for b in a + 1..pool.len() {
+            add(pool[a], pool[b]);
         }
     }
     let best_single = ranked.first().cloned();
@@ -476,7 +609,7 @@ fn rank(
         .flatten()
     {
         if let Some(b) = &best_single {
-            if b.heldout_chi2_after - r.heldout_chi2_after > TIE_CHI2 && r.bic < b.bic {
+            if b.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2 && r.bic < b.bic {
                 ranked.push(r);
             }
         }
@@ -485,22 +618,45 @@ fn rank(
     Ok(ranked)
 }
 
+/// Plausible candidates first (a value no real bicycle or lab would have explains nothing,
+/// however well it fits), each group by held-out RMS.
 fn sort(ranked: &mut [Ranked]) {
     ranked.sort_by(|a, b| {
-        a.heldout_rms_after
-            .total_cmp(&b.heldout_rms_after)
+        b.plausible
+            .cmp(&a.plausible)
+            .then_with(|| a.heldout_rms_after.total_cmp(&b.heldout_rms_after))
             .then_with(|| a.effect.cmp(&b.effect))
     });
 }
 
-/// The candidates within [`TIE_CHI2`] of the best's held-out Σz² (empty when only the best).
+/// Whether the rides left out tell `a` from `b`: a paired test on their held-out z², ride by
+/// ride — `a` is better when the mean difference exceeds [`TIE_SE`] of its standard errors
+/// and [`TIE_CHI2`] in total.
+fn distinguishable(a: &Ranked, b: &Ranked) -> bool {
+    let d: Vec<f64> = b
+        .heldout_per_ride
+        .iter()
+        .zip(&a.heldout_per_ride)
+        .map(|(x, y)| x - y)
+        .collect();
+    let n = d.len() as f64;
+    if n < 2.0 || d.iter().any(|v| !v.is_finite()) {
+        return true;
+    }
+    let mean = d.iter().sum::<f64>() / n;
+    let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    mean * n > TIE_CHI2 && mean > TIE_SE * (var / n).sqrt()
+}
+
+/// The candidates as plausible as the best that the rides left out cannot tell from it
+/// ([`distinguishable`]); empty when only the best.
 fn tied(ranked: &[Ranked]) -> Vec<String> {
     let Some(best) = ranked.first() else {
         return Vec::new();
     };
     let t: Vec<String> = ranked
         .iter()
-        .filter(|r| r.heldout_chi2_after - best.heldout_chi2_after <= TIE_CHI2)
+        .filter(|r| r.plausible == best.plausible && !distinguishable(best, r))
         .map(|r| r.effect.clone())
         .collect();
     if t.len() > 1 {
@@ -591,12 +747,15 @@ fn verdict(d: &Diagnosis) -> String {
         v.push_str("No candidate could be fitted.");
         return v;
     };
-    let params: Vec<String> = best
+    let named: Vec<(Effect, effects::ParamSpec)> = best
         .effects
         .iter()
+        .flat_map(|&e| e.params().into_iter().map(move |p| (e, p)))
+        .collect();
+    let params: Vec<String> = named
+        .iter()
         .zip(best.params.iter().zip(&best.params_se))
-        .map(|(e, (p, se))| {
-            let spec = e.param();
+        .map(|((e, spec), (p, se))| {
             format!(
                 "{} {} = {p:.3} ± {se:.3}{}{}",
                 e.name(),
@@ -610,7 +769,7 @@ fn verdict(d: &Diagnosis) -> String {
     if d.tied.len() > 1 {
         let _ = write!(
             v,
-            "The rides left out cannot tell apart: {} (held-out RMS within {TIE_CHI2} in Σz²); the best of them, ",
+            "The rides left out cannot tell apart: {} (ride by ride, none is better than the best by {TIE_SE} standard errors); the best of them, ",
             d.tied.join(", ")
         );
     } else {

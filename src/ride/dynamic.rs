@@ -52,6 +52,9 @@ pub struct Speed {
     pub source: SpeedSource,
     /// The speed's rate of change over the window (m/s², `Sync` only).
     pub accel_mps2: Option<f64>,
+    /// The speed's mean rate of change from the release to the window's end (m/s², `Sync`
+    /// only, when the release is found): what a speed noted at the release misses.
+    pub accel_since_release_mps2: Option<f64>,
 }
 
 /// Options of [`dynamic_test`].
@@ -87,6 +90,8 @@ pub struct DynamicTest {
     pub speed: Speed,
     pub kick_s: f64,
     pub catch_s: f64,
+    /// The end of the push (s), when found.
+    pub release_s: Option<f64>,
     pub fit: ModalFit,
     pub model: ModelWeave,
     /// θ and γ from half a second before the kick to half a second after the window (for
@@ -120,12 +125,17 @@ pub fn dynamic_test(
             speed_se_mps: s.speed_se_mps,
             source: SpeedSource::Sync,
             accel_mps2: Some(s.accel_mps2),
+            accel_since_release_mps2: signals
+                .release_s
+                .and_then(|r| sync_speed(&signals.log, r, fit.end_s, fit.t_ref_s))
+                .map(|s| s.accel_mps2),
         },
         (None, Some(v)) => Speed {
             speed_mps: v,
             speed_se_mps: 0.0,
             source: SpeedSource::Noted,
             accel_mps2: None,
+            accel_since_release_mps2: None,
         },
         (None, None) => {
             return Err(ride_err(
@@ -150,6 +160,7 @@ pub fn dynamic_test(
         path: path.to_path_buf(),
         speed,
         kick_s: signals.kick_s,
+        release_s: signals.release_s,
         catch_s: signals.catch_s,
         fit,
         model,

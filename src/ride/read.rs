@@ -48,7 +48,14 @@ pub struct RideSignals {
     /// When the bicycle was caught or the motion was lost (s): the last moment the frame's
     /// gyro still shows motion above its noise.
     pub catch_s: f64,
+    /// When the push ended (s): the last moment before the kick that the frame's forward
+    /// acceleration (0.1 s mean) exceeded [`RELEASE_MPS2`]; `None` when it never did.
+    pub release_s: Option<f64>,
 }
+
+/// The forward acceleration (m/s²) below which the bicycle is coasting: a push accelerates
+/// it by 1–3 m/s², coasting slows it by 0.05–0.2 m/s².
+pub const RELEASE_MPS2: f64 = 0.3;
 
 fn err(path: &Path, message: impl Into<String>) -> RideError {
     RideError::Ride {
@@ -222,7 +229,7 @@ pub fn read_ride(
         .iter()
         .position(|r| r.abs() > 0.15)
         .map_or(u64::MAX, |k| log.grid_index[k]);
-    let (kick_s, catch_s) = events(
+    let (kick_s, catch_s, release_s) = events(
         &cal,
         &frame.id,
         &acc_frame,
@@ -245,6 +252,7 @@ pub fn read_ride(
         frame_mounting,
         kick_s,
         catch_s,
+        release_s,
         log,
     })
 }
@@ -256,7 +264,9 @@ const KICK_MIN_MPS2: f64 = 0.2;
 /// lateral acceleration (in the bicycle's axes, 0.1 s moving mean, less its 1 s moving mean)
 /// after the push's first second and before the bicycle leans past 0.15 rad; the catch is the
 /// end of the last stretch where the gyro's rate less its standstill bias (magnitude, 0.1 s
-/// moving mean) exceeds 3× its largest value during the standstill.
+/// moving mean) exceeds 3× its largest value during the standstill; the release is the last
+/// moment before the kick that the forward acceleration (0.1 s moving mean, the bicycle's
+/// forward axis) exceeds [`RELEASE_MPS2`].
 fn events(
     cal: &Log,
     id: &str,
@@ -264,7 +274,7 @@ fn events(
     mount: &Rotation3<f64>,
     (still_end, lean_limit): (u64, u64),
     rate: f64,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, f64, Option<f64>)> {
     let col = |ch: &str| cal.column_index(&format!("{id}_{ch}"));
     let (gx, gy, gz) = (col("Gyr_X")?, col("Gyr_Y")?, col("Gyr_Z")?);
     let n = acc.len();
@@ -313,9 +323,16 @@ fn events(
     let kick = (first..(first + w * 3).min(n)).max_by(|&a, &b| pulse[a].total_cmp(&pulse[b]))?;
     let quiet = still.iter().map(|&i| gyro[i]).fold(0.0, f64::max).max(1e-4);
     let last_moving = (kick..n).rev().find(|&i| gyro[i] > 3.0 * quiet)?;
+    let ahead = mount.matrix().column(0).into_owned();
+    let forward = smooth(&acc.iter().map(|a| a.dot(&ahead)).collect::<Vec<_>>());
+    let release = (0..kick)
+        .rev()
+        .find(|&i| cal.grid_index[i] >= still_end && forward[i] > RELEASE_MPS2)
+        .map(|i| cal.grid_index[i] as f64 / rate);
     Some((
         cal.grid_index[kick] as f64 / rate,
         cal.grid_index[last_moving] as f64 / rate,
+        release,
     ))
 }
 
@@ -323,6 +340,27 @@ fn events(
 mod tests {
     use super::*;
     use crate::sim::ride::{simulate_ride, Effects, RideSpec};
+
+    /// The release is found at the end of the push: within 0.3 s before the simulator's
+    /// (the push's acceleration falls to 0.3 m/s² of its 2 m/s² peak 0.14 s early).
+    #[test]
+    fn the_release_is_the_end_of_the_push() {
+        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
+        let ride = simulate_ride(&b, &RideSpec::lab(4.5, Effects::realistic()), 8).unwrap();
+        let dir = std::env::temp_dir().join(format!("bikeproc_release_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
+        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
+        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let found = s.release_s.unwrap();
+        let early = ride.truth.release_s - found;
+        assert!(
+            (0.0..0.3).contains(&early),
+            "found {found}, released at {}",
+            ride.truth.release_s
+        );
+    }
 
     /// Below the weave speed the bicycle falls after the kick and is caught: the kick is still
     /// found at the kick, not at the fall, and the catch at the catch.

@@ -592,3 +592,180 @@ pub fn ride_fault_fixtures(
     files.push(("README.md".into(), readme));
     Ok(files)
 }
+
+/// An effect withheld from the gap diagnosis, for its blind check; its label is the name the
+/// diagnosis gives the effect it finds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Withheld {
+    /// The control: the bicycle as measured, nothing added.
+    None,
+    /// Viscous steer damping 0.2–0.5 N·m·s/rad.
+    SteerDamping,
+    /// Compliant tyres: cornering 8–14 /rad, camber 0.6 /rad, relaxation 0.1–0.25 m.
+    Tyres,
+    /// 1.5–3 kg at the front frame's centre of mass.
+    FrontMass,
+    /// 2.5–4 kg at the rear frame's centre of mass.
+    FrameMass,
+    /// The wheels' spin inertias 1.2–1.4 times what was measured.
+    WheelSpin,
+    /// The front frame's I_xx 1.25–1.45 times what was measured.
+    FrontIxx,
+    /// A speedometer reading 4–8 % high.
+    SpeedScale,
+    /// The sensors sampling 2.5–4 % fast (far beyond a real sensor's crystal, ±50 ppm: at that
+    /// size it would change nothing measurable).
+    TimeScale,
+}
+
+impl Withheld {
+    pub const ALL: [Withheld; 9] = [
+        Withheld::None,
+        Withheld::SteerDamping,
+        Withheld::Tyres,
+        Withheld::FrontMass,
+        Withheld::FrameMass,
+        Withheld::WheelSpin,
+        Withheld::FrontIxx,
+        Withheld::SpeedScale,
+        Withheld::TimeScale,
+    ];
+
+    /// The name the diagnosis uses for the effect ("none" for the control).
+    pub fn label(self) -> &'static str {
+        match self {
+            Withheld::None => "none",
+            Withheld::SteerDamping => "steer_damping",
+            Withheld::Tyres => "tyres",
+            Withheld::FrontMass => "front_mass",
+            Withheld::FrameMass => "frame_mass",
+            Withheld::WheelSpin => "wheel_spin",
+            Withheld::FrontIxx => "front_ixx",
+            Withheld::SpeedScale => "speed_scale",
+            Withheld::TimeScale => "time_scale",
+        }
+    }
+
+    /// By label.
+    pub fn from_label(label: &str) -> Option<Withheld> {
+        Withheld::ALL.into_iter().find(|w| w.label() == label)
+    }
+}
+
+/// The sealed truth of a blind campaign.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BlindTruth {
+    pub effect: Withheld,
+    /// The effect's parameters as the diagnosis names them (e.g. the tyres' cornering
+    /// stiffness and relaxation length; a factor; a mass in kg).
+    pub params: Vec<f64>,
+    pub seed: u64,
+}
+
+/// A campaign of 12 rides (3.8–6.55 m/s; `Sync` on every other ride, the noted reading on the
+/// rest) on the measured bicycle with one effect withheld at a magnitude drawn from its
+/// realistic range, realistic sensors and noise, no drag (so the noted speed is the speed of
+/// the window and only the withheld effect parts the rides from the model). Files: the
+/// manifest (`rides.toml`, naming `bike_file`), the logs, and the sealed `truth.json`.
+pub fn blind_campaign(
+    measured: &crate::inertia::bike::LabBike,
+    bike_file: &str,
+    withheld: Withheld,
+    seed: u64,
+) -> Result<(Files, BlindTruth), super::ride::RideError> {
+    use super::ride::{simulate_ride, Effects, PointMass, RideSpec};
+    use super::whipple::{Body, TyreModel};
+    let mut rng = Rng::new(7_000 + seed);
+    let mut bike = crate::model::lab::lab_to_benchmark(measured);
+    let mut effects = Effects::default();
+    let params = match withheld {
+        Withheld::None => vec![],
+        Withheld::SteerDamping => {
+            let c = rng.range(0.2, 0.5);
+            effects.steer_viscous_nms_per_rad = c;
+            vec![c]
+        }
+        Withheld::Tyres => {
+            let (ca, sigma) = (rng.range(8.0, 14.0), rng.range(0.1, 0.25));
+            effects.tyres = Some(TyreModel {
+                cornering_per_rad: ca,
+                camber_per_rad: 0.6,
+                relaxation_length_m: sigma,
+            });
+            vec![ca, sigma]
+        }
+        Withheld::FrontMass => {
+            let m = rng.range(1.5, 3.0);
+            effects.extra_masses.push(PointMass {
+                body: Body::Fork,
+                mass_kg: m,
+                x_m: bike.x_h,
+                z_m: bike.z_h,
+            });
+            vec![m]
+        }
+        Withheld::FrameMass => {
+            let m = rng.range(2.5, 4.0);
+            effects.extra_masses.push(PointMass {
+                body: Body::Frame,
+                mass_kg: m,
+                x_m: bike.x_b,
+                z_m: bike.z_b,
+            });
+            vec![m]
+        }
+        Withheld::WheelSpin => {
+            let k = rng.range(1.2, 1.4);
+            bike.i_ryy *= k;
+            bike.i_fyy *= k;
+            vec![k]
+        }
+        Withheld::FrontIxx => {
+            let k = rng.range(1.25, 1.45);
+            bike.i_hxx *= k;
+            vec![k]
+        }
+        Withheld::SpeedScale => {
+            let k = rng.range(1.04, 1.08);
+            effects.speedometer_scale = k;
+            vec![k]
+        }
+        Withheld::TimeScale => {
+            let s = rng.range(1.025, 1.04);
+            effects.clock_scale = s;
+            vec![s]
+        }
+    };
+    let mut files = Files::new();
+    let mut manifest = format!(
+        "# A blind campaign: one effect withheld (sealed in truth.json).\nversion = 1\nbike = \"{bike_file}\"\n"
+    );
+    for k in 0..12 {
+        let v = 3.8 + 0.25 * k as f64;
+        let mut spec = RideSpec::lab(v, effects.clone());
+        spec.sync = k % 2 == 1;
+        spec.kick.peak_force_n = rng.range(12.0, 18.0);
+        let ride = simulate_ride(&bike, &spec, 100 * seed + k as u64)?;
+        let name = format!("ride_{:02}", k + 1);
+        files.push((format!("{name}.log").into(), ride.angles_log));
+        files.push((format!("{name}_cal.log").into(), ride.cal_log));
+        let _ = write!(
+            manifest,
+            "\n[[ride]]\nlog = \"{name}.log\"\nnoted_speed_mps = {:.2}\n",
+            ride.truth.noted_speed_mps
+        );
+    }
+    files.push(("rides.toml".into(), manifest));
+    let truth = BlindTruth {
+        effect: withheld,
+        params,
+        seed,
+    };
+    files.push((
+        "truth.json".into(),
+        serde_json::to_string(&truth).unwrap_or_default(),
+    ));
+    files.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok((files, truth))
+}

@@ -1,0 +1,291 @@
+//! Issue 7: the sim-to-real gap. Blind campaigns (one effect withheld, the diagnosis not told
+//! which) against their sealed truth; the campaign in data/; campaigns that support no
+//! conclusion; the diagnosis's tyres against the simulator's.
+
+use bikeproc::gap::{diagnose_campaign, Diagnosis};
+use bikeproc::inertia::bike::LabBike;
+use bikeproc::model::uncertain;
+use bikeproc::ride::dynamic::RideManifest;
+use bikeproc::sim::campaign::{blind_campaign, BlindTruth, Withheld};
+use std::path::PathBuf;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bikeproc_gap_{}_{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Simulates a blind campaign into a scratch folder and diagnoses it against the measured
+/// bicycle (the diagnosis sees the logs and the manifest only).
+fn blind(withheld: Withheld, seed: u64) -> (Diagnosis, BlindTruth) {
+    let bike_path = root().join("data/lab_bike.toml");
+    let lab = LabBike::load(&bike_path).unwrap();
+    let (files, truth) = blind_campaign(&lab, "bike.toml", withheld, seed).unwrap();
+    let dir = scratch(&format!("{}_{seed}", withheld.label()));
+    for (p, text) in &files {
+        if p.as_os_str() != "truth.json" {
+            std::fs::write(dir.join(p), text).unwrap();
+        }
+    }
+    std::fs::copy(&bike_path, dir.join("bike.toml")).unwrap();
+    let manifest = RideManifest::load(&dir.join("rides.toml")).unwrap();
+    let model = uncertain::load(&dir.join("bike.toml")).unwrap();
+    let d = diagnose_campaign(&manifest, &model, 2, &|_, _, _| {}).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    (d, truth)
+}
+
+/// Acceptance: blind campaigns of seven kinds of effect and the control, five seeds each,
+/// 12 rides with realistic sensors. The withheld effect ranks first (or is among the tied) in
+/// at least 90 % of the effect cases; the control is "no significant gap" in at least 90 %;
+/// at most 15 % of the cases end tied; each fitted parameter the diagnosis pins down (its
+/// standard error under 30 % of its value) is within 30 % of the truth.
+///
+/// The sensor clock's time scale is run too and reported, not counted: at a size a real
+/// sensor's crystal allows (±50 ppm) it changes nothing measurable, and at the 2.5–4 % it takes
+/// to be seen it is nearly the speedometer's twin (ω ∝ v makes ω(s v)/s ≈ ω(v) on the `Sync`
+/// rides): measured 3–4 of 5 right, the rest given to the speed scale.
+#[test]
+fn blind_campaigns_find_the_withheld_effect() {
+    let counted = [
+        Withheld::SteerDamping,
+        Withheld::Tyres,
+        Withheld::FrontMass,
+        Withheld::FrameMass,
+        Withheld::WheelSpin,
+        Withheld::FrontIxx,
+        Withheld::SpeedScale,
+    ];
+    let (mut cases, mut right, mut ties, mut controls_quiet) = (0, 0, 0, 0);
+    let mut param_checks = Vec::new();
+    for seed in 1..=5 {
+        let (d, _) = blind(Withheld::None, seed);
+        println!(
+            "control seed {seed}: p {:.3}, significant {}",
+            d.p_value, d.significant
+        );
+        if !d.significant {
+            controls_quiet += 1;
+        }
+        for &w in counted.iter().chain([Withheld::TimeScale].iter()) {
+            let (d, truth) = blind(w, seed);
+            let best = d
+                .ranking
+                .first()
+                .map(|r| r.effect.clone())
+                .unwrap_or_default();
+            let tied = d.tied.len() > 1;
+            let ok = d.significant
+                && if tied {
+                    d.tied.iter().any(|t| t == w.label())
+                } else {
+                    best == w.label()
+                };
+            println!(
+                "{} seed {seed}: truth {:?}, best {best} {:?} ± {:?}, tied {:?}, p {:.1e}: {}",
+                w.label(),
+                truth.params,
+                d.ranking.first().map(|r| r.params.clone()),
+                d.ranking.first().map(|r| r.params_se.clone()),
+                d.tied,
+                d.p_value,
+                if ok { "right" } else { "WRONG" }
+            );
+            if w == Withheld::TimeScale {
+                continue;
+            }
+            cases += 1;
+            right += usize::from(ok);
+            ties += usize::from(tied);
+            if let Some(r) = d.ranking.iter().find(|r| r.effect == w.label()) {
+                for ((&fit, &se), &t) in r.params.iter().zip(&r.params_se).zip(&truth.params) {
+                    if se.is_finite() && se < 0.3 * fit.abs() {
+                        param_checks.push((w.label(), seed, fit, t));
+                    }
+                }
+            }
+        }
+    }
+    println!("{right} of {cases} right, {ties} tied, {controls_quiet} of 5 controls quiet");
+    assert!(right * 10 >= 9 * cases, "{right} of {cases}");
+    assert!(
+        controls_quiet * 10 >= 9 * 5,
+        "{controls_quiet} of 5 controls"
+    );
+    assert!(ties * 100 <= 15 * cases, "{ties} of {cases} tied");
+    let off: Vec<_> = param_checks
+        .iter()
+        .filter(|(_, _, fit, t)| (fit - t).abs() > 0.3 * t.abs())
+        .collect();
+    println!("{} parameters checked", param_checks.len());
+    assert!(
+        param_checks.len() >= 25 && off.is_empty(),
+        "{} checked; beyond 30 %: {off:?}",
+        param_checks.len()
+    );
+}
+
+/// Acceptance: on data/rides.toml (simulated with steer damping, tyres, two sensors' masses, a
+/// speedometer 3 % high, the frame's I_xx 6 % above the measured, drag and rolling resistance)
+/// the best explanation is made of effects the campaign has, and the held-out gap shrinks by
+/// at least 70 %.
+#[test]
+fn the_campaign_in_data_is_explained_by_its_own_effects() {
+    let manifest = RideManifest::load(&root().join("data/rides.toml")).unwrap();
+    let model = uncertain::load(&manifest.bike_path()).unwrap();
+    let d = diagnose_campaign(&manifest, &model, 2, &|_, _, _| {}).unwrap();
+    println!("{}", d.to_text());
+    let simulated = [
+        "steer_damping",
+        "tyres",
+        "front_mass",
+        "frame_mass",
+        "frame_ixx",
+        "speed_scale",
+    ];
+    let best = &d.ranking[0];
+    assert!(d.significant);
+    assert!(
+        best.effects.iter().all(|e| simulated.contains(&e.name())),
+        "best: {}",
+        best.effect
+    );
+    let shrink = 1.0 - best.heldout_rms_after / best.heldout_rms_before;
+    assert!(
+        shrink >= 0.7,
+        "held-out gap shrinks by {:.0} %",
+        100.0 * shrink
+    );
+}
+
+/// A manifest over some of data/'s logs (absolute paths), written to a scratch folder.
+fn manifest_of(name: &str, logs: &[PathBuf]) -> RideManifest {
+    let dir = scratch(name);
+    let mut text = format!(
+        "version = 1\nbike = \"{}\"\n",
+        root().join("data/lab_bike.toml").display()
+    );
+    for (k, log) in logs.iter().enumerate() {
+        text += &format!(
+            "\n[[ride]]\nlog = \"{}\"\nnoted_speed_mps = {:.1}\n",
+            log.display(),
+            4.0 + 0.2 * k as f64
+        );
+    }
+    std::fs::write(dir.join("rides.toml"), text).unwrap();
+    let m = RideManifest::load(&dir.join("rides.toml")).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    m
+}
+
+fn inconclusive(m: &RideManifest) -> Diagnosis {
+    let model = uncertain::load(&root().join("data/lab_bike.toml")).unwrap();
+    let d = diagnose_campaign(m, &model, 2, &|_, _, _| {}).unwrap();
+    assert!(!d.conclusive, "{}", d.verdict);
+    assert!(d.ranking.is_empty(), "a ranking built on nothing");
+    assert!(d.verdict.starts_with("No conclusion: "), "{}", d.verdict);
+    d
+}
+
+/// Acceptance: fewer than 4 usable rides, a single speed, most rides failed: a statement of
+/// what cannot be concluded and why, no ranking.
+#[test]
+fn campaigns_that_support_no_conclusion_say_why() {
+    let data = root().join("data");
+    let ride = |k: usize| data.join(format!("ride_{k:02}.log"));
+    let d = inconclusive(&manifest_of("three", &[ride(4), ride(8), ride(12)]));
+    assert!(d.verdict.contains("3 usable rides"), "{}", d.verdict);
+    let d = inconclusive(&manifest_of("single", &vec![ride(6); 5]));
+    assert!(d.verdict.contains("a single speed"), "{}", d.verdict);
+    let faults = root().join("fixtures/rides");
+    let mut logs: Vec<PathBuf> = ["no_kick", "too_short", "sensors_swapped", "handlebar_still"]
+        .iter()
+        .map(|f| faults.join(format!("{f}.log")))
+        .collect();
+    logs.extend([ride(4), ride(8), ride(12)]);
+    let d = inconclusive(&manifest_of("failed", &logs));
+    assert_eq!(d.rides_failed.len(), 4);
+    assert!(d.verdict.contains("3 usable rides"), "{}", d.verdict);
+    let logs: Vec<PathBuf> = [
+        "no_kick",
+        "too_short",
+        "sensors_swapped",
+        "handlebar_still",
+        "no_kick",
+    ]
+    .iter()
+    .map(|f| faults.join(format!("{f}.log")))
+    .chain([ride(2), ride(6), ride(10), ride(14)])
+    .collect();
+    let d = inconclusive(&manifest_of("most_failed", &logs));
+    assert!(d.verdict.contains("5 of 9 rides failed"), "{}", d.verdict);
+}
+
+/// The diagnosis's compliant tyres (src/gap/linear.rs, linear equations built from the bodies)
+/// and the simulator's (its nonlinear equations differentiated, src/sim/linearize.rs) are
+/// separate code; on the lab's bicycle with realistic tyres their weave agrees to 1e-3 /s at
+/// 4, 5 and 6 m/s.
+#[test]
+fn the_diagnosis_tyres_are_the_simulators() {
+    use bikeproc::gap::linear::{LinearBike, LinearTyres};
+    use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec};
+    let lab = LabBike::load(&root().join("data/lab_bike.toml")).unwrap();
+    let bike = bikeproc::model::lab::lab_to_benchmark(&lab);
+    let tyres = Effects::realistic().tyres.unwrap();
+    for v in [4.0, 5.0, 6.0] {
+        let mut spec = RideSpec::lab(
+            v,
+            Effects {
+                tyres: Some(tyres),
+                ..Effects::default()
+            },
+        );
+        spec.motion = bikeproc::sim::whipple::Motion::ImposedSpeed;
+        let truth = simulate_ride(&bike, &spec, 1).unwrap().truth;
+        let sim = truth.weave_at(v).unwrap();
+        let linear = LinearBike {
+            tyres: Some(LinearTyres {
+                cornering_per_rad: tyres.cornering_per_rad,
+                camber_per_rad: tyres.camber_per_rad,
+                relaxation_length_m: tyres.relaxation_length_m,
+            }),
+            ..LinearBike::whipple(&bike)
+        };
+        let ours = linear.weave_near(v, sim).unwrap();
+        println!("{v}: simulator {sim}, diagnosis {ours}");
+        assert!((ours.re - sim.re).abs() < 1e-3 && (ours.im - sim.im).abs() < 1e-3);
+    }
+}
+
+/// `bikeproc gap --json` carries the keys the lab's scripts read.
+#[test]
+fn gap_json_has_the_documented_keys() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+        .args(["gap", "--json"])
+        .arg(root().join("data/rides.toml"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["significant"].is_boolean());
+    assert!(v["verdict"].is_string());
+    let first = &v["ranking"][0];
+    for key in [
+        "effect",
+        "params",
+        "params_se",
+        "heldout_rms_before",
+        "heldout_rms_after",
+        "plausible",
+    ] {
+        assert!(!first[key].is_null(), "ranking[0].{key} missing");
+    }
+}
