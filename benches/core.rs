@@ -174,3 +174,36 @@ fn dynamic_campaign_16_rides(bencher: divan::Bencher) {
     let modal = bikeproc::ride::modal::ModalOptions::default();
     bencher.bench(|| run_campaign(&manifest, &model, &modal, 2, &|_, _| {}));
 }
+
+/// Issue 7: diagnosing the 16-ride campaign of `data/rides.toml` (every candidate and pair
+/// fitted and left one ride out at a time) from its rides' eigenvalues, on two threads.
+#[divan::bench(sample_count = 10)]
+fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
+    use bikeproc::gap::{diagnose, GapOptions, Observation};
+    use bikeproc::ride::dynamic::{run_campaign, RideManifest};
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
+    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
+    let modal = bikeproc::ride::modal::ModalOptions::default();
+    let rides: Vec<Observation> = run_campaign(&manifest, &model, &modal, 2, &|_, _| {})
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| {
+            r.as_ref()
+                .ok()
+                .map(|t| Observation::from_test(&k.to_string(), t))
+        })
+        .collect();
+    bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions { threads: 2 }, &|_, _| {}));
+}
+
+/// Issue 7: `bikeproc gap data/rides.toml` as a whole: the 16 rides' dynamic tests, the noted
+/// speeds' correction and the diagnosis, on two threads.
+#[divan::bench(sample_count = 10)]
+fn gap_campaign_16_rides(bencher: divan::Bencher) {
+    use bikeproc::ride::dynamic::RideManifest;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
+    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
+    bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, 2, &|_, _, _| {}));
+}

@@ -186,6 +186,20 @@ enum SimCommand {
         #[arg(long, default_value = "fixtures/rides")]
         out: PathBuf,
     },
+    /// A blind campaign for `bikeproc gap`: 12 rides on the measured bicycle with one effect
+    /// withheld, its truth sealed in OUT/truth.json.
+    Blind {
+        /// The effect to withhold.
+        #[arg(long, value_parser = withheld_effects())]
+        effect: String,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The measured bicycle (copied beside the rides as bike.toml).
+        #[arg(long, default_value = "data/lab_bike.toml")]
+        bike: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
     Campaign {
         /// Folder to write into.
@@ -572,6 +586,11 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
     emit(a.json, &summary, || summary.to_text())
 }
 
+/// The effects a blind campaign can withhold, by label.
+fn withheld_effects() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(sim::campaign::Withheld::ALL.map(|w| w.label()))
+}
+
 /// Writes generated files under `out` and says how many.
 fn write_generated(out: &Path, files: &sim::campaign::Files) -> Result<()> {
     sim::campaign::write_files(out, files)
@@ -586,6 +605,21 @@ fn simulate(s: SimCommand) -> Result<()> {
         SimCommand::Rides { out } => {
             let bike = inertia::bike::LabBike::load(&out.join("lab_bike.toml"))?;
             return write_generated(&out, &sim::campaign::lab_rides(&bike)?);
+        }
+        SimCommand::Blind {
+            effect,
+            seed,
+            bike,
+            out,
+        } => {
+            let withheld = sim::campaign::Withheld::from_label(&effect)
+                .ok_or_else(|| anyhow::anyhow!("unknown effect `{effect}`"))?;
+            let lab = inertia::bike::LabBike::load(&bike)?;
+            let (mut files, _) = sim::campaign::blind_campaign(&lab, "bike.toml", withheld, seed)?;
+            let text = std::fs::read_to_string(&bike)
+                .with_context(|| format!("reading {}", bike.display()))?;
+            files.push(("bike.toml".into(), text));
+            return write_generated(&out, &files);
         }
         SimCommand::RideFaults { out } => {
             let bike = inertia::bike::LabBike::load(Path::new("data/lab_bike.toml"))?;

@@ -75,6 +75,8 @@ pub enum GapError {
 pub struct RideResidual {
     pub ride: String,
     pub speed_mps: f64,
+    /// The correction of a noted speed for the slowing before the window (m/s; 0 for `Sync`).
+    pub speed_correction_mps: f64,
     /// Experiment − model (1/s), real and imaginary parts.
     pub re: f64,
     pub im: f64,
@@ -131,6 +133,8 @@ pub struct Diagnosis {
     /// Rides left out, with why.
     pub rides_failed: Vec<String>,
     pub residuals: Vec<RideResidual>,
+    /// The same with the best explanation in the model (fitted to every ride).
+    pub residuals_after: Vec<RideResidual>,
     pub bands: Vec<BandResidual>,
     /// The campaign's χ² against the unextended model with the full covariance, its degrees of
     /// freedom and p-value; the same without the model's parameter error.
@@ -333,6 +337,7 @@ pub fn diagnose(
         rides_used: n,
         rides_failed: failed.to_vec(),
         residuals: Vec::new(),
+        residuals_after: Vec::new(),
         bands: Vec::new(),
         chi2: f64::NAN,
         dof: 2 * n,
@@ -408,6 +413,7 @@ pub fn diagnose(
             RideResidual {
                 ride: o.ride.clone(),
                 speed_mps: o.speed_mps,
+                speed_correction_mps: o.speed_correction_mps,
                 re: r0[2 * i],
                 im: r0[2 * i + 1],
                 re_se,
@@ -422,6 +428,22 @@ pub fn diagnose(
     d.ranking = rank(&campaign, options, progress)?;
     if d.significant {
         d.tied = tied(&d.ranking);
+    }
+    if let Some(best) = d.ranking.first() {
+        if let Some(r) = campaign.residuals(&best.effects, &best.params, &all) {
+            d.residuals_after = d
+                .residuals
+                .iter()
+                .enumerate()
+                .map(|(i, before)| RideResidual {
+                    re: r[2 * i],
+                    im: r[2 * i + 1],
+                    re_z: r[2 * i] / before.re_se,
+                    im_z: r[2 * i + 1] / before.im_se,
+                    ..before.clone()
+                })
+                .collect();
+        }
     }
     d.verdict = verdict(&d);
     Ok(d)
