@@ -873,11 +873,11 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
         files.push(("gap.md".into(), md.into_bytes()));
         return Ok(());
     }
-    md.push_str("## Where\n\n| ride | speed (m/s) | noted speed corrected by (m/s) | Δσ (1/s) | z | Δω (rad/s) | z |\n|---|---|---|---|---|---|---|\n");
+    md.push_str("## Where\n\nΔ|γ/θ| and Δarg(γ/θ) are the mode shape's residuals in the ride fit's standard errors only (the model's\nshape error is not propagated).\n\n| ride | speed (m/s) | noted speed corrected by (m/s) | Δσ (1/s) | z | Δω (rad/s) | z | Δ\\|γ/θ\\| | z | Δarg(γ/θ) (°) | z |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in &d.residuals {
         let _ = writeln!(
             md,
-            "| {} | {:.3} | {} | {} | {:+.1} | {} | {:+.1} |",
+            "| {} | {:.3} | {} | {} | {:+.1} | {} | {:+.1} | {:+.3} | {:+.1} | {:+.1} | {:+.1} |",
             r.ride,
             r.speed_mps,
             if r.speed_correction_mps != 0.0 {
@@ -888,7 +888,11 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
             pm(r.re, r.re_se, 3),
             r.re_z,
             pm(r.im, r.im_se, 3),
-            r.im_z
+            r.im_z,
+            r.shape_ratio,
+            r.shape_ratio_z,
+            r.shape_phase_rad.to_degrees(),
+            r.shape_phase_z
         );
     }
     md.push_str("\n| speed band (m/s) | rides | Δσ (1/s) | Δω (rad/s) |\n|---|---|---|---|\n");
@@ -941,7 +945,7 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
             md,
             "\n## How far\n\nHeld-out RMS normalized residual of the weave eigenvalues: {:.2} with the model as it is, {:.2} with\n\
              {} ({:.0} % smaller). Fitted to every ride, the residuals before and after:\n\n\
-             | ride | Δσ before | Δσ after | Δω before | Δω after |\n|---|---|---|---|---|\n",
+             | ride | Δσ before | Δσ after | Δω before | Δω after | Δ\\|γ/θ\\| before | after |\n|---|---|---|---|---|---|---|\n",
             best.heldout_rms_before,
             best.heldout_rms_after,
             best.effect,
@@ -950,8 +954,18 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
         for (a, b) in d.residuals.iter().zip(&d.residuals_after) {
             let _ = writeln!(
                 md,
-                "| {} | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) |",
-                a.ride, a.re, a.re_z, b.re, b.re_z, a.im, a.im_z, b.im, b.im_z
+                "| {} | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} | {:+.3} |",
+                a.ride,
+                a.re,
+                a.re_z,
+                b.re,
+                b.re_z,
+                a.im,
+                a.im_z,
+                b.im,
+                b.im_z,
+                a.shape_ratio,
+                b.shape_ratio
             );
         }
     }

@@ -283,6 +283,36 @@ pub fn linear_bike(base: &Benchmark, effects: &[Effect], params: &[f64]) -> Line
     }
 }
 
+/// The true speed behind a ride's reported one under `effects` (see [`predict`]).
+pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 {
+    let mut v = obs.speed_mps;
+    for (e, ps) in split(effects, params) {
+        if let (Effect::SpeedScale, Some(&k)) = (e, ps.first()) {
+            if obs.speed_source == SpeedSource::Noted {
+                v = (obs.speed_mps - obs.speed_correction_mps) / k + obs.speed_correction_mps;
+            }
+        }
+    }
+    if obs.speed_source == SpeedSource::Sync {
+        v *= clock(effects, params);
+    }
+    v
+}
+
+/// The sensors' clock scale under `effects` (1 without [`Effect::TimeScale`]).
+pub fn clock(effects: &[Effect], params: &[f64]) -> f64 {
+    split(effects, params)
+        .into_iter()
+        .find_map(|(e, ps)| {
+            if e == Effect::TimeScale {
+                ps.first().copied()
+            } else {
+                None
+            }
+        })
+        .unwrap_or(1.0)
+}
+
 /// The weave the extended model predicts for a ride, as the ride would report it: at the
 /// true speed behind the reported one (a noted reading over the speedometer's scale; a `Sync`
 /// speed times the clock's), the eigenvalue over the clock's scale. `guess` picks the branch
@@ -294,19 +324,6 @@ pub fn predict(
     obs: &Observation,
     guess: Complex<f64>,
 ) -> Option<Complex<f64>> {
-    let mut v = obs.speed_mps;
-    let mut clock = 1.0;
-    for (e, ps) in split(effects, params) {
-        match (e, ps.first()) {
-            (Effect::SpeedScale, Some(&k)) if obs.speed_source == SpeedSource::Noted => {
-                v = (obs.speed_mps - obs.speed_correction_mps) / k + obs.speed_correction_mps
-            }
-            (Effect::TimeScale, Some(&s)) => clock = s,
-            _ => {}
-        }
-    }
-    if obs.speed_source == SpeedSource::Sync {
-        v *= clock;
-    }
-    Some(bike.weave_near(v, guess)? / clock)
+    let v = true_speed(effects, params, obs);
+    Some(bike.weave_near(v, guess)? / clock(effects, params))
 }

@@ -212,6 +212,38 @@ impl LinearBike {
         Some(a)
     }
 
+    /// The mode's γ/θ (steer over roll, complex) at eigenvalue `lambda` and speed `v`: a right
+    /// eigenvector of the state matrix by inverse iteration (three steps from a shift 1e-9 off
+    /// the eigenvalue). `None` when the matrix or the iteration fails.
+    pub fn mode_shape(&self, v: f64, lambda: Complex<f64>) -> Option<Complex<f64>> {
+        let a = self.state_matrix(v)?;
+        let n = a.nrows();
+        let shift =
+            lambda + Complex::new(1e-9 * (1.0 + lambda.norm()), 1e-9 * (1.0 + lambda.norm()));
+        let m = DMatrix::from_fn(n, n, |i, j| {
+            Complex::new(a[(i, j)], 0.0)
+                - if i == j {
+                    shift
+                } else {
+                    Complex::new(0.0, 0.0)
+                }
+        });
+        let lu = m.lu();
+        let mut x = nalgebra::DVector::from_element(n, Complex::new(1.0, 0.0));
+        for _ in 0..3 {
+            x = lu.solve(&x)?;
+            let big = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
+            if !(big.is_finite() && big > 0.0) {
+                return None;
+            }
+            x /= Complex::new(big, 0.0);
+        }
+        // Roll and steer: states 0, 1 with rigid wheels; 1, 2 with tyres (ψ first).
+        let (roll, steer) = if self.tyres.is_some() { (1, 2) } else { (0, 1) };
+        let ratio = x[steer] / x[roll];
+        ratio.is_finite().then_some(ratio)
+    }
+
     /// The oscillatory eigenvalue (im > 0) nearest `guess` at speed `v`; `None` when there is
     /// none or the eigenvalues cannot be computed.
     pub fn weave_near(&self, v: f64, guess: Complex<f64>) -> Option<Complex<f64>> {
@@ -255,6 +287,35 @@ mod tests {
         let dt =
             free.state_matrix(3.0).unwrap().trace() - damped.state_matrix(3.0).unwrap().trace();
         assert!((dt - 0.4 * minv[(1, 1)]).abs() < 1e-12);
+    }
+
+    /// The mode shape of the extended model is the Whipple model's (`Canonical::mode_shape`,
+    /// fixed-size code) without extensions, and stays close with stiff tyres.
+    #[test]
+    fn mode_shape_matches_the_canonical_models() {
+        let rigid = LinearBike::whipple(&benchmark());
+        let w = rigid.weave_near(5.0, Complex::new(-0.7, 4.5)).unwrap();
+        let ours = rigid.mode_shape(5.0, w).unwrap();
+        let shape = rigid.canonical.mode_shape(5.0, w).unwrap();
+        let theirs = shape[1] / shape[0];
+        assert!(
+            (ours - theirs).norm() < 1e-8 * theirs.norm(),
+            "{ours} vs {theirs}"
+        );
+        let stiff = LinearBike {
+            tyres: Some(LinearTyres {
+                cornering_per_rad: 1e5,
+                camber_per_rad: 0.0,
+                relaxation_length_m: 1e-4,
+            }),
+            ..rigid
+        };
+        let ws = stiff.weave_near(5.0, w).unwrap();
+        let s = stiff.mode_shape(5.0, ws).unwrap();
+        assert!(
+            (s - theirs).norm() < 1e-3 * theirs.norm(),
+            "{s} vs {theirs}"
+        );
     }
 
     /// Stiff tyres without lag are rolling without slip: the weave of the 9-state model is the

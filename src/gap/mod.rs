@@ -44,6 +44,9 @@ pub struct Observation {
     pub weave: Complex<f64>,
     pub re_se: f64,
     pub im_se: f64,
+    /// The weave's mode shape |γ/θ| and arg(γ/θ) (rad), with the fit's standard errors.
+    pub shape_ratio: crate::fit::Estimate,
+    pub shape_phase_rad: crate::fit::Estimate,
 }
 
 impl Observation {
@@ -57,6 +60,8 @@ impl Observation {
             weave: Complex::new(t.fit.weave.re, t.fit.weave.im),
             re_se: t.fit.weave.re_se,
             im_se: t.fit.weave.im_se,
+            shape_ratio: t.fit.shape.ratio,
+            shape_phase_rad: t.fit.shape.phase_rad,
         }
     }
 }
@@ -85,6 +90,31 @@ pub struct RideResidual {
     pub im_se: f64,
     pub re_z: f64,
     pub im_z: f64,
+    /// The mode shape: |γ/θ| and its phase (rad), experiment − model, in the fit's standard
+    /// errors only (the model's shape error is not propagated).
+    pub shape_ratio: f64,
+    pub shape_ratio_z: f64,
+    pub shape_phase_rad: f64,
+    pub shape_phase_z: f64,
+}
+
+/// The residual of a ride's mode shape against `bike` at its weave: (Δ|γ/θ|, Δarg) with the
+/// phase difference wrapped to ±π; NaN when the model has no shape there.
+fn shape_residual(
+    bike: &linear::LinearBike,
+    o: &Observation,
+    speed_mps: f64,
+    weave: Complex<f64>,
+) -> (f64, f64) {
+    match bike.mode_shape(speed_mps, weave) {
+        Some(m) => {
+            let d = o.shape_phase_rad.value - m.arg();
+            let wrapped = (d + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
+                - std::f64::consts::PI;
+            (o.shape_ratio.value - m.norm(), wrapped)
+        }
+        None => (f64::NAN, f64::NAN),
+    }
 }
 
 /// The residuals of the rides in one speed band, weighted means.
@@ -410,6 +440,8 @@ pub fn diagnose(
                 campaign.cov[(2 * i, 2 * i)].sqrt(),
                 campaign.cov[(2 * i + 1, 2 * i + 1)].sqrt(),
             );
+            let model_weave = Complex::new(o.weave.re - r0[2 * i], o.weave.im - r0[2 * i + 1]);
+            let (dr, dp) = shape_residual(&unextended, o, o.speed_mps, model_weave);
             RideResidual {
                 ride: o.ride.clone(),
                 speed_mps: o.speed_mps,
@@ -420,6 +452,10 @@ pub fn diagnose(
                 im_se,
                 re_z: r0[2 * i] / re_se,
                 im_z: r0[2 * i + 1] / im_se,
+                shape_ratio: dr,
+                shape_ratio_z: dr / o.shape_ratio.se,
+                shape_phase_rad: dp,
+                shape_phase_z: dp / o.shape_phase_rad.se,
             }
         })
         .collect();
@@ -431,16 +467,28 @@ pub fn diagnose(
     }
     if let Some(best) = d.ranking.first() {
         if let Some(r) = campaign.residuals(&best.effects, &best.params, &all) {
+            let bike = effects::linear_bike(&base, &best.effects, &best.params);
+            let clock = effects::clock(&best.effects, &best.params);
             d.residuals_after = d
                 .residuals
                 .iter()
                 .enumerate()
-                .map(|(i, before)| RideResidual {
-                    re: r[2 * i],
-                    im: r[2 * i + 1],
-                    re_z: r[2 * i] / before.re_se,
-                    im_z: r[2 * i + 1] / before.im_se,
-                    ..before.clone()
+                .map(|(i, before)| {
+                    let o = &rides[i];
+                    let weave = Complex::new(o.weave.re - r[2 * i], o.weave.im - r[2 * i + 1]);
+                    let v = effects::true_speed(&best.effects, &best.params, o);
+                    let (dr, dp) = shape_residual(&bike, o, v, weave * clock);
+                    RideResidual {
+                        re: r[2 * i],
+                        im: r[2 * i + 1],
+                        re_z: r[2 * i] / before.re_se,
+                        im_z: r[2 * i + 1] / before.im_se,
+                        shape_ratio: dr,
+                        shape_ratio_z: dr / o.shape_ratio.se,
+                        shape_phase_rad: dp,
+                        shape_phase_z: dp / o.shape_phase_rad.se,
+                        ..before.clone()
+                    }
                 })
                 .collect();
         }
@@ -741,10 +789,15 @@ fn verdict(d: &Diagnosis) -> String {
     };
     let _ = write!(
         v,
-        "{}; {}. ",
+        "{}; {}; {} (in the fit's errors only). ",
         part("Weave frequency", "rad/s", &|r| (r.im, r.im_se, r.im_z)),
         part("weave damping rate (σ)", "1/s", &|r| (
             r.re, r.re_se, r.re_z
+        )),
+        part("mode shape |γ/θ|", "rad/rad", &|r| (
+            r.shape_ratio,
+            r.shape_ratio / r.shape_ratio_z,
+            r.shape_ratio_z
         ))
     );
     let _ = write!(
@@ -832,14 +885,23 @@ impl Diagnosis {
         );
         let _ = writeln!(
             out,
-            "  {:<10} {:>9} {:>18} {:>6} {:>18} {:>6}",
-            "ride", "speed m/s", "Δσ 1/s", "z", "Δω rad/s", "z"
+            "  {:<10} {:>9} {:>18} {:>6} {:>18} {:>6} {:>9} {:>6}",
+            "ride", "speed m/s", "Δσ 1/s", "z", "Δω rad/s", "z", "Δ|γ/θ|", "z"
         );
         for r in &self.residuals {
             let _ = writeln!(
                 out,
-                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1}",
-                r.ride, r.speed_mps, r.re, r.re_se, r.re_z, r.im, r.im_se, r.im_z
+                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1} {:>+9.3} {:>+6.1}",
+                r.ride,
+                r.speed_mps,
+                r.re,
+                r.re_se,
+                r.re_z,
+                r.im,
+                r.im_se,
+                r.im_z,
+                r.shape_ratio,
+                r.shape_ratio_z
             );
         }
         for b in &self.bands {
