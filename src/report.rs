@@ -944,12 +944,18 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
         let _ = write!(
             md,
             "\n## How far\n\nHeld-out RMS normalized residual of the weave eigenvalues: {:.2} with the model as it is, {:.2} with\n\
-             {} ({:.0} % smaller). Fitted to every ride, the residuals before and after:\n\n\
+             {} ({:.0} % smaller). Variance of θ and γ over the rides' windows accounted for by the eigenvalues (the\n\
+             modes' amplitudes fitted, the eigenvalues held; each ride with the effect refitted without it): {} before,\n\
+             {} after. Fitted to every ride, the residuals before and after:\n\n\
              | ride | Δσ before | Δσ after | Δω before | Δω after | Δ\\|γ/θ\\| before | after |\n|---|---|---|---|---|---|---|\n",
             best.heldout_rms_before,
             best.heldout_rms_after,
             best.effect,
-            100.0 * (1.0 - best.heldout_rms_after / best.heldout_rms_before)
+            100.0 * (1.0 - best.heldout_rms_after / best.heldout_rms_before),
+            d.heldout_vaf_before
+                .map_or("—".into(), |v| format!("{:.1} %", 100.0 * v)),
+            d.heldout_vaf_after
+                .map_or("—".into(), |v| format!("{:.1} %", 100.0 * v)),
         );
         for (a, b) in d.residuals.iter().zip(&d.residuals_after) {
             let _ = writeln!(

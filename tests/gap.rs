@@ -160,6 +160,10 @@ fn the_campaign_in_data_is_explained_by_its_own_effects() {
         "held-out gap shrinks by {:.0} %",
         100.0 * shrink
     );
+    // The time series agree: with the effect the eigenvalues account for about as much of θ
+    // and γ as each ride's own free fit does (0.86–0.999).
+    let (before, after) = (d.heldout_vaf_before.unwrap(), d.heldout_vaf_after.unwrap());
+    assert!(after > before && after >= 0.9, "VAF {before} → {after}");
 }
 
 /// A manifest over some of data/'s logs (absolute paths), written to a scratch folder.

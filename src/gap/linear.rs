@@ -244,11 +244,16 @@ impl LinearBike {
         ratio.is_finite().then_some(ratio)
     }
 
+    /// Every eigenvalue of the state matrix at speed `v`.
+    pub fn eigenvalues(&self, v: f64) -> Option<Vec<Complex<f64>>> {
+        crate::model::eigenvalues_dyn(&self.state_matrix(v)?)
+    }
+
     /// The oscillatory eigenvalue (im > 0) nearest `guess` at speed `v`; `None` when there is
     /// none or the eigenvalues cannot be computed.
     pub fn weave_near(&self, v: f64, guess: Complex<f64>) -> Option<Complex<f64>> {
-        let ev = crate::model::eigenvalues_dyn(&self.state_matrix(v)?)?;
-        ev.into_iter()
+        self.eigenvalues(v)?
+            .into_iter()
             .filter(|z| z.im > 1e-9)
             .min_by(|a, b| (a - guess).norm().total_cmp(&(b - guess).norm()))
     }

@@ -47,6 +47,8 @@ pub struct Observation {
     /// The weave's mode shape |γ/θ| and arg(γ/θ) (rad), with the fit's standard errors.
     pub shape_ratio: crate::fit::Estimate,
     pub shape_phase_rad: crate::fit::Estimate,
+    /// The fitted window's time (s), roll and steer (rad), for the time-series check.
+    pub window: Option<[Vec<f64>; 3]>,
 }
 
 impl Observation {
@@ -62,6 +64,14 @@ impl Observation {
             im_se: t.fit.weave.im_se,
             shape_ratio: t.fit.shape.ratio,
             shape_phase_rad: t.fit.shape.phase_rad,
+            window: {
+                let rows: Vec<&[f64; 3]> = t
+                    .trace
+                    .iter()
+                    .filter(|r| r[0] >= t.fit.start_s && r[0] <= t.fit.end_s)
+                    .collect();
+                (rows.len() >= 40).then(|| [0, 1, 2].map(|k| rows.iter().map(|r| r[k]).collect()))
+            },
         }
     }
 }
@@ -148,6 +158,9 @@ pub struct Ranked {
     /// Each held-out ride's z² (its two parts), in the campaign's order.
     #[serde(skip)]
     pub heldout_per_ride: Vec<f64>,
+    /// The parameters fitted without each ride, in the campaign's order.
+    #[serde(skip)]
+    pub heldout_params: Vec<Vec<f64>>,
     /// Every fitted value inside its plausible range.
     pub plausible: bool,
 }
@@ -173,6 +186,11 @@ pub struct Diagnosis {
     pub p_value: f64,
     pub chi2_without_parameter_error: f64,
     pub p_value_without_parameter_error: f64,
+    /// The variance of θ and γ over the rides' windows that the eigenvalues account for (mean
+    /// over rides and the two signals; modes' amplitudes, offsets and trends fitted, eigenvalues
+    /// held): the model as it is, and with the best explanation refitted without each ride.
+    pub heldout_vaf_before: Option<f64>,
+    pub heldout_vaf_after: Option<f64>,
     /// p < 0.01.
     pub significant: bool,
     /// The gap is significant without the parameters' uncertainty but not with it.
@@ -374,6 +392,8 @@ pub fn diagnose(
         p_value: f64::NAN,
         chi2_without_parameter_error: f64::NAN,
         p_value_without_parameter_error: f64::NAN,
+        heldout_vaf_before: None,
+        heldout_vaf_after: None,
         significant: false,
         parameters_could_explain: false,
         ranking: Vec::new(),
@@ -466,6 +486,29 @@ pub fn diagnose(
         d.tied = tied(&d.ranking);
     }
     if let Some(best) = d.ranking.first() {
+        let mean = |v: Vec<Option<f64>>| -> Option<f64> {
+            let v: Option<Vec<f64>> = v.into_iter().collect();
+            v.filter(|v| !v.is_empty())
+                .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        d.heldout_vaf_before = mean(
+            rides
+                .iter()
+                .enumerate()
+                .map(|(i, o)| ride_vaf(&unextended, &[], &[], o, guesses[i]))
+                .collect(),
+        );
+        d.heldout_vaf_after = mean(
+            rides
+                .iter()
+                .enumerate()
+                .map(|(i, o)| {
+                    let params = best.heldout_params.get(i)?;
+                    let bike = effects::linear_bike(&base, &best.effects, params);
+                    ride_vaf(&bike, &best.effects, params, o, guesses[i])
+                })
+                .collect(),
+        );
         if let Some(r) = campaign.residuals(&best.effects, &best.params, &all) {
             let bike = effects::linear_bike(&base, &best.effects, &best.params);
             let clock = effects::clock(&best.effects, &best.params);
@@ -562,11 +605,17 @@ fn speed_bands(res: &[RideResidual]) -> Vec<BandResidual> {
     bands
 }
 
-/// Held-out z² of each ride for a candidate: the ride predicted by the candidate refitted
-/// without it (from the full fit), in the ride's own standard errors.
-fn heldout(campaign: &Campaign<'_>, effects: &[Effect], full_fit: &[f64]) -> Vec<f64> {
+/// Held-out z² of each ride for a candidate, and the parameters refitted without it: the ride
+/// predicted by the candidate refitted without it (from the full fit), in the ride's own
+/// standard errors.
+fn heldout(
+    campaign: &Campaign<'_>,
+    effects: &[Effect],
+    full_fit: &[f64],
+) -> (Vec<f64>, Vec<Vec<f64>>) {
     let n = campaign.obs.len();
     let mut per_ride = Vec::with_capacity(n);
+    let mut fits = Vec::with_capacity(n);
     for i in 0..n {
         let others: Vec<usize> = (0..n).filter(|&j| j != i).collect();
         let params = match campaign.subset(others) {
@@ -584,8 +633,36 @@ fn heldout(campaign: &Campaign<'_>, effects: &[Effect], full_fit: &[f64]) -> Vec
                 .ride_chi2(effects, &params, i)
                 .unwrap_or(f64::INFINITY),
         );
+        fits.push(params);
     }
-    per_ride
+    (per_ride, fits)
+}
+
+/// The VAF of ride `o`'s window by `bike`'s weave and slowest two real modes at the ride's
+/// true speed under `effects` (mean of θ and γ).
+fn ride_vaf(
+    bike: &linear::LinearBike,
+    effects: &[Effect],
+    params: &[f64],
+    o: &Observation,
+    guess: Complex<f64>,
+) -> Option<f64> {
+    let [t, roll, steer] = o.window.as_ref()?;
+    let v = effects::true_speed(effects, params, o);
+    let clock = effects::clock(effects, params);
+    let weave = bike.weave_near(v, guess)? / clock;
+    let mut reals: Vec<f64> = bike
+        .eigenvalues(v)?
+        .into_iter()
+        // Real modes slower than castor's tail; a neutral one (the heading, with tyres) is the
+        // offset already.
+        .filter(|z| z.im.abs() < 1e-6 && z.re > -25.0 && z.re.abs() > 1e-3)
+        .map(|z| z.re / clock)
+        .collect();
+    reals.sort_by(|a, b| b.total_cmp(a));
+    reals.truncate(2);
+    let vaf = crate::ride::modal::vaf_with_modes(t, roll, steer, weave, &reals)?;
+    Some(0.5 * (vaf[0] + vaf[1]))
 }
 
 /// Fits and tests every effect, then pairs of the best ones; sorted by held-out RMS.
@@ -605,7 +682,7 @@ fn rank(
         let full = campaign.subset((0..n).collect())?;
         let f = fit_effects(&full, &effects);
         let se = param_se(&full, &effects, &f);
-        let per_ride = heldout(campaign, &effects, &f.params);
+        let (per_ride, heldout_params) = heldout(campaign, &effects, &f.params);
         let held: f64 = per_ride.iter().sum();
         progress(
             done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
@@ -633,6 +710,7 @@ fn rank(
             heldout_chi2_before: before,
             heldout_chi2_after: held,
             heldout_per_ride: per_ride,
+            heldout_params,
         })
     };
     let singles: Vec<Vec<Effect>> = Effect::ALL.iter().map(|&e| vec![e]).collect();
@@ -864,6 +942,14 @@ fn verdict(d: &Diagnosis) -> String {
         best.heldout_rms_after,
         100.0 * shrink
     );
+    if let (Some(a), Some(b)) = (d.heldout_vaf_before, d.heldout_vaf_after) {
+        let _ = write!(
+            v,
+            " In the time series, the eigenvalues account for {:.1} % of θ's and γ's variance before and {:.1} % after.",
+            100.0 * a,
+            100.0 * b
+        );
+    }
     v
 }
 

@@ -485,6 +485,46 @@ fn fit_drift(constant: &Problem<'_>, params: &[f64]) -> Option<Drift> {
     })
 }
 
+/// The variance accounted for in θ and γ (fractions, 0–1) by modes whose eigenvalues are
+/// given — the weave `weave` (im > 0) and up to two real modes `real_rates` (1/s) — with their
+/// amplitudes, offsets and trends fitted by linear least squares: how much of a ride a model's
+/// eigenvalues explain. `None` with fewer than 40 samples or singular normal equations.
+pub fn vaf_with_modes(
+    t_s: &[f64],
+    roll_rad: &[f64],
+    steer_rad: &[f64],
+    weave: Complex<f64>,
+    real_rates: &[f64],
+) -> Option<[f64; 2]> {
+    let n = t_s.len();
+    if n < 40 || roll_rad.len() != n || steer_rad.len() != n || real_rates.len() > 2 {
+        return None;
+    }
+    let problem = Problem {
+        t: t_s,
+        x: [roll_rad, steer_rad],
+        weight: [1.0, 1.0],
+        t_ref: t_s[0],
+        t0: t_s[0],
+        st: Structure {
+            real_modes: real_rates.len(),
+            drift: false,
+            trend: true,
+        },
+    };
+    let mut nonlinear = vec![weave.re, weave.im.abs()];
+    nonlinear.extend_from_slice(real_rates);
+    let p = problem.project(&nonlinear)?;
+    let rss = problem.rss(&p);
+    let vaf = [0, 1].map(|s| {
+        let x = problem.x[s];
+        let m = x.iter().sum::<f64>() / n as f64;
+        let var: f64 = x.iter().map(|v| (v - m).powi(2)).sum();
+        1.0 - rss[s] / var.max(1e-300)
+    });
+    Some(vaf)
+}
+
 /// A structure fitted from the base eigenvalue: the real modes start from the best of a grid
 /// of rates (by the projected cost), then Levenberg–Marquardt on everything. `None` when it
 /// fails or lands somewhere unphysical (real rates beyond ±60 /s, two equal real modes).
