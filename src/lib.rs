@@ -19,6 +19,7 @@
 //! - [`gap`]: a campaign's eigenvalues and the measured bicycle → where they part, which
 //!   unmodelled effect explains it, how far it shrinks on rides left out.
 //! - [`sim`]: the lab simulated from physics (never calls the estimators).
+//! - [`parallel`]: work spread over threads, results in order.
 //! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
 //! - `plot` (feature `plot`): SVG figures for the reports.
 
@@ -27,6 +28,7 @@ pub mod gap;
 pub mod inertia;
 pub mod log;
 pub mod model;
+pub mod parallel;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod report;

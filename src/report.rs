@@ -912,7 +912,7 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
         "\nχ² = {:.1} for {} degrees of freedom with the parameters' uncertainty (p = {:.2e}); {:.1} without it.\n",
         d.chi2, d.dof, d.p_value, d.chi2_without_parameter_error
     );
-    md.push_str("\n## Which\n\n| rank | effect | parameters | plausible | BIC | held-out RMS before | after |\n|---|---|---|---|---|---|---|\n");
+    md.push_str("\n## Which\n\n| rank | effect | what | parameters | plausible | BIC | held-out RMS before | after |\n|---|---|---|---|---|---|---|---|\n");
     for (k, r) in d.ranking.iter().enumerate() {
         let params: Vec<String> = r
             .params
@@ -923,9 +923,14 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
             .collect();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {:.1} | {:.2} | {:.2} |",
+            "| {} | {} | {} | {} | {} | {:.1} | {:.2} | {:.2} |",
             k + 1,
             r.effect,
+            r.effects
+                .iter()
+                .map(|e| e.describe())
+                .collect::<Vec<_>>()
+                .join("; "),
             params.join(", "),
             if r.plausible { "yes" } else { "no" },
             r.bic,

@@ -58,18 +58,10 @@ fn std_dev(x: &[f64]) -> f64 {
 
 /// Runs `f` on `0..n` on two threads, results in order.
 fn parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let mut out: Vec<Option<T>> = (0..n).map(|_| None).collect();
-    std::thread::scope(|s| {
-        let (a, b) = out.split_at_mut(n / 2);
-        let f = &f;
-        s.spawn(move || a.iter_mut().enumerate().for_each(|(i, o)| *o = Some(f(i))));
-        s.spawn(move || {
-            b.iter_mut()
-                .enumerate()
-                .for_each(|(i, o)| *o = Some(f(n / 2 + i)))
-        });
-    });
-    out.into_iter().map(|o| o.unwrap()).collect()
+    bikeproc::parallel::map_ordered(n, 2, &f, &|_, _| {})
+        .into_iter()
+        .map(|r| r.expect("a worker thread panicked"))
+        .collect()
 }
 
 /// Acceptance 1: the campaign in data/, each ride's weave within 2.5 standard errors of the

@@ -12,10 +12,13 @@
 //!   on the eigenvalues, ranked by leave-one-ride-out prediction (each ride predicted by the
 //!   effect fitted to the others), pairs of the best effects when no single one closes the gap,
 //!   effects the held-out test cannot tell apart reported as tied;
-//! - **how far**: the held-out RMS normalized residual before and after.
+//! - **how far**: the held-out RMS normalized residual before and after, and the variance of
+//!   the rides' θ and γ that the eigenvalues account for.
 //!
-//! The diagnosis uses only linear extensions of the model ([`linear`], [`effects`]); the
-//! simulator's nonlinear effects are separate code.
+//! Speeds the lab noted at the release are corrected for the slowing the campaign's `Sync`
+//! rides measure ([`decay_law`]). The diagnosis uses only linear extensions of the model
+//! ([`linear`], [`effects`]); the simulator's nonlinear effects are separate code, and
+//! `sim::campaign::blind_campaign` makes the campaigns it is checked on blind.
 
 pub mod effects;
 pub mod fit;
@@ -678,7 +681,8 @@ fn rank(
     let rms = |s: f64| (s / (2 * n) as f64).sqrt();
     let total = 2 * Effect::ALL.len() - 1 + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2;
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let evaluate = |effects: Vec<Effect>| -> Option<Ranked> {
+    let evaluate = |effects: &[Effect]| -> Option<Ranked> {
+        let effects = effects.to_vec();
         let full = campaign.subset((0..n).collect())?;
         let f = fit_effects(&full, &effects);
         let se = param_se(&full, &effects, &f);
@@ -714,10 +718,19 @@ fn rank(
         })
     };
     let singles: Vec<Vec<Effect>> = Effect::ALL.iter().map(|&e| vec![e]).collect();
-    let mut ranked: Vec<Ranked> = parallel_map(&singles, options.threads, &evaluate)
+    let over = |list: &[Vec<Effect>]| -> Vec<Ranked> {
+        crate::parallel::map_ordered(
+            list.len(),
+            options.threads,
+            &|i| evaluate(&list[i]),
+            &|_, _| {},
+        )
         .into_iter()
         .flatten()
-        .collect();
+        .flatten()
+        .collect()
+    };
+    let mut ranked = over(&singles);
     sort(&mut ranked);
     if ranked
         .first()
@@ -752,10 +765,7 @@ fn rank(
         }
     }
     let best_single = ranked.first().cloned();
-    for r in parallel_map(&pairs, options.threads, &evaluate)
-        .into_iter()
-        .flatten()
-    {
+    for r in over(&pairs) {
         if let Some(b) = &best_single {
             if b.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2 && r.bic < b.bic {
                 ranked.push(r);
@@ -812,35 +822,6 @@ fn tied(ranked: &[Ranked]) -> Vec<String> {
     } else {
         Vec::new()
     }
-}
-
-/// Runs `f` over `items` on up to `threads` threads, results in order.
-fn parallel_map<T: Sync + Clone, R: Send>(
-    items: &[T],
-    threads: usize,
-    f: &(dyn Fn(T) -> R + Sync),
-) -> Vec<R> {
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let slots: Vec<std::sync::Mutex<Option<R>>> =
-        items.iter().map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..threads.max(1).min(items.len().max(1)) {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                if i >= items.len() {
-                    break;
-                }
-                let r = f(items[i].clone());
-                if let Ok(mut s) = slots[i].lock() {
-                    *s = Some(r);
-                }
-            });
-        }
-    });
-    slots
-        .into_iter()
-        .filter_map(|s| s.into_inner().ok().flatten())
-        .collect()
 }
 
 /// The diagnosis in words.

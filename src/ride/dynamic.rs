@@ -452,38 +452,20 @@ pub fn run_campaign(
     threads: usize,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Vec<Result<DynamicTest, RideError>> {
-    let n = manifest.rides.len();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<std::sync::Mutex<Option<Result<DynamicTest, RideError>>>> =
-        (0..n).map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..threads.clamp(1, n.max(1)) {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                if i >= n {
-                    break;
-                }
-                let ride = &manifest.rides[i];
-                let options = DynamicOptions {
-                    noted_speed_mps: Some(ride.noted_speed_mps),
-                    prefer_sync: true,
-                    modal: *modal,
-                };
-                let r = dynamic_test(&manifest.dir.join(&ride.log), model, &options);
-                if let Ok(mut slot) = results[i].lock() {
-                    *slot = Some(r);
-                }
-                let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                progress(d, n);
-            });
-        }
-    });
-    results
+    let run = |i: usize| {
+        let ride = &manifest.rides[i];
+        let options = DynamicOptions {
+            noted_speed_mps: Some(ride.noted_speed_mps),
+            prefer_sync: true,
+            modal: *modal,
+        };
+        dynamic_test(&manifest.dir.join(&ride.log), model, &options)
+    };
+    crate::parallel::map_ordered(manifest.rides.len(), threads, &run, progress)
         .into_iter()
         .enumerate()
-        .map(|(i, m)| {
-            m.into_inner().ok().flatten().unwrap_or_else(|| {
+        .map(|(i, r)| {
+            r.unwrap_or_else(|| {
                 Err(ride_err(
                     &manifest.rides[i].log,
                     "the analysis thread stopped before this ride",
