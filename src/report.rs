@@ -725,11 +725,7 @@ fn dynamic_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files
     let mut failures = String::new();
     let (mut n_ok, mut agree) = (0usize, 0usize);
     for (entry, r) in manifest.rides.iter().zip(&results) {
-        let name = entry
-            .log
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let name = entry.name();
         let t = match r {
             Ok(t) => t,
             Err(e) => {
@@ -815,11 +811,7 @@ fn dynamic_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files
         );
         for (entry, r) in manifest.rides.iter().zip(&results) {
             let Ok(t) = r else { continue };
-            let name = entry
-                .log
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
+            let name = entry.name();
             let f = &t.fit;
             let steps = ((f.end_s - f.start_s) * 100.0).round() as usize;
             let fitted: Vec<[f64; 3]> = (0..=steps)

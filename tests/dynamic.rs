@@ -74,7 +74,7 @@ fn campaign_weave_within_2_5_se_of_truth() {
     let results = run_campaign(&manifest, &model, &ModalOptions::default(), 2, &|_, _| {});
     let mut inside = 0;
     for (entry, r) in manifest.rides.iter().zip(&results) {
-        let name = entry.log.file_stem().unwrap().to_string_lossy().to_string();
+        let name = entry.name();
         let truth: RideTruth = serde_json::from_str(
             &std::fs::read_to_string(dir.join("truth").join(format!("{name}.json"))).unwrap(),
         )

@@ -68,23 +68,15 @@ impl LinearBike {
         }
     }
 
+    /// The Whipple model's state matrix with the damper's −M⁻¹ D in the steer-rate column.
     fn rigid_state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
         let c = &self.canonical;
+        let mut a = c.state_matrix(v)?;
         let minv = c.m.try_inverse()?;
-        let k = minv * (c.k0 * c.g + c.k2 * (v * v));
-        let mut damping = c.c1 * v;
-        damping[(1, 1)] += self.steer_damping_nms_per_rad;
-        let d = minv * damping;
-        let mut a = DMatrix::zeros(4, 4);
-        a[(0, 2)] = 1.0;
-        a[(1, 3)] = 1.0;
         for r in 0..2 {
-            for col in 0..2 {
-                a[(2 + r, col)] = -k[(r, col)];
-                a[(2 + r, 2 + col)] = -d[(r, col)];
-            }
+            a[(2 + r, 3)] -= minv[(r, 1)] * self.steer_damping_nms_per_rad;
         }
-        Some(a)
+        Some(DMatrix::from_column_slice(4, 4, a.as_slice()))
     }
 
     fn tyre_state_matrix(&self, v: f64, t: &LinearTyres) -> Option<DMatrix<f64>> {

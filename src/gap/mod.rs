@@ -260,11 +260,7 @@ pub fn diagnose_campaign(
     let mut failed = Vec::new();
     let law = decay_law(results.iter().filter_map(|r| r.as_ref().ok()));
     for (entry, r) in manifest.rides.iter().zip(&results) {
-        let name = entry
-            .log
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let name = entry.name();
         match r {
             Ok(t) => {
                 let mut o = Observation::from_test(&name, t);
@@ -585,27 +581,28 @@ fn speed_bands(res: &[RideResidual]) -> Vec<BandResidual> {
             .iter()
             .filter(|r| r.speed_mps.floor() as i64 == k)
             .collect();
-        let mean = |f: &dyn Fn(&RideResidual) -> (f64, f64)| {
-            let (mut sw, mut swx) = (0.0, 0.0);
-            for r in &inside {
-                let (x, se) = f(r);
-                let w = 1.0 / (se * se);
-                sw += w;
-                swx += w * x;
-            }
-            crate::fit::Estimate {
-                value: swx / sw,
-                se: 1.0 / sw.sqrt(),
-            }
-        };
         bands.push(BandResidual {
             speeds_mps: [k as f64, k as f64 + 1.0],
             rides: inside.len(),
-            re: mean(&|r| (r.re, r.re_se)),
-            im: mean(&|r| (r.im, r.im_se)),
+            re: weighted_mean(inside.iter().map(|r| (r.re, r.re_se))),
+            im: weighted_mean(inside.iter().map(|r| (r.im, r.im_se))),
         });
     }
     bands
+}
+
+/// The inverse-variance weighted mean of `(value, se)` pairs, with its standard error.
+fn weighted_mean(xs: impl Iterator<Item = (f64, f64)>) -> crate::fit::Estimate {
+    let (mut sw, mut swx) = (0.0, 0.0);
+    for (x, se) in xs {
+        let w = 1.0 / (se * se);
+        sw += w;
+        swx += w * x;
+    }
+    crate::fit::Estimate {
+        value: swx / sw,
+        se: 1.0 / sw.sqrt(),
+    }
 }
 
 /// Held-out z² of each ride for a candidate, and the parameters refitted without it: the ride
@@ -828,16 +825,12 @@ fn tied(ranked: &[Ranked]) -> Vec<String> {
 fn verdict(d: &Diagnosis) -> String {
     let mut v = String::new();
     let part = |name: &str, unit: &str, sel: &dyn Fn(&RideResidual) -> (f64, f64, f64)| {
-        let (mut sw, mut swx, mut beyond) = (0.0, 0.0, 0);
-        for r in &d.residuals {
-            let (x, se, z) = sel(r);
-            sw += 1.0 / (se * se);
-            swx += x / (se * se);
-            if z.abs() > 2.0 {
-                beyond += 1;
-            }
-        }
-        let (mean, se) = (swx / sw, 1.0 / sw.sqrt());
+        let beyond = d.residuals.iter().filter(|r| sel(r).2.abs() > 2.0).count();
+        let m = weighted_mean(d.residuals.iter().map(|r| {
+            let (x, se, _) = sel(r);
+            (x, se)
+        }));
+        let (mean, se) = (m.value, m.se);
         let dir = if mean < 0.0 { "lower" } else { "higher" };
         format!(
             "{name} {dir} than the model's by {:.3} ± {:.3} {unit} on average ({beyond} of {} rides beyond 2σ)",

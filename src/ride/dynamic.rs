@@ -390,6 +390,16 @@ pub struct RideEntry {
     pub noted_speed_mps: f64,
 }
 
+impl RideEntry {
+    /// The ride's name: its log's file name without the extension (`ride_03`).
+    pub fn name(&self) -> String {
+        self.log
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    }
+}
+
 impl RideManifest {
     /// Reads and checks a campaign manifest: version, at least one ride, positive speeds, the
     /// logs present.
