@@ -74,10 +74,18 @@ struct PeriodArgs {
 struct DynamicArgs {
     /// A ride's angles log (`ride_03.log`), or a campaign manifest (`rides.toml`).
     file: PathBuf,
-    /// The speedometer's reading (m/s); without it the log's `Sync` pulses give the speed.
-    /// Campaigns use the noted speeds of their manifest where a log has no `Sync`.
+    /// The speedometer's reading at the release (m/s), as noted: carried to where the
+    /// eigenvalue applies by the slowing the frame sensor measures. Without it the log's `Sync`
+    /// pulses give the speed, or else the yaw rate against the steer (rolling kinematics).
+    /// Campaigns use the readings of their manifest where a log has no `Sync`.
     #[arg(long)]
     speed: Option<f64>,
+    /// The speedometer's display step (m/s): a reading is uniform within ± half of it.
+    #[arg(long, default_value_t = 0.1)]
+    speed_resolution: f64,
+    /// The speedometer's random error per reading, as a fraction of the reading.
+    #[arg(long, default_value_t = 0.01)]
+    speed_se_fraction: f64,
     /// The bicycle (lab TOML or BicycleParameters file); campaigns default to their manifest's.
     #[arg(long)]
     bike: Option<PathBuf>,
@@ -186,12 +194,16 @@ enum SimCommand {
         #[arg(long, default_value = "fixtures/rides")]
         out: PathBuf,
     },
-    /// A blind campaign for `bikeproc gap`: 12 rides on the measured bicycle with one effect
-    /// withheld, its truth sealed in OUT/truth.json.
+    /// A blind campaign for `bikeproc gap`: 12 or 14 rides on the measured bicycle with one
+    /// effect withheld, its truth sealed in OUT/truth.json.
     Blind {
         /// The effect to withhold.
         #[arg(long, value_parser = withheld_effects())]
         effect: String,
+        /// `sync`: 12 rides, the reed switch on every other; `noted`: 14 coasting rides, the
+        /// speedometer's reading at the release rounded to 0.1 m/s, no reed switch.
+        #[arg(long, default_value = "sync", value_parser = ["sync", "noted"])]
+        design: String,
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// The measured bicycle (copied beside the rides as bike.toml).
@@ -577,7 +589,11 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from("data/lab_bike.toml"));
     let model = uncertain::load(&bike)?;
     let options = DynamicOptions {
-        noted_speed_mps: a.speed,
+        noted: a.speed.map(|v| bikeproc::ride::speed::NotedReading {
+            speed_mps: v,
+            resolution_mps: a.speed_resolution,
+            se_fraction: a.speed_se_fraction,
+        }),
         prefer_sync: false,
         modal,
     };
@@ -608,14 +624,21 @@ fn simulate(s: SimCommand) -> Result<()> {
         }
         SimCommand::Blind {
             effect,
+            design,
             seed,
             bike,
             out,
         } => {
             let withheld = sim::campaign::Withheld::from_label(&effect)
                 .ok_or_else(|| anyhow::anyhow!("unknown effect `{effect}`"))?;
+            let design = if design == "noted" {
+                sim::campaign::BlindDesign::Noted
+            } else {
+                sim::campaign::BlindDesign::Sync
+            };
             let lab = inertia::bike::LabBike::load(&bike)?;
-            let (mut files, _) = sim::campaign::blind_campaign(&lab, "bike.toml", withheld, seed)?;
+            let (mut files, _) =
+                sim::campaign::blind_campaign(&lab, "bike.toml", withheld, design, seed)?;
             let text = std::fs::read_to_string(&bike)
                 .with_context(|| format!("reading {}", bike.display()))?;
             files.push(("bike.toml".into(), text));

@@ -710,10 +710,11 @@ fn dynamic_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files
          0.8 s after the kick to the catch (or 0.2 rad of roll, or 2.5 s, or two weave cycles), θ and γ fitted\n\
          jointly with the weave σ ± iω, 0–2 real modes, offsets and trends (chosen by BIC). The eigenvalue\n\
          applies at the window's amplitude-weighted time, where the speed is read (`Sync` column when the log\n\
-         has one; otherwise the lab's noted speedometer reading at release, whose error is not known and which\n\
-         does not see the bicycle slowing down before the window). Its standard error joins the noise's (the\n\
-         fit's covariance, checked by a block bootstrap) and the drift's (the coasting bicycle slows down: the\n\
-         difference a fitted linear drift of the eigenvalue makes). The model's error comes from the measured\n\
+         has one; otherwise the lab's noted speedometer reading at release, with its 0.1 m/s step and 1 % error,\n\
+         carried to that time by the slowing the frame sensor's forward acceleration measures; the speed from the\n\
+         rolling kinematics is the check). Its standard error joins the noise's (the fit's covariance, checked by\n\
+         a block bootstrap), the drift's (the coasting bicycle slows down: the difference a fitted linear drift of\n\
+         the eigenvalue makes) and the coasting correction's (the mode shape changing with the speed). The model's error comes from the measured\n\
          parameters' uncertainties and the speed's; z = (experiment − model) / combined standard error.\n\n\
          | ride | speed (m/s) | from | σ (1/s) | ω (rad/s) | of which drift (σ, ω) | model σ | model ω | z σ | z ω | \\|γ/θ\\| ride / model | VAF θ, γ |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|\n",
@@ -741,6 +742,7 @@ fn dynamic_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files
         let from = match sp.source {
             SpeedSource::Sync => "Sync",
             SpeedSource::Noted => "noted",
+            SpeedSource::Kinematic => "kinematic",
         };
         let _ = writeln!(
             md,

@@ -195,7 +195,7 @@ fn unusable_rides_are_named() {
     }
     let model = uncertain::load(&root().join("data/lab_bike.toml")).unwrap();
     let options = DynamicOptions {
-        noted_speed_mps: Some(4.5),
+        noted: Some(bikeproc::ride::speed::NotedReading::lab(4.5)),
         ..DynamicOptions::default()
     };
     for (file, expect) in [

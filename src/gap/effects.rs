@@ -293,7 +293,7 @@ pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 
             }
         }
     }
-    if obs.speed_source == SpeedSource::Sync {
+    if matches!(obs.speed_source, SpeedSource::Sync | SpeedSource::Kinematic) {
         v *= clock(effects, params);
     }
     v

@@ -15,8 +15,9 @@
 //! - **how far**: the held-out RMS normalized residual before and after, and the variance of
 //!   the rides' θ and γ that the eigenvalues account for.
 //!
-//! Speeds the lab noted at the release are corrected for the slowing the campaign's `Sync`
-//! rides measure ([`decay_law`]). The diagnosis uses only linear extensions of the model
+//! Speeds the lab noted at the release come carried to the eigenvalue's time by the slowing each
+//! ride's frame sensor measures, with the reading's resolution and error in their standard
+//! error ([`crate::ride::speed`]). The diagnosis uses only linear extensions of the model
 //! ([`linear`], [`effects`]); the simulator's nonlinear effects are separate code, and
 //! `sim::campaign::blind_campaign` makes the campaigns it is checked on blind.
 
@@ -36,11 +37,12 @@ use std::fmt::Write as _;
 #[derive(Debug, Clone)]
 pub struct Observation {
     pub ride: String,
-    /// The speed where the eigenvalue applies (m/s): the `Sync` speed, or the noted reading
-    /// plus `speed_correction_mps`.
+    /// The speed where the eigenvalue applies (m/s): the `Sync` speed, the noted reading plus
+    /// `speed_correction_mps`, or the kinematic speed.
     pub speed_mps: f64,
     /// For a noted reading: the slowing from the release to where the eigenvalue applies
-    /// (m/s, negative), from the campaign's `Sync` rides ([`decay_law`]); 0 otherwise.
+    /// (m/s, negative), measured by the ride's frame sensor
+    /// ([`crate::ride::speed::slowing`]); 0 otherwise.
     pub speed_correction_mps: f64,
     pub speed_se_mps: f64,
     pub speed_source: SpeedSource,
@@ -59,7 +61,10 @@ impl Observation {
         Observation {
             ride: ride.to_string(),
             speed_mps: t.speed.speed_mps,
-            speed_correction_mps: 0.0,
+            speed_correction_mps: match (t.speed.source, &t.speed.sources.noted) {
+                (SpeedSource::Noted, Some(n)) => n.slowing.delta_mps,
+                _ => 0.0,
+            },
             speed_se_mps: t.speed.speed_se_mps,
             speed_source: t.speed.source,
             weave: Complex::new(t.fit.weave.re, t.fit.weave.im),
@@ -203,8 +208,18 @@ pub struct Diagnosis {
     /// Candidates the held-out test cannot tell from the best (the best included), when more
     /// than one.
     pub tied: Vec<String>,
+    /// The best candidate explains the gap: its held-out RMS normalized residual is at most
+    /// [`EXPLAINED_HELDOUT_RMS`] and smaller than without it, and its fit to every ride passes
+    /// the χ² test at [`SIGNIFICANCE`]. `false` when the gap is not significant.
+    pub explained: bool,
+    /// The best candidate's goodness of fit: p of its χ² on 2N − k degrees of freedom.
+    pub best_fit_p_value: f64,
     pub verdict: String,
 }
+
+/// A candidate that leaves the rides left out further than this from its prediction (RMS, in
+/// their standard errors; ≈ 1 when the explanation is right) does not explain the gap.
+pub const EXPLAINED_HELDOUT_RMS: f64 = 2.0;
 
 /// The significance level of the campaign's test.
 pub const SIGNIFICANCE: f64 = 0.01;
@@ -258,27 +273,10 @@ pub fn diagnose_campaign(
     );
     let mut rides = Vec::new();
     let mut failed = Vec::new();
-    let law = decay_law(results.iter().filter_map(|r| r.as_ref().ok()));
     for (entry, r) in manifest.rides.iter().zip(&results) {
         let name = entry.name();
         match r {
-            Ok(t) => {
-                let mut o = Observation::from_test(&name, t);
-                if let (SpeedSource::Noted, Some(release), Some(law)) =
-                    (t.speed.source, t.release_s, &law)
-                {
-                    // Corrected when the campaign's slowing is measured (beyond 2 standard
-                    // errors at this speed); a decay the Sync rides cannot see is left out.
-                    let dt = (t.fit.t_ref_s - release).max(0.0);
-                    let (a, a_se) = law.at(o.speed_mps);
-                    if a.abs() > 2.0 * a_se {
-                        o.speed_correction_mps = a * dt;
-                        o.speed_mps += a * dt;
-                        o.speed_se_mps = a_se * dt;
-                    }
-                }
-                rides.push(o);
-            }
+            Ok(t) => rides.push(Observation::from_test(&name, t)),
             Err(e) => failed.push(format!("{name}: {e}")),
         }
     }
@@ -289,83 +287,6 @@ pub fn diagnose_campaign(
         &GapOptions { threads },
         &|done, total| progress("candidates", done, total),
     )
-}
-
-/// The campaign's slowing against speed, `a(v) = c₀ + c₂ v²` (rolling resistance and air drag,
-/// and whatever the kick and the weave exchange with the forward motion), fitted to the `Sync`
-/// rides' mean rate of change from the release to the window's end: the lab notes the
-/// speedometer at the release, the eigenvalue applies seconds later.
-#[derive(Debug, Clone, Copy)]
-pub struct DecayLaw {
-    pub c0_mps2: f64,
-    pub c2_per_m: f64,
-    /// Covariance of (c₀, c₂): the rides' scatter about the law through the fit.
-    pub cov: [[f64; 2]; 2],
-}
-
-impl DecayLaw {
-    /// a(v) and its standard error.
-    pub fn at(&self, v: f64) -> (f64, f64) {
-        let x = [1.0, v * v];
-        let var: f64 = (0..2)
-            .map(|i| (0..2).map(|j| x[i] * self.cov[i][j] * x[j]).sum::<f64>())
-            .sum();
-        (self.c0_mps2 + self.c2_per_m * v * v, var.max(0.0).sqrt())
-    }
-}
-
-/// The decay law of the rides with a measured deceleration: `c₀ + c₂ v²` from three or more,
-/// a constant from one or two, `None` from none.
-pub fn decay_law<'a>(tests: impl Iterator<Item = &'a DynamicTest>) -> Option<DecayLaw> {
-    let pts: Vec<(f64, f64)> = tests
-        .filter_map(|t| Some((t.speed.speed_mps, t.speed.accel_since_release_mps2?)))
-        .collect();
-    let n = pts.len();
-    if n == 0 {
-        return None;
-    }
-    let mean = pts.iter().map(|p| p.1).sum::<f64>() / n as f64;
-    if n < 3 {
-        // One ride says nothing of its own scatter: its value's size stands in.
-        let sd = if n == 2 {
-            (pts[0].1 - pts[1].1).abs() / std::f64::consts::SQRT_2
-        } else {
-            mean.abs()
-        };
-        return Some(DecayLaw {
-            c0_mps2: mean,
-            c2_per_m: 0.0,
-            cov: [[sd * sd / n as f64, 0.0], [0.0, 0.0]],
-        });
-    }
-    let (mut s11, mut s12, mut s22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for &(v, a) in &pts {
-        let x = v * v;
-        s11 += 1.0;
-        s12 += x;
-        s22 += x * x;
-        b1 += a;
-        b2 += a * x;
-    }
-    let det = s11 * s22 - s12 * s12;
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let c0 = (s22 * b1 - s12 * b2) / det;
-    let c2 = (s11 * b2 - s12 * b1) / det;
-    let rss: f64 = pts
-        .iter()
-        .map(|&(v, a)| (a - c0 - c2 * v * v).powi(2))
-        .sum();
-    let s2 = rss / (n - 2) as f64;
-    Some(DecayLaw {
-        c0_mps2: c0,
-        c2_per_m: c2,
-        cov: [
-            [s2 * s22 / det, -s2 * s12 / det],
-            [-s2 * s12 / det, s2 * s11 / det],
-        ],
-    })
 }
 
 /// Diagnoses a campaign: `rides` are the rides that gave an eigenvalue, `failed` the names and
@@ -397,6 +318,8 @@ pub fn diagnose(
         parameters_could_explain: false,
         ranking: Vec::new(),
         tied: Vec::new(),
+        explained: false,
+        best_fit_p_value: f64::NAN,
         verdict: String::new(),
     };
     if let Some(reason) = insufficiency(rides, failed) {
@@ -485,6 +408,12 @@ pub fn diagnose(
         d.tied = tied(&d.ranking);
     }
     if let Some(best) = d.ranking.first() {
+        let k = best.params.len();
+        d.best_fit_p_value = stats::chi2_sf(best.chi2, (2 * n).saturating_sub(k).max(1));
+        d.explained = d.significant
+            && best.heldout_rms_after <= EXPLAINED_HELDOUT_RMS
+            && best.heldout_rms_after < best.heldout_rms_before
+            && d.best_fit_p_value >= SIGNIFICANCE;
         let mean = |v: Vec<Option<f64>>| -> Option<f64> {
             let v: Option<Vec<f64>> = v.into_iter().collect();
             v.filter(|v| !v.is_empty())
@@ -822,6 +751,47 @@ fn tied(ranked: &[Ranked]) -> Vec<String> {
 }
 
 /// The diagnosis in words.
+/// Where the residual the closest candidate leaves lies: the speed band, the part of the
+/// eigenvalue (σ or ω) and the mode shape with the largest mean normalized residual.
+fn where_left(d: &Diagnosis) -> String {
+    let res = if d.residuals_after.is_empty() {
+        &d.residuals
+    } else {
+        &d.residuals_after
+    };
+    let rms = |f: &dyn Fn(&RideResidual) -> f64| -> f64 {
+        let v: Vec<f64> = res.iter().map(f).filter(|x| x.is_finite()).collect();
+        (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+    };
+    let parts = [
+        ("the damping rate σ", rms(&|r| r.re_z)),
+        ("the frequency ω", rms(&|r| r.im_z)),
+        ("the mode shape's |γ/θ|", rms(&|r| r.shape_ratio_z)),
+        ("the mode shape's phase", rms(&|r| r.shape_phase_z)),
+    ];
+    let (worst_part, worst_rms) = parts
+        .iter()
+        .copied()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or(("", f64::NAN));
+    let worst_ride = res
+        .iter()
+        .max_by(|a, b| (a.re_z.hypot(a.im_z)).total_cmp(&b.re_z.hypot(b.im_z)));
+    let mut out = format!(
+        "What is left lies most in {worst_part} (RMS {worst_rms:.1} standard errors; σ {:.1}, ω {:.1}, |γ/θ| {:.1}, phase {:.1})",
+        parts[0].1, parts[1].1, parts[2].1, parts[3].1
+    );
+    if let Some(r) = worst_ride {
+        let _ = write!(
+            out,
+            "; the ride furthest from it is {} at {:.2} m/s ({:+.1}, {:+.1} standard errors in σ, ω)",
+            r.ride, r.speed_mps, r.re_z, r.im_z
+        );
+    }
+    out.push('.');
+    out
+}
+
 fn verdict(d: &Diagnosis) -> String {
     let mut v = String::new();
     let part = |name: &str, unit: &str, sel: &dyn Fn(&RideResidual) -> (f64, f64, f64)| {
@@ -893,6 +863,20 @@ fn verdict(d: &Diagnosis) -> String {
         })
         .collect();
     let shrink = 1.0 - best.heldout_rms_after / best.heldout_rms_before;
+    if !d.explained {
+        let _ = write!(
+            v,
+            "No candidate of the library explains it: the closest, {} ({}), leaves the rides left out at an RMS of {:.2} standard errors (from {:.2}; an explanation brings it to about 1, at most {EXPLAINED_HELDOUT_RMS}), and its fit to every ride gives χ² = {:.1} (p = {}). ",
+            best.effect,
+            params.join(", "),
+            best.heldout_rms_after,
+            best.heldout_rms_before,
+            best.chi2,
+            stats::format_p(d.best_fit_p_value)
+        );
+        v.push_str(&where_left(d));
+        return v;
+    }
     if d.tied.len() > 1 {
         let _ = write!(
             v,

@@ -10,7 +10,9 @@
 //! a sensor that did not move, the two sensors swapped.
 
 use super::modal::{fit_modes, Eigenvalue, ModalError, ModalFit, ModalOptions};
-use super::read::{read_ride, sync_speed, RideError, RideSignals};
+use super::read::{read_ride, RideError, RideSignals};
+pub use super::speed::SpeedSource;
+use super::speed::{Geometry, NotedReading, SpeedSources};
 use crate::inertia::manifest::{from_toml, ManifestError};
 use crate::model::uncertain::Parametrized;
 use crate::model::Canonical;
@@ -33,35 +35,26 @@ const MIN_WINDOW_S: f64 = 1.0;
 /// … and this many weave cycles.
 const MIN_CYCLES: f64 = 1.5;
 
-/// Where the ride's speed comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SpeedSource {
-    /// The speedometer's reading as noted by the lab (one number; its error is not known).
-    Noted,
-    /// The reed switch's pulses, a line through them over the window.
-    Sync,
-}
-
-/// The speed at which the eigenvalue applies (at the fit's amplitude-weighted time).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+/// The speed at which the eigenvalue applies (at the fit's amplitude-weighted time), from the
+/// best source the ride offers, and every source beside it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Speed {
     pub speed_mps: f64,
-    /// Standard error (m/s): the line fit's for `Sync`; 0 for a noted reading (unknown).
+    /// Standard error (m/s) of the chosen source.
     pub speed_se_mps: f64,
     pub source: SpeedSource,
-    /// The speed's rate of change over the window (m/s², `Sync` only).
-    pub accel_mps2: Option<f64>,
-    /// The speed's mean rate of change from the release to the window's end (m/s², `Sync`
-    /// only, when the release is found): what a speed noted at the release misses.
-    pub accel_since_release_mps2: Option<f64>,
+    /// Every source, and their disagreements beyond 3 combined standard errors.
+    pub sources: SpeedSources,
+    /// The mean forward acceleration over the window (m/s², the frame sensor's).
+    pub accel_mps2: f64,
 }
 
 /// Options of [`dynamic_test`].
 #[derive(Debug, Clone, Default)]
 pub struct DynamicOptions {
-    /// The speedometer's reading (m/s); without it the `Sync` column is used.
-    pub noted_speed_mps: Option<f64>,
+    /// The speedometer's reading at the release, with its resolution and error; without it
+    /// the `Sync` column is used, or else the kinematic speed.
+    pub noted: Option<NotedReading>,
     /// Use the `Sync` column when the log has it, the noted reading otherwise (campaigns).
     pub prefer_sync: bool,
     pub modal: ModalOptions,
@@ -92,7 +85,9 @@ pub struct DynamicTest {
     pub catch_s: f64,
     /// The end of the push (s), when found.
     pub release_s: Option<f64>,
+    /// The fit's weave, corrected by [`coasting_bias`] (subtracted; 1/s, `[re, im]`).
     pub fit: ModalFit,
+    pub coasting_bias: [f64; 2],
     pub model: ModelWeave,
     /// θ and γ from half a second before the kick to half a second after the window (for
     /// plots): time (s), roll (rad), steer (rad).
@@ -116,35 +111,73 @@ pub fn dynamic_test(
     let signals = read_ride(path, nominal.lambda, 1.5)?;
     let fit = fit_window(path, &signals, &options.modal)?;
     check_sensor_roles(path, &signals, &fit)?;
-    let sync = (options.prefer_sync || options.noted_speed_mps.is_none())
-        .then(|| sync_speed(&signals.log, fit.start_s, fit.end_s, fit.t_ref_s))
-        .flatten();
-    let speed = match (sync, options.noted_speed_mps) {
-        (Some(s), _) => Speed {
-            speed_mps: s.speed_mps,
-            speed_se_mps: s.speed_se_mps,
-            source: SpeedSource::Sync,
-            accel_mps2: Some(s.accel_mps2),
-            accel_since_release_mps2: signals
-                .release_s
-                .and_then(|r| sync_speed(&signals.log, r, fit.end_s, fit.t_ref_s))
-                .map(|s| s.accel_mps2),
-        },
-        (None, Some(v)) => Speed {
-            speed_mps: v,
-            speed_se_mps: 0.0,
-            source: SpeedSource::Noted,
-            accel_mps2: None,
-            accel_since_release_mps2: None,
-        },
-        (None, None) => {
-            return Err(ride_err(
-                path,
-                "no speed: the log has no `Sync` pulses (or no `Wheel circumference` in its \
-                 header) over the free motion; give the speedometer's reading with --speed",
-            ))
-        }
+    let geometry = Geometry {
+        wheelbase_m: nominal.w,
+        trail_m: nominal.c,
+        steer_axis_tilt_rad: nominal.lambda,
     };
+    let sources = SpeedSources::collect(&signals, &fit, options.noted, geometry);
+    let Some((source, best)) = sources.best(options.prefer_sync) else {
+        return Err(ride_err(
+            path,
+            "no speed: the log has no `Sync` pulses (or no `Wheel circumference` in its \
+             header) over the free motion, and the steer and yaw rate give none; give the \
+             speedometer's reading at the release with --speed",
+        ));
+    };
+    let accel = sources.noted.map_or_else(
+        || super::speed::slowing(&signals, &fit, fit.t_ref_s).map_or(0.0, |x| x.window_accel_mps2),
+        |n| n.slowing.window_accel_mps2,
+    );
+    let speed = Speed {
+        speed_mps: best.speed_mps,
+        speed_se_mps: best.se_mps,
+        source,
+        sources,
+        accel_mps2: accel,
+    };
+    let mut fit = fit;
+    let canonical = Canonical::from_benchmark(&nominal);
+    let coasting_bias = coasting_bias(
+        &canonical,
+        &fit,
+        signals.sample_rate_hz,
+        speed.speed_mps,
+        accel,
+    )
+    .map_or([0.0, 0.0], |b| b.map(|x| COASTING_BIAS_APPLIED * x));
+    if fit.drift.is_none() {
+        // The drift's fit failed: its error is taken from the model's slope dλ/dv times the
+        // speed's change over half the window (what a constant fit can be off by at most).
+        let (h, v) = (0.05, speed.speed_mps);
+        let near = |v: f64| -> Option<Complex<f64>> {
+            let m = Complex::new(fit.weave.re, fit.weave.im);
+            canonical
+                .eigenvalues(v)?
+                .into_iter()
+                .filter(|z| z.im > 0.0)
+                .min_by(|a, b| (a - m).norm().total_cmp(&(b - m).norm()))
+        };
+        if let (Some(a), Some(b)) = (near(v + h), near(v - h)) {
+            let change = (a - b) / (2.0 * h) * (accel * 0.5 * (fit.end_s - fit.start_s));
+            let w = &mut fit.weave;
+            w.re_se_drift = change.re.abs();
+            w.im_se_drift = change.im.abs();
+            w.re_se = w.re_se.hypot(w.re_se_drift);
+            w.im_se = w.im_se.hypot(w.im_se_drift);
+        }
+    }
+    fit.weave.re -= coasting_bias[0];
+    fit.weave.im -= coasting_bias[1];
+    // The correction's own error (see COASTING_BIAS_APPLIED).
+    fit.weave.re_se = fit
+        .weave
+        .re_se
+        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[0]);
+    fit.weave.im_se = fit
+        .weave
+        .im_se
+        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[1]);
     let model = model_weave(path, model, &speed, &fit.weave)?;
     let rate = signals.sample_rate_hz;
     let (from, to) = (signals.kick_s - 0.5, fit.end_s + 0.5);
@@ -163,6 +196,7 @@ pub fn dynamic_test(
         release_s: signals.release_s,
         catch_s: signals.catch_s,
         fit,
+        coasting_bias,
         model,
         trace,
     })
@@ -274,6 +308,83 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     Ok(fit)
 }
 
+/// How much of [`coasting_bias`] is taken off the fitted eigenvalue, and (the same) the
+/// standard error left for it. The measured bicycle's rigid-wheeled model gives the bias; on
+/// simulated coasting rides the true bias was that (knife-edge wheels) or of the opposite sign
+/// (compliant tyres, steer damping: their mode shape changes differently with speed): ω's
+/// mean normalized error was +0.92 uncorrected and −0.38 corrected on the first, −0.05 and
+/// −1.10 on the second. Half is taken off; its error is 0.6 of that (0.3 of the bias, about
+/// a uniform spread over [0, bias]: 0.29).
+const COASTING_BIAS_APPLIED: f64 = 0.5;
+const COASTING_BIAS_SE_FRACTION: f64 = 0.6;
+
+/// What a coasting bicycle's changing speed does to the fitted eigenvalue, beyond the drift
+/// the fit reads at `t_ref`: the mode shape changes with the speed, and the slow (adiabatic)
+/// change of the mode's amplitude in θ and in γ, `ċ/c = −wᵀ(∂v/∂t)/(wᵀv)` (w, v the left and
+/// right eigenvectors), reads as a shift of σ and ω that the frozen eigenvalue does not have.
+/// Measured on the model: the linear bicycle `ẋ = A(v(t)) x` (Meijaard et al. 2007, eq. 59 of
+/// the seed, the speed `v(t) = v_ref + a (t − t_ref)`), started on its weave, integrated (RK4)
+/// over the fit's window and fitted by the same modal fit; the fitted eigenvalue less the
+/// frozen one at the speed where that fit applies is the bias (1/s, `[re, im]`). `None` when the
+/// model has no weave there or the fit fails.
+pub fn coasting_bias(
+    model: &Canonical,
+    fit: &ModalFit,
+    rate_hz: f64,
+    speed_mps: f64,
+    accel_mps2: f64,
+) -> Option<[f64; 2]> {
+    let speed_at = |t: f64| speed_mps + accel_mps2 * (t - fit.t_ref_s);
+    let measured = Complex::new(fit.weave.re, fit.weave.im);
+    let weave_at = |v: f64| -> Option<Complex<f64>> {
+        model
+            .eigenvalues(v)?
+            .into_iter()
+            .filter(|z| z.im > 0.0)
+            .min_by(|a, b| (a - measured).norm().total_cmp(&(b - measured).norm()))
+    };
+    let v0 = speed_at(fit.start_s);
+    let shape = model.mode_shape(v0, weave_at(v0)?)?;
+    let mut x = nalgebra::Vector4::from_fn(|i, _| shape[i].re);
+    let f = |t: f64, x: &nalgebra::Vector4<f64>| -> Option<nalgebra::Vector4<f64>> {
+        Some(model.state_matrix(speed_at(t))? * x)
+    };
+    let sub = 4;
+    let h = 1.0 / (rate_hz * sub as f64);
+    let n = ((fit.end_s - fit.start_s) * rate_hz).floor() as usize + 1;
+    let (mut ts, mut roll, mut steer) = (Vec::new(), Vec::new(), Vec::new());
+    // A whisper of noise keeps the fit's noise levels and information criterion finite.
+    let mut rng = crate::sim::rng::Rng::new(17);
+    let mut t = fit.start_s;
+    for k in 0..n {
+        if k > 0 {
+            for _ in 0..sub {
+                let k1 = f(t, &x)?;
+                let k2 = f(t + 0.5 * h, &(x + k1 * (0.5 * h)))?;
+                let k3 = f(t + 0.5 * h, &(x + k2 * (0.5 * h)))?;
+                let k4 = f(t + h, &(x + k3 * h))?;
+                x += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+                t += h;
+            }
+        }
+        ts.push(fit.start_s + k as f64 / rate_hz);
+        roll.push(x[0] + 1e-7 * rng.normal());
+        steer.push(x[1] + 1e-7 * rng.normal());
+    }
+    let sim = fit_modes(
+        &ts,
+        &roll,
+        &steer,
+        &ModalOptions {
+            resamples: 0,
+            seed: 1,
+        },
+    )
+    .ok()?;
+    let frozen = weave_at(speed_at(sim.t_ref_s))?;
+    Some([sim.weave.re - frozen.re, sim.weave.im - frozen.im])
+}
+
 /// Which sensor is where, from kinematics alone: rolling without (much) slip, the frame turns
 /// at ψ̇ = (v γ + c γ̇) cos λ / w, so its heading rate follows γ with a small γ̇ part
 /// (c/w ≈ 0.05); the handlebar turns at that plus γ̇ cos λ. Regressing the "frame" sensor's
@@ -361,11 +472,14 @@ fn model_weave(
 }
 
 /// A campaign of rides (`rides.toml`, version 1): the bicycle and each ride's log with the
-/// speed the lab noted.
+/// speedometer's reading the lab noted at the release; optionally the speedometer's display
+/// step and its error per reading (defaults: 0.1 m/s and 1 %, [`NotedReading::lab`]).
 ///
 /// ```toml
 /// version = 1
 /// bike = "lab_bike.toml"
+/// speedometer_resolution_mps = 0.1
+/// speedometer_se_fraction = 0.01
 ///
 /// [[ride]]
 /// log = "ride_01.log"
@@ -376,10 +490,24 @@ fn model_weave(
 pub struct RideManifest {
     pub version: u32,
     pub bike: PathBuf,
+    /// The speedometer's display step (m/s).
+    #[serde(default = "default_resolution")]
+    pub speedometer_resolution_mps: f64,
+    /// The speedometer's random error per reading, as a fraction of it.
+    #[serde(default = "default_se_fraction")]
+    pub speedometer_se_fraction: f64,
     #[serde(rename = "ride")]
     pub rides: Vec<RideEntry>,
     #[serde(skip)]
     pub dir: PathBuf,
+}
+
+fn default_resolution() -> f64 {
+    NotedReading::lab(0.0).resolution_mps
+}
+
+fn default_se_fraction() -> f64 {
+    NotedReading::lab(0.0).se_fraction
 }
 
 /// One ride of a campaign.
@@ -426,6 +554,22 @@ impl RideManifest {
                 format!("version {} (bikeproc reads version 1)", m.version),
             ));
         }
+        for (key, x, range) in [
+            (
+                "speedometer_resolution_mps",
+                m.speedometer_resolution_mps,
+                0.0..=2.0,
+            ),
+            (
+                "speedometer_se_fraction",
+                m.speedometer_se_fraction,
+                0.0..=0.5,
+            ),
+        ] {
+            if !range.contains(&x) {
+                return Err(err(key, format!("{key} = {x} is outside {:?}", range)));
+            }
+        }
         if m.rides.is_empty() {
             return Err(err("", "no [[ride]] in the manifest".into()));
         }
@@ -465,7 +609,11 @@ pub fn run_campaign(
     let run = |i: usize| {
         let ride = &manifest.rides[i];
         let options = DynamicOptions {
-            noted_speed_mps: Some(ride.noted_speed_mps),
+            noted: Some(NotedReading {
+                speed_mps: ride.noted_speed_mps,
+                resolution_mps: manifest.speedometer_resolution_mps,
+                se_fraction: manifest.speedometer_se_fraction,
+            }),
             prefer_sync: true,
             modal: *modal,
         };
@@ -492,6 +640,8 @@ pub struct Summary {
     pub speed_mps: f64,
     pub speed_se_mps: f64,
     pub speed_source: SpeedSource,
+    /// Every source of the speed, and where they disagree.
+    pub speed_sources: SpeedSources,
     /// Where the eigenvalue applies (s, in the log): the window's amplitude-weighted time
     /// (see [`super::modal`]).
     pub applies_at_s: f64,
@@ -525,6 +675,7 @@ impl DynamicTest {
             speed_mps: self.speed.speed_mps,
             speed_se_mps: self.speed.speed_se_mps,
             speed_source: self.speed.source,
+            speed_sources: self.speed.sources.clone(),
             applies_at_s: f.t_ref_s,
             kick_s: self.kick_s,
             window_s: [f.start_s, f.end_s],
@@ -549,13 +700,15 @@ impl Summary {
         let m = &self.model_weave;
         let mut out = format!("{}\n", self.file);
         let source = match self.speed_source {
-            SpeedSource::Noted => "noted (speedometer), error unknown".to_string(),
-            SpeedSource::Sync => format!("reed switch, ± {:.3} m/s", self.speed_se_mps),
+            SpeedSource::Noted => "the noted reading carried to it",
+            SpeedSource::Sync => "the reed switch",
+            SpeedSource::Kinematic => "the yaw rate against the steer",
         };
         out += &format!(
-            "  speed            {:.3} m/s ({source}), at t = {:.2} s\n",
-            self.speed_mps, self.applies_at_s
+            "  speed            {:.3} ± {:.3} m/s at t = {:.2} s, from {source}\n",
+            self.speed_mps, self.speed_se_mps, self.applies_at_s
         );
+        out += &self.speed_sources.to_text();
         out += &format!(
             "  window           {:.2} – {:.2} s (the kick at {:.2} s)\n",
             self.window_s[0], self.window_s[1], self.kick_s

@@ -4,11 +4,14 @@
 //! - [`read`]: the log pair → roll θ and steer γ on the 100 Hz grid, the kick and the catch,
 //!   the speed from the reed switch.
 //! - [`dynamic`]: one ride or a campaign: window, speed, fit, the model beside it.
+//! - [`speed`]: the speed where the eigenvalue applies, from the noted reading carried by
+//!   the measured slowing, the reed switch, and the rolling kinematics, compared.
 //! - [`modal`]: θ and γ over the free motion → the modes they share (weave σ ± iω, real
 //!   modes), standard errors, mode shape.
 
 pub mod dynamic;
 pub mod modal;
 pub mod read;
+pub mod speed;
 
 pub use read::*;

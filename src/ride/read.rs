@@ -43,6 +43,19 @@ pub struct RideSignals {
     pub frame_mounting: UnitQuaternion<f64>,
     /// The angles file as read (its `Sync` column gives the speed).
     pub log: Log,
+    /// Grid index of each sample of the `_cal` file (the rows of the two series below).
+    pub imu_index: Vec<u64>,
+    /// How many of those samples fall in the standstill.
+    pub standstill_samples: usize,
+    /// The frame sensor's acceleration along the bicycle's forward axis less its standstill
+    /// mean (m/s²): the forward acceleration, gravity and the accelerometer's bias removed
+    /// (the forward axis is horizontal at the standstill, and stays so on level ground).
+    pub forward_accel_mps2: Vec<f64>,
+    /// The frame's yaw rate about the vertical (rad/s, positive turning right as in the
+    /// benchmark): the frame gyro less its standstill bias, turned into earth axes by the
+    /// sensor's orientation (its tilt only matters: no magnetometer in it); NaN where the
+    /// angles file lacks the sample.
+    pub yaw_rate_rad_per_s: Vec<f64>,
     /// When the kick struck (s, the peak of the frame's lateral acceleration after the push).
     pub kick_s: f64,
     /// When the bicycle was caught or the motion was lost (s): the last moment the frame's
@@ -94,17 +107,17 @@ pub fn read_ride(
         })
     };
     let (frame, bar) = (find("frame")?, find("handlebar")?);
-    let acc = |id: &str| -> Result<Vec<Vector3<f64>>, RideError> {
-        let col = |ch: &str| {
-            cal.column_index(&format!("{id}_{ch}"))
-                .ok_or_else(|| err(&cal_path, format!("no column {id}_{ch}")))
+    let vectors = |id: &str, what: &str| -> Result<Vec<Vector3<f64>>, RideError> {
+        let col = |axis: &str| {
+            cal.column_index(&format!("{id}_{what}_{axis}"))
+                .ok_or_else(|| err(&cal_path, format!("no column {id}_{what}_{axis}")))
         };
-        let (x, y, z) = (col("Acc_X")?, col("Acc_Y")?, col("Acc_Z")?);
+        let (x, y, z) = (col("X")?, col("Y")?, col("Z")?);
         Ok((0..cal.grid_index.len())
             .map(|i| Vector3::new(cal.data[x][i], cal.data[y][i], cal.data[z][i]))
             .collect())
     };
-    let accs = [acc(&frame.id)?, acc(&bar.id)?];
+    let accs = [vectors(&frame.id, "Acc")?, vectors(&bar.id, "Acc")?];
     let rate = log.sample_rate_hz;
     for ((sensor, label), a) in [(frame, "frame"), (bar, "handlebar")]
         .into_iter()
@@ -135,6 +148,7 @@ pub fn read_ride(
         }
     }
     let [acc_frame, _] = accs;
+    let gyro_frame = vectors(&frame.id, "Gyr")?;
     let still_end = (standstill_s * rate).round() as u64;
     let mean_up = |a: &[Vector3<f64>], idx: &[u64]| -> Option<Vector3<f64>> {
         let s: Vector3<f64> = a
@@ -229,6 +243,30 @@ pub fn read_ride(
         .iter()
         .position(|r| r.abs() > 0.15)
         .map_or(u64::MAX, |k| log.grid_index[k]);
+    let standstill_mean = |x: &[Vector3<f64>]| -> Vector3<f64> {
+        let still: Vec<&Vector3<f64>> = x
+            .iter()
+            .zip(&cal.grid_index)
+            .filter(|(_, &i)| i < still_end)
+            .map(|(v, _)| v)
+            .collect();
+        still.iter().copied().sum::<Vector3<f64>>() / still.len().max(1) as f64
+    };
+    let still_acc = standstill_mean(&acc_frame);
+    let forward_accel_mps2 = acc_frame
+        .iter()
+        .map(|a| (a - still_acc).dot(&forward))
+        .collect();
+    let gyro_bias = standstill_mean(&gyro_frame);
+    let yaw_rate_rad_per_s = gyro_frame
+        .iter()
+        .zip(&cal.grid_index)
+        .map(|(w, i)| match log.grid_index.binary_search(i) {
+            // Earth's z is up: a left turn is positive there, the benchmark's yaw turns right.
+            Ok(k) => -(qf[k] * (w - gyro_bias)).z,
+            Err(_) => f64::NAN,
+        })
+        .collect();
     let (kick_s, catch_s, release_s) = events(
         &cal,
         &frame.id,
@@ -253,6 +291,10 @@ pub fn read_ride(
         kick_s,
         catch_s,
         release_s,
+        standstill_samples: cal.grid_index.iter().filter(|&&i| i < still_end).count(),
+        imu_index: cal.grid_index.clone(),
+        forward_accel_mps2,
+        yaw_rate_rad_per_s,
         log,
     })
 }

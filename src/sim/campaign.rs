@@ -593,6 +593,33 @@ pub fn ride_fault_fixtures(
     Ok(files)
 }
 
+/// A ride as a lab without a reed switch makes it: released at `speed_mps` and left to coast
+/// down at 0.05–0.2 m/s² (rolling resistance C_rr 0.004–0.018 on the lab's floor, drag area
+/// 0.06–0.12 m²), kicked 1–1.5 s after the release with 12–18 N, sensors mounted 2–5° off, no
+/// `Sync` column; `effects` gives the rest (its resistances are replaced).
+pub fn coasting_ride(
+    rng: &mut Rng,
+    speed_mps: f64,
+    mut effects: super::ride::Effects,
+) -> super::ride::RideSpec {
+    effects.rolling_resistance_coeff = rng.range(0.004, 0.018);
+    effects.drag_area_m2 = rng.range(0.06, 0.12);
+    let mut spec = super::ride::RideSpec::lab(speed_mps, effects);
+    spec.kick.after_release_s = rng.range(1.0, 1.5);
+    spec.kick.peak_force_n = rng.range(12.0, 18.0);
+    spec.mounting_error_deg = Some(rng.range(2.0, 5.0));
+    spec.sync = false;
+    spec
+}
+
+/// What the lab writes down from the speedometer at the release: the display's reading
+/// (`speedometer_reading`, the true speed times the speedometer's scale) with the display's
+/// lag and averaging (1 % per reading) and its step of 0.1 m/s.
+pub fn noted_reading(rng: &mut Rng, speedometer_reading: f64) -> f64 {
+    let shown = speedometer_reading * (1.0 + 0.01 * rng.normal());
+    (shown * 10.0).round() / 10.0
+}
+
 /// An effect withheld from the gap diagnosis, for its blind check; its label is the name the
 /// diagnosis gives the effect it finds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -617,10 +644,26 @@ pub enum Withheld {
     /// The sensors sampling 2.5–4 % fast (far beyond a real sensor's crystal, ±50 ppm: at that
     /// size it would change nothing measurable).
     TimeScale,
+    /// Not in the diagnosis's library: a spring on the steer, 0.5–1.5 N·m/rad (a stiff cable).
+    SteerSpring,
+    /// Not in the diagnosis's library: Coulomb friction in the headset, 0.01–0.02 N·m.
+    SteerFriction,
+}
+
+/// How a blind campaign's speeds are taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BlindDesign {
+    /// 12 rides, `Sync` on every other one, no resistance to the coast.
+    Sync,
+    /// 14 rides as a lab without a reed switch makes them ([`coasting_ride`]): the reading
+    /// noted at the release rounded to 0.1 m/s ([`noted_reading`]), coasting 0.05–0.2 m/s²,
+    /// the kick 1–1.5 s after the release.
+    Noted,
 }
 
 impl Withheld {
-    pub const ALL: [Withheld; 9] = [
+    pub const ALL: [Withheld; 11] = [
         Withheld::None,
         Withheld::SteerDamping,
         Withheld::Tyres,
@@ -630,6 +673,8 @@ impl Withheld {
         Withheld::FrontIxx,
         Withheld::SpeedScale,
         Withheld::TimeScale,
+        Withheld::SteerSpring,
+        Withheld::SteerFriction,
     ];
 
     /// The name the diagnosis uses for the effect ("none" for the control).
@@ -644,6 +689,8 @@ impl Withheld {
             Withheld::FrontIxx => "front_ixx",
             Withheld::SpeedScale => "speed_scale",
             Withheld::TimeScale => "time_scale",
+            Withheld::SteerSpring => "steer_spring",
+            Withheld::SteerFriction => "steer_friction",
         }
     }
 
@@ -657,6 +704,7 @@ impl Withheld {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct BlindTruth {
     pub effect: Withheld,
+    pub design: BlindDesign,
     /// The effect's parameters as the diagnosis names them (e.g. the tyres' cornering
     /// stiffness and relaxation length; a factor; a mass in kg).
     pub params: Vec<f64>,
@@ -668,10 +716,14 @@ pub struct BlindTruth {
 /// realistic range, realistic sensors and noise, no drag (so the noted speed is the speed of
 /// the window and only the withheld effect parts the rides from the model). Files: the
 /// manifest (`rides.toml`, naming `bike_file`), the logs, and the sealed `truth.json`.
+///
+/// With [`BlindDesign::Noted`], 14 rides released at 3.8–6.5 m/s as [`coasting_ride`] makes
+/// them, no `Sync`, the readings noted as [`noted_reading`] makes them.
 pub fn blind_campaign(
     measured: &crate::inertia::bike::LabBike,
     bike_file: &str,
     withheld: Withheld,
+    design: BlindDesign,
     seed: u64,
 ) -> Result<(Files, BlindTruth), super::ride::RideError> {
     use super::ride::{simulate_ride, Effects, PointMass, RideSpec};
@@ -736,29 +788,62 @@ pub fn blind_campaign(
             effects.clock_scale = s;
             vec![s]
         }
+        Withheld::SteerSpring => {
+            let k = rng.range(0.5, 1.5);
+            effects.steer_spring_nm_per_rad = k;
+            vec![k]
+        }
+        Withheld::SteerFriction => {
+            let f = rng.range(0.01, 0.02);
+            effects.steer_coulomb_nm = f;
+            vec![f]
+        }
     };
     let mut files = Files::new();
     let mut manifest = format!(
-        "# A blind campaign: one effect withheld (sealed in truth.json).\nversion = 1\nbike = \"{bike_file}\"\n"
+        "# A blind campaign: one effect withheld (sealed in truth.json).\nversion = 1\nbike = \"{bike_file}\"\n{}",
+        match design {
+            // The simulated speedometer of this design reads the release speed exactly (to the
+            // written 0.01 m/s), and nothing slows the coast.
+            BlindDesign::Sync => "speedometer_resolution_mps = 0.01\nspeedometer_se_fraction = 0.0\n",
+            BlindDesign::Noted => "",
+        }
     );
-    for k in 0..12 {
-        let v = 3.8 + 0.25 * k as f64;
-        let mut spec = RideSpec::lab(v, effects.clone());
-        spec.sync = k % 2 == 1;
-        spec.kick.peak_force_n = rng.range(12.0, 18.0);
+    let rides = match design {
+        BlindDesign::Sync => 12,
+        BlindDesign::Noted => 14,
+    };
+    for k in 0..rides {
+        let spec = match design {
+            BlindDesign::Sync => {
+                let mut spec = RideSpec::lab(3.8 + 0.25 * k as f64, effects.clone());
+                spec.sync = k % 2 == 1;
+                spec.kick.peak_force_n = rng.range(12.0, 18.0);
+                spec
+            }
+            BlindDesign::Noted => {
+                coasting_ride(&mut rng, 3.8 + 2.7 * k as f64 / 13.0, effects.clone())
+            }
+        };
         let ride = simulate_ride(&bike, &spec, 100 * seed + k as u64)?;
         let name = format!("ride_{:02}", k + 1);
         files.push((format!("{name}.log").into(), ride.angles_log));
         files.push((format!("{name}_cal.log").into(), ride.cal_log));
+        let noted = match design {
+            BlindDesign::Sync => format!("{:.2}", ride.truth.noted_speed_mps),
+            BlindDesign::Noted => {
+                format!("{:.1}", noted_reading(&mut rng, ride.truth.noted_speed_mps))
+            }
+        };
         let _ = write!(
             manifest,
-            "\n[[ride]]\nlog = \"{name}.log\"\nnoted_speed_mps = {:.2}\n",
-            ride.truth.noted_speed_mps
+            "\n[[ride]]\nlog = \"{name}.log\"\nnoted_speed_mps = {noted}\n"
         );
     }
     files.push(("rides.toml".into(), manifest));
     let truth = BlindTruth {
         effect: withheld,
+        design,
         params,
         seed,
     };

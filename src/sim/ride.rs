@@ -39,6 +39,10 @@ pub struct Effects {
     pub steer_viscous_nms_per_rad: f64,
     /// Steering-head Coulomb friction (≈0.15 N·m).
     pub steer_coulomb_nm: f64,
+    /// A spring on the steer (a stiff brake or gear cable, a bungee holding the handlebar):
+    /// torque −k·δ (N·m/rad). Not among the gap stage's candidate effects.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub steer_spring_nm_per_rad: f64,
     /// Rolling resistance coefficient: a force C_rr·N at each wheel centre against its motion.
     pub rolling_resistance_coeff: f64,
     /// Drag area C_d·A (m²) at the frame's centre of mass; air density 1.2 kg/m³.
@@ -54,11 +58,16 @@ pub struct Effects {
     pub clock_scale: f64,
 }
 
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
 impl Default for Effects {
     fn default() -> Self {
         Effects {
             steer_viscous_nms_per_rad: 0.0,
             steer_coulomb_nm: 0.0,
+            steer_spring_nm_per_rad: 0.0,
             rolling_resistance_coeff: 0.0,
             drag_area_m2: 0.0,
             extra_masses: vec![],
@@ -88,6 +97,7 @@ impl Effects {
         Effects {
             steer_viscous_nms_per_rad: 0.3,
             steer_coulomb_nm: 0.0,
+            steer_spring_nm_per_rad: 0.0,
             rolling_resistance_coeff: 0.004,
             drag_area_m2: 0.08,
             extra_masses: vec![
@@ -375,6 +385,7 @@ fn ride_loads(
         let mut l = Vec::new();
         l.push(Load::Steer(
             -e.steer_viscous_nms_per_rad * qd[6]
+                - e.steer_spring_nm_per_rad * q[6]
                 - e.steer_coulomb_nm * (qd[6] / COULOMB_SMOOTHING_RAD_PER_S).tanh(),
         ));
         if t >= kick_s && t < kick_s + kick.duration_s {

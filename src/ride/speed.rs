@@ -1,0 +1,403 @@
+//! The ride's speed where its eigenvalue applies, from every source the log offers, each with a
+//! standard error, compared ride by ride.
+//!
+//! In: the ride's signals ([`RideSignals`]: the frame's forward acceleration and yaw rate, the
+//! `Sync` column), its modal fit (the window, the time where the eigenvalue applies, the
+//! fitted steer), the bicycle's geometry, and the speedometer's reading noted at the release
+//! when there is one. Out: [`SpeedSources`], the speed chosen among them, and every
+//! disagreement beyond [`DISAGREEMENT_SIGMAS`].
+//!
+//! - **Noted, carried**: the speedometer's reading at the release, carried to the eigenvalue's
+//!   time by the slowing the frame sensor measures ([`slowing`]). Its standard error holds the
+//!   reading's resolution (a uniform rounding error, resolution/√12) and the speedometer's own
+//!   error per reading (a fraction of the reading), and the integral's.
+//! - **Sync**: the reed switch's pulses, a line over the window ([`super::read::sync_speed`]).
+//! - **Kinematic**: rolling without slip, the rear frame yaws at
+//!   `ψ̇ = (v δ + c δ̇) cos λ / w` (Meijaard et al. 2007, eq. A.40 linearized; the seed's
+//!   kinematic relation for the rear frame), so the frame gyro's yaw rate against the fitted
+//!   steer gives `v` ([`kinematic_speed`]). Tyres slip: the lateral slip angles (of the order of
+//!   the lateral acceleration over the cornering stiffness, a few per cent of δ in a weave) enter
+//!   the yaw rate in phase with the roll, not the steer, and bias `v` by up to a tenth; a
+//!   systematic [`SLIP_FRACTION`] of `v` enters its standard error. It is a check, used as the
+//!   speed only when no other source exists.
+//!
+//! `Sync` is the best source where present, the noted reading carried by the slowing next.
+
+use super::modal::ModalFit;
+use super::read::{sync_speed, RideSignals};
+
+/// Sources further apart than this many combined standard errors are reported.
+pub const DISAGREEMENT_SIGMAS: f64 = 3.0;
+
+/// The kinematic speed's systematic standard error from tyre slip, as a fraction of the speed.
+/// Measured on 100 simulated coasting rides with compliant tyres (cornering 11 /rad, camber
+/// 0.6 /rad, relaxation 0.18 m) and steer damping: the kinematic speed came out 9.9 % ± 4.1 %
+/// high; with knife-edge wheels 0.5 % ± 1.4 % (tests/speed.rs).
+pub const SLIP_FRACTION: f64 = 0.10;
+
+/// How flat the floor is, as the rms change of its slope along the ride (rad): a change of the
+/// slope under the bicycle between the standstill and the coast reads as a forward
+/// acceleration g·Δβ. A sports-hall or lab floor: 0.5 mm per metre.
+pub const FLOOR_SLOPE_CHANGE_RAD: f64 = 5e-4;
+
+const GRAVITY_MPS2: f64 = 9.81;
+
+/// The speedometer's reading as noted by the lab, with what limits it.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct NotedReading {
+    /// The reading at the release (m/s).
+    pub speed_mps: f64,
+    /// The display's step (m/s): a reading to 0.1 m/s is uniform within ±0.05 m/s.
+    pub resolution_mps: f64,
+    /// The speedometer's own random error per reading, as a fraction of the reading (its
+    /// display lags and averages; a common scale error is the gap stage's `speed_scale`).
+    pub se_fraction: f64,
+}
+
+impl NotedReading {
+    /// The lab's speedometer: 0.1 m/s steps, 1 % per reading.
+    pub fn lab(speed_mps: f64) -> NotedReading {
+        NotedReading {
+            speed_mps,
+            resolution_mps: 0.1,
+            se_fraction: 0.01,
+        }
+    }
+
+    /// Standard error of the reading as the speed at the release (m/s).
+    pub fn se_mps(&self) -> f64 {
+        (self.resolution_mps.powi(2) / 12.0 + (self.se_fraction * self.speed_mps).powi(2)).sqrt()
+    }
+}
+
+/// A speed with its standard error, where it applies.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SpeedEstimate {
+    pub speed_mps: f64,
+    pub se_mps: f64,
+}
+
+/// The change of the speed from the release (the speed's peak) to a later time, from the
+/// frame sensor's forward acceleration.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Slowing {
+    /// The speed's peak at the end of the push (s): where the integral starts.
+    pub from_s: f64,
+    pub to_s: f64,
+    /// v(to) − v(from) (m/s) and its standard error.
+    pub delta_mps: f64,
+    pub se_mps: f64,
+    /// The mean forward acceleration over the eigenvalue's window (m/s²).
+    pub window_accel_mps2: f64,
+}
+
+/// The noted reading carried to the eigenvalue's time.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct CarriedReading {
+    pub reading: NotedReading,
+    pub slowing: Slowing,
+    pub estimate: SpeedEstimate,
+}
+
+/// Which source the ride's speed came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedSource {
+    /// The speedometer's reading noted at the release, carried by the measured slowing.
+    Noted,
+    /// The reed switch's pulses over the window.
+    Sync,
+    /// The frame's yaw rate against the steer (rolling without slip).
+    Kinematic,
+}
+
+/// Every source of the speed where the eigenvalue applies.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SpeedSources {
+    /// Where the eigenvalue applies (s).
+    pub at_s: f64,
+    pub noted: Option<CarriedReading>,
+    pub sync: Option<SpeedEstimate>,
+    pub kinematic: Option<SpeedEstimate>,
+    /// Pairs of sources more than [`DISAGREEMENT_SIGMAS`] apart, in words.
+    pub disagreements: Vec<String>,
+}
+
+impl SpeedSources {
+    /// Collects the sources of a ride: `noted` is the reading at the release, if any; `w`, `c`,
+    /// `lambda` the bicycle's wheelbase (m), trail (m) and steer-axis tilt (rad).
+    pub fn collect(
+        s: &RideSignals,
+        fit: &ModalFit,
+        noted: Option<NotedReading>,
+        geometry: Geometry,
+    ) -> SpeedSources {
+        let at_s = fit.t_ref_s;
+        let slow = slowing(s, fit, at_s);
+        let noted = match (noted, slow) {
+            (Some(reading), Some(slowing)) => Some(CarriedReading {
+                reading,
+                slowing,
+                estimate: SpeedEstimate {
+                    speed_mps: reading.speed_mps + slowing.delta_mps,
+                    se_mps: reading.se_mps().hypot(slowing.se_mps),
+                },
+            }),
+            // No release found: the reading stands for the speed, the coast unmeasured. Its
+            // error then holds a coast of up to 0.2 m/s² over the time since the log's
+            // standstill ended, uniform.
+            (Some(reading), None) => Some(CarriedReading {
+                reading,
+                slowing: Slowing {
+                    from_s: at_s,
+                    to_s: at_s,
+                    delta_mps: 0.0,
+                    se_mps: f64::NAN,
+                    window_accel_mps2: 0.0,
+                },
+                estimate: SpeedEstimate {
+                    speed_mps: reading.speed_mps,
+                    se_mps: reading
+                        .se_mps()
+                        .hypot(0.2 * (at_s - s.kick_s + 1.0) / 12f64.sqrt()),
+                },
+            }),
+            (None, _) => None,
+        };
+        let sync = sync_speed(&s.log, fit.start_s, fit.end_s, at_s).map(|v| SpeedEstimate {
+            speed_mps: v.speed_mps,
+            se_mps: v.speed_se_mps,
+        });
+        let accel = slow.map_or(0.0, |x| x.window_accel_mps2);
+        let kinematic = kinematic_speed(s, fit, geometry, accel);
+        let mut out = SpeedSources {
+            at_s,
+            noted,
+            sync,
+            kinematic,
+            disagreements: Vec::new(),
+        };
+        let named = out.named();
+        for (i, (a, x)) in named.iter().enumerate() {
+            for (b, y) in &named[i + 1..] {
+                let z = (x.speed_mps - y.speed_mps) / x.se_mps.hypot(y.se_mps);
+                if z.abs() > DISAGREEMENT_SIGMAS {
+                    out.disagreements.push(format!(
+                        "{a} {:.3} ± {:.3} and {b} {:.3} ± {:.3} m/s differ by {z:+.1} SE",
+                        x.speed_mps, x.se_mps, y.speed_mps, y.se_mps
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    /// The sources present, by name, best first.
+    pub fn named(&self) -> Vec<(&'static str, SpeedEstimate)> {
+        [
+            ("sync", self.sync),
+            ("noted", self.noted.map(|n| n.estimate)),
+            ("kinematic", self.kinematic),
+        ]
+        .into_iter()
+        .filter_map(|(n, e)| Some((n, e?)))
+        .collect()
+    }
+
+    /// The best source: `Sync` when `prefer_sync` (or no reading was noted), the noted reading
+    /// carried next, the kinematic speed last.
+    pub fn best(&self, prefer_sync: bool) -> Option<(SpeedSource, SpeedEstimate)> {
+        let noted = self.noted.map(|n| (SpeedSource::Noted, n.estimate));
+        let sync = self.sync.map(|e| (SpeedSource::Sync, e));
+        let first = if prefer_sync || noted.is_none() {
+            sync.or(noted)
+        } else {
+            noted
+        };
+        first.or(self.kinematic.map(|e| (SpeedSource::Kinematic, e)))
+    }
+}
+
+impl SpeedSources {
+    /// The sources, one line each, and the disagreements (the `dynamic` command's text).
+    pub fn to_text(&self) -> String {
+        let mut out = String::new();
+        if let Some(n) = &self.noted {
+            out += &format!(
+                "    noted          {:.3} ± {:.3} m/s: the reading {:.2} m/s (step {:.2}, {:.1} %) at the release ({:.2} s), {:+.3} ± {:.3} m/s of coasting since\n",
+                n.estimate.speed_mps,
+                n.estimate.se_mps,
+                n.reading.speed_mps,
+                n.reading.resolution_mps,
+                100.0 * n.reading.se_fraction,
+                n.slowing.from_s,
+                n.slowing.delta_mps,
+                n.slowing.se_mps
+            );
+        }
+        if let Some(e) = &self.sync {
+            out += &format!(
+                "    reed switch    {:.3} ± {:.3} m/s\n",
+                e.speed_mps, e.se_mps
+            );
+        }
+        if let Some(e) = &self.kinematic {
+            out += &format!(
+                "    kinematic      {:.3} ± {:.3} m/s (yaw rate against the steer; tyre slip {:.0} % included)\n",
+                e.speed_mps,
+                e.se_mps,
+                100.0 * SLIP_FRACTION
+            );
+        }
+        for d in &self.disagreements {
+            out += &format!("    DISAGREE       {d}\n");
+        }
+        out
+    }
+}
+
+/// The geometry the kinematic speed needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Geometry {
+    pub wheelbase_m: f64,
+    pub trail_m: f64,
+    pub steer_axis_tilt_rad: f64,
+}
+
+/// The forward acceleration's samples in `[a, b]` (s): (time, value).
+fn accel_between(s: &RideSignals, a: f64, b: f64) -> Vec<(f64, f64)> {
+    let rate = s.sample_rate_hz;
+    s.imu_index
+        .iter()
+        .zip(&s.forward_accel_mps2)
+        .map(|(&i, &x)| (i as f64 / rate, x))
+        .filter(|&(t, x)| t >= a && t <= b && x.is_finite())
+        .collect()
+}
+
+/// The trapezoid integral of samples (time, value), gaps bridged linearly.
+fn integral(samples: &[(f64, f64)]) -> f64 {
+    samples
+        .windows(2)
+        .map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0))
+        .sum()
+}
+
+/// The speed's change from its peak at the end of the push to `to_s`, from the frame sensor's
+/// forward acceleration (gravity and bias removed at the standstill): `Δv = ∫ a dt`.
+///
+/// The peak is where the forward acceleration (0.1 s mean), falling after the detected release
+/// (the last moment above [`super::read::RELEASE_MPS2`]), first reaches zero: the push ends
+/// and the coast begins, and the speedometer's reading at the release is the speed there. A
+/// timing error there matters to second order only (the acceleration is near zero).
+///
+/// Standard error, in quadrature: the sensor's white noise integrated (σₐ √N / rate, σₐ from
+/// the first differences of the samples), the standstill's mean (σₐ/√N₀ times the duration),
+/// and the floor's slope changing under the bicycle ([`FLOOR_SLOPE_CHANGE_RAD`] times g times
+/// the duration). `None` when no release was found.
+pub fn slowing(s: &RideSignals, fit: &ModalFit, to_s: f64) -> Option<Slowing> {
+    let release = s.release_s?;
+    let rate = s.sample_rate_hz;
+    let after = accel_between(s, release, s.kick_s);
+    let w = ((0.1 * rate).round() as usize).max(1);
+    let mean_at = |k: usize| {
+        let (lo, hi) = (k.saturating_sub(w / 2), (k + w / 2 + 1).min(after.len()));
+        after[lo..hi].iter().map(|p| p.1).sum::<f64>() / (hi - lo) as f64
+    };
+    let from_s = (0..after.len())
+        .find(|&k| mean_at(k) <= 0.0)
+        .map_or(release, |k| after[k].0);
+    if to_s <= from_s {
+        return None;
+    }
+    let samples = accel_between(s, from_s, to_s);
+    if samples.len() < 2 {
+        return None;
+    }
+    let delta = integral(&samples);
+    // The white noise: from first differences over the coast (slow changes cancel).
+    let coast = accel_between(s, from_s, fit.end_s);
+    let diffs: Vec<f64> = coast
+        .windows(2)
+        .filter(|p| (p[1].0 - p[0].0) * rate < 1.5)
+        .map(|p| p[1].1 - p[0].1)
+        .collect();
+    let sigma = (diffs.iter().map(|d| d * d).sum::<f64>() / (2 * diffs.len().max(1)) as f64).sqrt();
+    let still_n = s.standstill_samples.max(1);
+    let duration = to_s - from_s;
+    let noise = sigma * (samples.len() as f64).sqrt() / rate;
+    let zero = sigma / (still_n as f64).sqrt() * duration;
+    let floor = GRAVITY_MPS2 * FLOOR_SLOPE_CHANGE_RAD * duration;
+    let window = accel_between(s, fit.start_s, fit.end_s);
+    let window_accel = if window.len() >= 2 {
+        integral(&window) / (window[window.len() - 1].0 - window[0].0)
+    } else {
+        0.0
+    };
+    Some(Slowing {
+        from_s,
+        to_s,
+        delta_mps: delta,
+        se_mps: (noise * noise + zero * zero + floor * floor).sqrt(),
+        window_accel_mps2: window_accel,
+    })
+}
+
+/// The speed from the rolling bicycle's kinematics over the fit's window: the rear frame's yaw
+/// rate `ψ̇ = (v δ + c δ̇) cos λ / w` (Meijaard et al. 2007, the rear frame's yaw linearized;
+/// no slip), with the fitted steer δ(t) and its rate as regressors (free of the sensors' noise),
+/// `v(t) = v(t_ref) + a (t − t_ref)` with the measured mean acceleration `a`, and an offset for
+/// the gyro's remaining bias: least squares for `v(t_ref)`. Its standard error: the regression's,
+/// with the residuals' lag-one correlation shrinking the sample count, and the tyres' slip,
+/// [`SLIP_FRACTION`] of `v`. `None` when the window has too few samples or the steer too little
+/// motion.
+pub fn kinematic_speed(
+    s: &RideSignals,
+    fit: &ModalFit,
+    g: Geometry,
+    accel_mps2: f64,
+) -> Option<SpeedEstimate> {
+    let rate = s.sample_rate_hz;
+    let k = g.steer_axis_tilt_rad.cos() / g.wheelbase_m;
+    let h = 0.5 / rate;
+    let rows: Vec<(f64, f64, f64)> = s
+        .imu_index
+        .iter()
+        .zip(&s.yaw_rate_rad_per_s)
+        .map(|(&i, &y)| (i as f64 / rate, y))
+        .filter(|&(t, y)| t >= fit.start_s && t <= fit.end_s && y.is_finite())
+        .map(|(t, y)| {
+            let steer = fit.eval(t)[1];
+            let steer_rate = (fit.eval(t + h)[1] - fit.eval(t - h)[1]) / (2.0 * h);
+            let tau = t - fit.t_ref_s;
+            let x = k * steer;
+            (x, y - k * g.trail_m * steer_rate - accel_mps2 * tau * x, t)
+        })
+        .collect();
+    let n = rows.len();
+    if n < 20 {
+        return None;
+    }
+    let nf = n as f64;
+    let (mx, my) = (
+        rows.iter().map(|r| r.0).sum::<f64>() / nf,
+        rows.iter().map(|r| r.1).sum::<f64>() / nf,
+    );
+    let sxx: f64 = rows.iter().map(|r| (r.0 - mx).powi(2)).sum();
+    let sxy: f64 = rows.iter().map(|r| (r.0 - mx) * (r.1 - my)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let v = sxy / sxx;
+    let res: Vec<f64> = rows.iter().map(|r| r.1 - my - v * (r.0 - mx)).collect();
+    let s2 = res.iter().map(|e| e * e).sum::<f64>() / (nf - 2.0);
+    let rho = (res.windows(2).map(|w| w[0] * w[1]).sum::<f64>()
+        / res.iter().map(|e| e * e).sum::<f64>().max(1e-300))
+    .clamp(0.0, 0.99);
+    let inflation = (1.0 + rho) / (1.0 - rho);
+    let se_noise = (s2 / sxx * inflation).sqrt();
+    (v.is_finite() && v > 0.0).then(|| SpeedEstimate {
+        speed_mps: v,
+        se_mps: se_noise.hypot(SLIP_FRACTION * v),
+    })
+}

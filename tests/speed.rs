@@ -1,0 +1,171 @@
+//! Issue 12: the speed where the eigenvalue applies, from the ride's own log, and the
+//! eigenvalue's errors on a coasting bicycle, against the simulator's truth, on rides made as a
+//! lab without a reed switch makes them (noted reading at the release rounded to 0.1 m/s,
+//! coasting 0.05–0.2 m/s², kick 1–1.5 s after the release, sensors a few degrees off).
+
+use bikeproc::inertia::bike::LabBike;
+use bikeproc::model::{lab::lab_to_benchmark, uncertain, Benchmark};
+use bikeproc::ride::dynamic::{dynamic_test, DynamicOptions, DynamicTest};
+use bikeproc::ride::speed::NotedReading;
+use bikeproc::sim::campaign::{coasting_ride, noted_reading, truth_bike};
+use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec, RideTruth};
+use bikeproc::sim::rng::Rng;
+use std::path::PathBuf;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn bikes() -> (uncertain::Parametrized, Benchmark) {
+    let path = root().join("data/lab_bike.toml");
+    let truth = truth_bike(&LabBike::load(&path).unwrap());
+    (uncertain::load(&path).unwrap(), lab_to_benchmark(&truth))
+}
+
+/// Simulates a ride, writes its log pair to a scratch folder and runs the dynamic test with
+/// the reading `noted` makes of the speedometer's (none: `None`).
+fn analyse(
+    bike: &Benchmark,
+    model: &uncertain::Parametrized,
+    spec: &RideSpec,
+    noted: impl FnOnce(f64) -> Option<f64>,
+    seed: u64,
+) -> (Result<DynamicTest, String>, RideTruth) {
+    let ride = simulate_ride(bike, spec, seed).unwrap();
+    let noted = noted(ride.truth.noted_speed_mps);
+    let dir = std::env::temp_dir().join(format!("bikeproc_speed_{}_{seed}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
+    std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
+    let options = DynamicOptions {
+        noted: noted.map(NotedReading::lab),
+        ..DynamicOptions::default()
+    };
+    let r = dynamic_test(&dir.join("r.log"), model, &options).map_err(|e| e.to_string());
+    std::fs::remove_dir_all(&dir).ok();
+    (r, ride.truth)
+}
+
+fn mean_sd(x: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    (
+        m,
+        (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt(),
+    )
+}
+
+fn parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    bikeproc::parallel::map_ordered(n, 2, &f, &|_, _| {})
+        .into_iter()
+        .map(|r| r.expect("a worker thread panicked"))
+        .collect()
+}
+
+/// Normalized errors of one coasting ride: speed (noted carried), kinematic speed, σ, ω.
+#[derive(Debug, Clone, Copy)]
+struct Z {
+    speed: f64,
+    kinematic: f64,
+    kinematic_rel: f64,
+    re: f64,
+    im: f64,
+}
+
+fn coasting_rides(n: usize, first_seed: u64, effects: Effects) -> (Vec<Z>, Vec<String>) {
+    let (model, bike) = bikes();
+    let out = parallel(n, |i| {
+        let seed = first_seed + i as u64;
+        let mut rng = Rng::new(seed);
+        let v = rng.range(3.7, 6.3);
+        let spec = coasting_ride(&mut rng, v, effects.clone());
+        let (r, t) = analyse(
+            &bike,
+            &model,
+            &spec,
+            |s| Some(noted_reading(&mut rng, s)),
+            seed,
+        );
+        let r = r.map_err(|e| format!("{v:.2}: {e}"))?;
+        let at = r.fit.t_ref_s;
+        let v_true = t.speed_at(at).ok_or("no truth speed")?;
+        let w = t.weave_at(v_true).ok_or("no truth weave")?;
+        let f = &r.fit.weave;
+        let k = r.speed.sources.kinematic;
+        if std::env::var("BIKEPROC_DEBUG").is_ok() {
+            let f = &r.fit;
+            println!(
+                "v {v_true:.2} a {:.3} win {:.2}-{:.2} tref {:.2} re {:.3}±{:.3} (truth {:.3}, bias {:.3}, drift {:.3}) im {:.3}±{:.3} (truth {:.3}, bias {:.3}) real {:?}",
+                r.speed.accel_mps2, f.start_s - r.kick_s, f.end_s - r.kick_s, f.t_ref_s - r.kick_s,
+                f.weave.re, f.weave.re_se, w.re, r.coasting_bias[0], f.weave.re_se_drift,
+                f.weave.im, f.weave.im_se, w.im, r.coasting_bias[1],
+                f.real_modes.iter().map(|m| m.value).collect::<Vec<_>>()
+            );
+        }
+        Ok::<Z, String>(Z {
+            speed: (r.speed.speed_mps - v_true) / r.speed.speed_se_mps,
+            kinematic: k.map_or(f64::NAN, |k| (k.speed_mps - v_true) / k.se_mps),
+            kinematic_rel: k.map_or(f64::NAN, |k| k.speed_mps / v_true - 1.0),
+            re: (f.re - w.re) / f.re_se,
+            im: (f.im - w.im) / f.im_se,
+        })
+    });
+    let mut ok = Vec::new();
+    let mut failed = Vec::new();
+    for r in out {
+        match r {
+            Ok(z) => ok.push(z),
+            Err(e) => failed.push(e),
+        }
+    }
+    (ok, failed)
+}
+
+/// Prints the normalized errors' means and standard deviations and asserts the issue's bars:
+/// speed |mean| < 0.2 and sd in 0.8–1.25; σ and ω sd in 0.8–1.25; at most 2 rides failed; the
+/// kinematic speed's |mean| under 1 and sd under 1.25 (its SE holds the tyres' slip).
+fn assert_calibrated(z: &[Z], failed: &[String]) {
+    println!("failed: {failed:?}");
+    assert!(failed.len() <= 2, "{} rides failed", failed.len());
+    let col =
+        |f: fn(&Z) -> f64| -> Vec<f64> { z.iter().map(f).filter(|x| x.is_finite()).collect() };
+    let (ms, ss) = mean_sd(&col(|z| z.speed));
+    let (mk, sk) = mean_sd(&col(|z| z.kinematic));
+    let (mkr, skr) = mean_sd(&col(|z| z.kinematic_rel));
+    let (mr, sr) = mean_sd(&col(|z| z.re));
+    let (mi, si) = mean_sd(&col(|z| z.im));
+    println!(
+        "speed z: mean {ms:.3} sd {ss:.3}; kinematic z: mean {mk:.3} sd {sk:.3} (relative {mkr:.4} ± {skr:.4}); σ z: mean {mr:.3} sd {sr:.3}; ω z: mean {mi:.3} sd {si:.3} ({} rides)",
+        z.len()
+    );
+    assert!(
+        ms.abs() < 0.2 && (0.8..=1.25).contains(&ss),
+        "speed: mean {ms}, sd {ss}"
+    );
+    assert!(mk.abs() < 1.0 && sk < 1.25, "kinematic: mean {mk}, sd {sk}");
+    assert!((0.8..=1.25).contains(&sr), "σ: sd {sr}");
+    assert!((0.8..=1.25).contains(&si), "ω: sd {si}");
+}
+
+/// Over 100 coasting rides without `Sync` (no effect beyond the resistances, the speedometer
+/// true): the speed where the eigenvalue applies, the noted reading carried by the measured
+/// slowing, has normalized errors with a standard deviation in 0.8–1.25 and a mean under 0.2;
+/// the weave's real and imaginary parts too (standard deviation 0.8–1.25).
+#[test]
+fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
+    let (z, failed) = coasting_rides(100, 40_000, Effects::default());
+    assert_calibrated(&z, &failed);
+}
+
+/// The same with the realistic effects (steer damping, compliant tyres, the sensors' masses;
+/// the speedometer true): tyres slip, so the kinematic speed is only a check, but the noted
+/// reading carried and the eigenvalue's errors hold.
+#[test]
+fn speed_and_eigenvalue_errors_hold_with_tyres_and_damping() {
+    let effects = Effects {
+        speedometer_scale: 1.0,
+        ..Effects::realistic()
+    };
+    let (z, failed) = coasting_rides(100, 50_000, effects);
+    assert_calibrated(&z, &failed);
+}
