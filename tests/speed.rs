@@ -96,7 +96,7 @@ fn coasting_rides(n: usize, first_seed: u64, effects: Effects) -> (Vec<Z>, Vec<S
             let f = &r.fit;
             println!(
                 "v {v_true:.2} a {:.3} win {:.2}-{:.2} tref {:.2} re {:.3}±{:.3} (truth {:.3}, bias {:.3}, drift {:.3}) im {:.3}±{:.3} (truth {:.3}, bias {:.3}) real {:?}",
-                r.speed.accel_mps2, f.start_s - r.kick_s, f.end_s - r.kick_s, f.t_ref_s - r.kick_s,
+                r.speed.sources.window_accel_mps2, f.start_s - r.kick_s, f.end_s - r.kick_s, f.t_ref_s - r.kick_s,
                 f.weave.re, f.weave.re_se, w.re, r.coasting_bias[0], f.weave.re_se_drift,
                 f.weave.im, f.weave.im_se, w.im, r.coasting_bias[1],
                 f.real_modes.iter().map(|m| m.value).collect::<Vec<_>>()

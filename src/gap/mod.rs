@@ -751,8 +751,8 @@ fn tied(ranked: &[Ranked]) -> Vec<String> {
 }
 
 /// The diagnosis in words.
-/// Where the residual the closest candidate leaves lies: the speed band, the part of the
-/// eigenvalue (σ or ω) and the mode shape with the largest mean normalized residual.
+/// Where the residual the closest candidate leaves lies: the RMS normalized residual of σ, ω
+/// and the mode shape's |γ/θ| and phase (the largest named), and the ride furthest from it.
 fn where_left(d: &Diagnosis) -> String {
     let res = if d.residuals_after.is_empty() {
         &d.residuals

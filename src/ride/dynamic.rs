@@ -43,10 +43,9 @@ pub struct Speed {
     /// Standard error (m/s) of the chosen source.
     pub speed_se_mps: f64,
     pub source: SpeedSource,
-    /// Every source, and their disagreements beyond 3 combined standard errors.
+    /// Every source (and the slowing over the window), their disagreements beyond 3 combined
+    /// standard errors.
     pub sources: SpeedSources,
-    /// The mean forward acceleration over the window (m/s², the frame sensor's).
-    pub accel_mps2: f64,
 }
 
 /// Options of [`dynamic_test`].
@@ -125,16 +124,12 @@ pub fn dynamic_test(
              speedometer's reading at the release with --speed",
         ));
     };
-    let accel = sources.noted.map_or_else(
-        || super::speed::slowing(&signals, &fit, fit.t_ref_s).map_or(0.0, |x| x.window_accel_mps2),
-        |n| n.slowing.window_accel_mps2,
-    );
+    let accel = sources.window_accel_mps2;
     let speed = Speed {
         speed_mps: best.speed_mps,
         speed_se_mps: best.se_mps,
         source,
         sources,
-        accel_mps2: accel,
     };
     let mut fit = fit;
     let canonical = Canonical::from_benchmark(&nominal);
@@ -150,15 +145,11 @@ pub fn dynamic_test(
         // The drift's fit failed: its error is taken from the model's slope dλ/dv times the
         // speed's change over half the window (what a constant fit can be off by at most).
         let (h, v) = (0.05, speed.speed_mps);
-        let near = |v: f64| -> Option<Complex<f64>> {
-            let m = Complex::new(fit.weave.re, fit.weave.im);
-            canonical
-                .eigenvalues(v)?
-                .into_iter()
-                .filter(|z| z.im > 0.0)
-                .min_by(|a, b| (a - m).norm().total_cmp(&(b - m).norm()))
-        };
-        if let (Some(a), Some(b)) = (near(v + h), near(v - h)) {
+        let measured = Complex::new(fit.weave.re, fit.weave.im);
+        if let (Some(a), Some(b)) = (
+            weave_near(&canonical, v + h, measured),
+            weave_near(&canonical, v - h, measured),
+        ) {
             let change = (a - b) / (2.0 * h) * (accel * 0.5 * (fit.end_s - fit.start_s));
             let w = &mut fit.weave;
             w.re_se_drift = change.re.abs();
@@ -318,6 +309,16 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
 const COASTING_BIAS_APPLIED: f64 = 0.5;
 const COASTING_BIAS_SE_FRACTION: f64 = 0.6;
 
+/// The model's oscillatory eigenvalue (ω > 0) at `v` nearest `toward` (the measured weave):
+/// the branch the ride's weave belongs to. `None` when the model has none there.
+fn weave_near(model: &Canonical, v: f64, toward: Complex<f64>) -> Option<Complex<f64>> {
+    model
+        .eigenvalues(v)?
+        .into_iter()
+        .filter(|z| z.im > 0.0)
+        .min_by(|a, b| (a - toward).norm().total_cmp(&(b - toward).norm()))
+}
+
 /// What a coasting bicycle's changing speed does to the fitted eigenvalue, beyond the drift
 /// the fit reads at `t_ref`: the mode shape changes with the speed, and the slow (adiabatic)
 /// change of the mode's amplitude in θ and in γ, `ċ/c = −wᵀ(∂v/∂t)/(wᵀv)` (w, v the left and
@@ -336,13 +337,7 @@ pub fn coasting_bias(
 ) -> Option<[f64; 2]> {
     let speed_at = |t: f64| speed_mps + accel_mps2 * (t - fit.t_ref_s);
     let measured = Complex::new(fit.weave.re, fit.weave.im);
-    let weave_at = |v: f64| -> Option<Complex<f64>> {
-        model
-            .eigenvalues(v)?
-            .into_iter()
-            .filter(|z| z.im > 0.0)
-            .min_by(|a, b| (a - measured).norm().total_cmp(&(b - measured).norm()))
-    };
+    let weave_at = |v: f64| weave_near(model, v, measured);
     let v0 = speed_at(fit.start_s);
     let shape = model.mode_shape(v0, weave_at(v0)?)?;
     let mut x = nalgebra::Vector4::from_fn(|i, _| shape[i].re);

@@ -150,16 +150,20 @@ pub fn read_ride(
     let [acc_frame, _] = accs;
     let gyro_frame = vectors(&frame.id, "Gyr")?;
     let still_end = (standstill_s * rate).round() as u64;
-    let mean_up = |a: &[Vector3<f64>], idx: &[u64]| -> Option<Vector3<f64>> {
-        let s: Vector3<f64> = a
-            .iter()
-            .zip(idx)
-            .filter(|(_, &g)| g < still_end)
-            .map(|(v, _)| *v)
-            .sum();
-        (s.norm() > 0.0).then(|| s.normalize())
+    // A series' sum and sample count over the standstill.
+    let standstill_sum = |x: &[Vector3<f64>]| -> (Vector3<f64>, usize) {
+        x.iter()
+            .zip(&cal.grid_index)
+            .filter(|(_, &i)| i < still_end)
+            .fold((Vector3::zeros(), 0), |(s, n), (v, _)| (s + v, n + 1))
     };
-    let up_frame = mean_up(&acc_frame, &cal.grid_index)
+    let standstill_mean = |x: &[Vector3<f64>]| -> Vector3<f64> {
+        let (sum, n) = standstill_sum(x);
+        sum / n.max(1) as f64
+    };
+    let (still_acc_sum, standstill_samples) = standstill_sum(&acc_frame);
+    let up_frame = (still_acc_sum.norm() > 0.0)
+        .then(|| still_acc_sum.normalize())
         .ok_or_else(|| err(angles, "no standstill at the start"))?;
     // Forward: the frame sensor's mean horizontal acceleration while pushed (after the standstill,
     // wherever it exceeds 0.5 m/s²).
@@ -169,12 +173,7 @@ pub fn read_ride(
         .filter(|(_, &i)| i < still_end)
         .map(|(v, _)| v.norm())
         .sum::<f64>()
-        / acc_frame
-            .iter()
-            .zip(&cal.grid_index)
-            .filter(|(_, &i)| i < still_end)
-            .count()
-            .max(1) as f64;
+        / standstill_samples.max(1) as f64;
     let mut push = Vector3::zeros();
     for (a, &i) in acc_frame.iter().zip(&cal.grid_index) {
         if i >= still_end && i < still_end + (4.0 * rate) as u64 {
@@ -243,15 +242,6 @@ pub fn read_ride(
         .iter()
         .position(|r| r.abs() > 0.15)
         .map_or(u64::MAX, |k| log.grid_index[k]);
-    let standstill_mean = |x: &[Vector3<f64>]| -> Vector3<f64> {
-        let still: Vec<&Vector3<f64>> = x
-            .iter()
-            .zip(&cal.grid_index)
-            .filter(|(_, &i)| i < still_end)
-            .map(|(v, _)| v)
-            .collect();
-        still.iter().copied().sum::<Vector3<f64>>() / still.len().max(1) as f64
-    };
     let still_acc = standstill_mean(&acc_frame);
     let forward_accel_mps2 = acc_frame
         .iter()
@@ -268,9 +258,9 @@ pub fn read_ride(
         })
         .collect();
     let (kick_s, catch_s, release_s) = events(
-        &cal,
-        &frame.id,
+        &cal.grid_index,
         &acc_frame,
+        (&gyro_frame, gyro_bias),
         &mount,
         (still_end, lean_limit),
         rate,
@@ -291,7 +281,7 @@ pub fn read_ride(
         kick_s,
         catch_s,
         release_s,
-        standstill_samples: cal.grid_index.iter().filter(|&&i| i < still_end).count(),
+        standstill_samples,
         imu_index: cal.grid_index.clone(),
         forward_accel_mps2,
         yaw_rate_rad_per_s,
@@ -310,15 +300,13 @@ const KICK_MIN_MPS2: f64 = 0.2;
 /// moment before the kick that the forward acceleration (0.1 s moving mean, the bicycle's
 /// forward axis) exceeds [`RELEASE_MPS2`].
 fn events(
-    cal: &Log,
-    id: &str,
+    grid_index: &[u64],
     acc: &[Vector3<f64>],
+    (gyr, bias): (&[Vector3<f64>], Vector3<f64>),
     mount: &Rotation3<f64>,
     (still_end, lean_limit): (u64, u64),
     rate: f64,
 ) -> Option<(f64, f64, Option<f64>)> {
-    let col = |ch: &str| cal.column_index(&format!("{id}_{ch}"));
-    let (gx, gy, gz) = (col("Gyr_X")?, col("Gyr_Y")?, col("Gyr_Z")?);
     let n = acc.len();
     let w = (0.1 * rate).round() as usize;
     let smooth = |x: &[f64]| -> Vec<f64> {
@@ -333,12 +321,8 @@ fn events(
     let left = mount.matrix().column(1).into_owned();
     let lateral = smooth(&acc.iter().map(|a| a.dot(&left)).collect::<Vec<_>>());
     // The gyro's rate less its standstill bias (a few tenths of °/s), as a magnitude.
-    let raw: Vec<Vector3<f64>> = (0..n)
-        .map(|i| Vector3::new(cal.data[gx][i], cal.data[gy][i], cal.data[gz][i]))
-        .collect();
-    let still: Vec<usize> = (0..n).filter(|&i| cal.grid_index[i] < still_end).collect();
-    let bias = still.iter().map(|&i| raw[i]).sum::<Vector3<f64>>() / still.len().max(1) as f64;
-    let gyro = smooth(&raw.iter().map(|w| (w - bias).norm()).collect::<Vec<_>>());
+    let still: Vec<usize> = (0..n).filter(|&i| grid_index[i] < still_end).collect();
+    let gyro = smooth(&gyr.iter().map(|w| (w - bias).norm()).collect::<Vec<_>>());
     let after_push = still_end + (1.0 * rate) as u64;
     // The kick is a short pulse: take the lateral acceleration less its 1 s moving mean (which
     // carries gravity once the bicycle leans), and its first excursion above half the largest.
@@ -353,7 +337,7 @@ fn events(
     };
     let pulse: Vec<f64> = (0..n).map(|i| (lateral[i] - slow[i]).abs()).collect();
     let candidates: Vec<usize> = (0..n)
-        .filter(|&i| cal.grid_index[i] > after_push && cal.grid_index[i] < lean_limit)
+        .filter(|&i| grid_index[i] > after_push && grid_index[i] < lean_limit)
         .collect();
     let top = candidates.iter().map(|&i| pulse[i]).fold(0.0, f64::max);
     // A 12–18 N kick on the lab's 14 kg bicycle gives ~0.6 m/s² here; the sensor's noise
@@ -369,11 +353,11 @@ fn events(
     let forward = smooth(&acc.iter().map(|a| a.dot(&ahead)).collect::<Vec<_>>());
     let release = (0..kick)
         .rev()
-        .find(|&i| cal.grid_index[i] >= still_end && forward[i] > RELEASE_MPS2)
-        .map(|i| cal.grid_index[i] as f64 / rate);
+        .find(|&i| grid_index[i] >= still_end && forward[i] > RELEASE_MPS2)
+        .map(|i| grid_index[i] as f64 / rate);
     Some((
-        cal.grid_index[kick] as f64 / rate,
-        cal.grid_index[last_moving] as f64 / rate,
+        grid_index[kick] as f64 / rate,
+        grid_index[last_moving] as f64 / rate,
         release,
     ))
 }

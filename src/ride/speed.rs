@@ -119,6 +119,10 @@ pub struct SpeedSources {
     pub noted: Option<CarriedReading>,
     pub sync: Option<SpeedEstimate>,
     pub kinematic: Option<SpeedEstimate>,
+    /// The mean forward acceleration over the eigenvalue's window (m/s², the frame sensor's;
+    /// 0 when no release was found to measure the slowing from); the noted source prints it.
+    #[serde(skip)]
+    pub window_accel_mps2: f64,
     /// Pairs of sources more than [`DISAGREEMENT_SIGMAS`] apart, in words.
     pub disagreements: Vec<String>,
 }
@@ -168,13 +172,14 @@ impl SpeedSources {
             speed_mps: v.speed_mps,
             se_mps: v.speed_se_mps,
         });
-        let accel = slow.map_or(0.0, |x| x.window_accel_mps2);
-        let kinematic = kinematic_speed(s, fit, geometry, accel);
+        let window_accel_mps2 = slow.map_or(0.0, |x| x.window_accel_mps2);
+        let kinematic = kinematic_speed(s, fit, geometry, window_accel_mps2);
         let mut out = SpeedSources {
             at_s,
             noted,
             sync,
             kinematic,
+            window_accel_mps2,
             disagreements: Vec::new(),
         };
         let named = out.named();
