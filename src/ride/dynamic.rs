@@ -302,10 +302,11 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
 /// How much of [`coasting_bias`] is taken off the fitted eigenvalue, and (the same) the
 /// standard error left for it. The measured bicycle's rigid-wheeled model gives the bias; on
 /// simulated coasting rides the true bias was that (knife-edge wheels) or of the opposite sign
-/// (compliant tyres, steer damping: their mode shape changes differently with speed): ω's
-/// mean normalized error was +0.92 uncorrected and −0.38 corrected on the first, −0.05 and
-/// −1.10 on the second. Half is taken off; its error is 0.6 of that (0.3 of the bias, about
-/// a uniform spread over [0, bias]: 0.29).
+/// (compliant tyres, steer damping: their mode shape changes differently with speed). Over
+/// 100 coasting rides each (tests/speed.rs), ω's mean normalized error was +0.92 uncorrected,
+/// +0.14 corrected in full and +0.46 corrected by half on the first; −0.05, −0.61 and −0.37
+/// on the second. Half is taken off; its error is 0.6 of that (0.3 of the bias, about a
+/// uniform spread over [0, bias]: 0.29).
 const COASTING_BIAS_APPLIED: f64 = 0.5;
 const COASTING_BIAS_SE_FRACTION: f64 = 0.6;
 
@@ -325,7 +326,8 @@ fn weave_near(model: &Canonical, v: f64, toward: Complex<f64>) -> Option<Complex
 /// right eigenvectors), reads as a shift of σ and ω that the frozen eigenvalue does not have.
 /// Measured on the model: the linear bicycle `ẋ = A(v(t)) x` (Meijaard et al. 2007, eq. 59 of
 /// the seed, the speed `v(t) = v_ref + a (t − t_ref)`), started on its weave, integrated (RK4)
-/// over the fit's window and fitted by the same modal fit; the fitted eigenvalue less the
+/// over the fit's window and fitted by the same modal fit (the ride's structure: the same real
+/// modes and trends); the fitted eigenvalue less the
 /// frozen one at the speed where that fit applies is the bias (1/s, `[re, im]`). `None` when the
 /// model has no weave there or the fit fails.
 pub fn coasting_bias(
@@ -373,6 +375,7 @@ pub fn coasting_bias(
         &ModalOptions {
             resamples: 0,
             seed: 1,
+            only: Some(fit.structure),
         },
     )
     .ok()?;

@@ -356,6 +356,9 @@ pub struct ModalOptions {
     pub resamples: usize,
     /// Seed of the resampling.
     pub seed: u64,
+    /// Fit this structure only instead of choosing one by the information criterion, and skip
+    /// the drift's check: to repeat on a model's curve exactly the fit a ride got.
+    pub only: Option<Structure>,
 }
 
 impl Default for ModalOptions {
@@ -363,6 +366,7 @@ impl Default for ModalOptions {
         ModalOptions {
             resamples: 400,
             seed: 1,
+            only: None,
         }
     }
 }
@@ -426,19 +430,25 @@ pub fn fit_modes(
     };
     // Every structure, each from the base eigenvalue and the best starting real rates.
     let mut best: Option<Candidate> = None;
-    for real_modes in 0..=2 {
-        for trend in [false, true] {
-            problem.st = Structure {
-                real_modes,
-                drift: false,
-                trend,
-            };
-            let Some(c) = fit_structure(&problem, sigma, omega) else {
-                continue;
-            };
-            if best.as_ref().is_none_or(|b| c.bic < b.bic) {
-                best = Some(c);
-            }
+    let structures: Vec<Structure> = match options.only {
+        Some(st) => vec![Structure { drift: false, ..st }],
+        None => (0..=2)
+            .flat_map(|real_modes| {
+                [false, true].map(|trend| Structure {
+                    real_modes,
+                    drift: false,
+                    trend,
+                })
+            })
+            .collect(),
+    };
+    for st in structures {
+        problem.st = st;
+        let Some(c) = fit_structure(&problem, sigma, omega) else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| c.bic < b.bic) {
+            best = Some(c);
         }
     }
     let best = best.ok_or(ModalError::NoWeave)?;
@@ -451,7 +461,11 @@ pub fn fit_modes(
     let params = problem
         .project(&params[..problem.st.nonlinear()])
         .ok_or(ModalError::NoWeave)?;
-    let drift = fit_drift(&problem, &params);
+    let drift = if options.only.is_none() {
+        fit_drift(&problem, &params)
+    } else {
+        None
+    };
     finish(&problem, params, drift, options)
 }
 
@@ -897,7 +911,7 @@ mod tests {
         let lambda = Complex::new(-1.0, 8.0);
         let options = ModalOptions {
             resamples: 0,
-            seed: 1,
+            ..ModalOptions::default()
         };
         let z: Vec<[f64; 2]> = (0..200)
             .map(|seed| {
