@@ -194,7 +194,18 @@ fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
                 .map(|t| Observation::from_test(&k.to_string(), t))
         })
         .collect();
-    bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions { threads: 2 }, &|_, _| {}));
+    bencher.bench(|| {
+        diagnose(
+            &rides,
+            &[],
+            &model,
+            &GapOptions {
+                threads: 2,
+                ..GapOptions::default()
+            },
+            &|_, _| {},
+        )
+    });
 }
 
 /// Issue 7: `bikeproc gap data/rides.toml` as a whole: the 16 rides' dynamic tests, the noted

@@ -849,31 +849,69 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
     let model = crate::model::uncertain::load(&manifest.bike_path())?;
     let d = diagnose_campaign(&manifest, &model, 2, &|_, _, _| {})?;
     let mut md = String::from(
-        "# The sim-to-real gap (issue 7)\n\n\
+        "# The sim-to-real gap\n\n\
          `bikeproc gap data/rides.toml` on the campaign in `data/`, against the model of the measured bicycle.\n\
-         **Where**: each ride's weave eigenvalue less the model's, in the combined standard error (the ride's fit\n\
-         and speed, and the model's from the measured parameters' uncertainty, correlated across rides through\n\
-         the parameters); a χ² test of the campaign with that full covariance. **Which**: every candidate effect\n\
-         (a linear extension of the model with physical parameters and bounds) fitted to all rides by\n\
-         generalized least squares, then each ride predicted by the effect refitted without it (leave one ride\n\
-         out); plausible values first, then by the held-out RMS normalized residual; pairs when no single\n\
+         Each ride gives its weave's eigenvalue (σ, ω) and mode shape (|γ/θ| and its phase) at the speed where the\n\
+         eigenvalue applies, that speed from every source its log offers (below).\n\n\
+         **Where**: each ride's weave less the model's, in the combined standard error (the ride's fit and speed,\n\
+         and the model's from the measured parameters' uncertainty, correlated across rides through the\n\
+         parameters). **Whether**: the campaign's test is either of two, its p doubled: the χ² of all the rides\n\
+         with that full covariance, and the likelihood ratio of the single effect that lowers χ² the most (its p\n\
+         times the number of effects tried). **Which**: every candidate effect (a linear extension of the model\n\
+         with physical parameters and bounds) fitted to all rides by generalized least squares on the\n\
+         eigenvalue *and* the mode shape, then each ride predicted by the effect refitted without it (leave one\n\
+         ride out); plausible values first, then by the held-out RMS normalized residual; pairs when no single\n\
          effect brings the held-out residual within 2; ties when, ride by ride, the best is not better by 2\n\
-         standard errors. Speeds noted at the release are corrected for the slowing the campaign's `Sync`\n\
-         rides measure between release and window. The diagnosis is checked blind in `tests/gap.rs`\n\
-         (campaigns simulated with one withheld effect each).\n\n",
+         standard errors. The mode shape is what decides between effects that move the eigenvalue alike (tyres\n\
+         and a frame inertia, a mass and a speedometer's scale): on the blind campaigns of `tests/gap.rs` the\n\
+         ranking on the eigenvalue alone found 92 of 110 cases, with the shape 102 (the rest are the clock's\n\
+         scale, which neither test counts). **Explained** only when the best candidate brings the held-out RMS to\n\
+         at most 2 (and lower than before) and its fit to every ride passes the χ² test at 1 %.\n\n",
     );
     let _ = writeln!(md, "## Verdict\n\n{}\n", d.verdict);
     if !d.conclusive {
         files.push(("gap.md".into(), md.into_bytes()));
         return Ok(());
     }
-    md.push_str("## Where\n\nΔ|γ/θ| and Δarg(γ/θ) are the mode shape's residuals in the ride fit's standard errors only (the model's\nshape error is not propagated).\n\n| ride | speed (m/s) | noted speed corrected by (m/s) | Δσ (1/s) | z | Δω (rad/s) | z | Δ\\|γ/θ\\| | z | Δarg(γ/θ) (°) | z |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+    md.push_str("## The speed of each ride\n\nWhere the eigenvalue applies, from each source with its standard error (m/s): the speedometer's\nreading noted at the release carried by the slowing the frame sensor measures, the reed switch's `Sync`\npulses, the rolling kinematics (yaw rate against steer; tyre slip limits it to ±10 %). The first that the\nride has of `Sync` and the noted reading is used.\n\n| ride | used | noted reading | slowing since the release | noted, carried | Sync | kinematic | disagreements beyond 3σ |\n|---|---|---|---|---|---|---|---|\n");
+    for r in &d.residuals {
+        let s = &r.speed_sources;
+        let est = |e: Option<crate::ride::speed::SpeedEstimate>| {
+            e.map_or("—".to_string(), |e| pm(e.speed_mps, e.se_mps, 3))
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            r.ride,
+            serde_json::to_value(r.speed_source)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default(),
+            s.noted
+                .as_ref()
+                .map_or("—".into(), |n| format!("{:.2}", n.reading.speed_mps)),
+            s.noted.as_ref().map_or("—".into(), |n| pm(
+                n.slowing.delta_mps,
+                n.slowing.se_mps,
+                3
+            )),
+            est(s.noted.as_ref().map(|n| n.estimate)),
+            est(s.sync),
+            est(s.kinematic),
+            if s.disagreements.is_empty() {
+                "—".into()
+            } else {
+                s.disagreements.join("; ")
+            }
+        );
+    }
+    md.push_str("\n## Where\n\nEvery residual in its combined standard error (the ride's fit and speed, the model's from the measured\nparameters).\n\n| ride | speed (m/s) | noted speed corrected by (m/s) | Δσ (1/s) | z | Δω (rad/s) | z | Δ\\|γ/θ\\| | z | Δarg(γ/θ) (°) | z |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in &d.residuals {
         let _ = writeln!(
             md,
-            "| {} | {:.3} | {} | {} | {:+.1} | {} | {:+.1} | {:+.3} | {:+.1} | {:+.1} | {:+.1} |",
+            "| {} | {} | {} | {} | {:+.1} | {} | {:+.1} | {} | {:+.1} | {} | {:+.1} |",
             r.ride,
-            r.speed_mps,
+            pm(r.speed_mps, r.speed_se_mps, 3),
             if r.speed_correction_mps != 0.0 {
                 format!("{:+.3}", r.speed_correction_mps)
             } else {
@@ -883,9 +921,13 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
             r.re_z,
             pm(r.im, r.im_se, 3),
             r.im_z,
-            r.shape_ratio,
+            pm(r.shape_ratio, r.shape_ratio_se, 3),
             r.shape_ratio_z,
-            r.shape_phase_rad.to_degrees(),
+            pm(
+                r.shape_phase_rad.to_degrees(),
+                r.shape_phase_se_rad.to_degrees(),
+                1
+            ),
             r.shape_phase_z
         );
     }
@@ -903,9 +945,49 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
     }
     let _ = write!(
         md,
-        "\nχ² = {:.1} for {} degrees of freedom with the parameters' uncertainty (p = {:.2e}); {:.1} without it.\n",
-        d.chi2, d.dof, d.p_value, d.chi2_without_parameter_error
+        "\n## The test\n\n| test | statistic | degrees of freedom | p |\n|---|---|---|---|\n\
+         | χ² of every ride ({} parts each), with the parameters' uncertainty | {:.1} | {} | {:.3e} |\n\
+         | the same without it | {:.1} | {} | {:.3e} |\n",
+        d.parts_per_ride,
+        d.chi2,
+        d.dof,
+        d.p_value,
+        d.chi2_without_parameter_error,
+        d.dof,
+        d.p_value_without_parameter_error
     );
+    if let Some(t) = &d.targeted {
+        let _ = writeln!(
+            md,
+            "| likelihood ratio of the best single effect ({}), times the effects tried | {:.1} | {} | {:.3e} |",
+            t.effect, t.likelihood_ratio, t.dof, t.p_value
+        );
+    }
+    let _ = writeln!(
+        md,
+        "| **the campaign's test** (either, p doubled) | | | **{:.3e}** ({}) |",
+        d.campaign_p_value,
+        if d.significant {
+            "a significant gap"
+        } else {
+            "no significant gap"
+        }
+    );
+    if let Some(best) = d.ranking.first() {
+        let _ = writeln!(
+            md,
+            "| the best candidate's fit to every ride ({}): χ² | {:.1} | {} | {:.3e} ({}) |",
+            best.effect,
+            best.chi2,
+            d.dof.saturating_sub(best.params.len()),
+            d.best_fit_p_value,
+            if d.explained {
+                "explains the gap"
+            } else {
+                "does not explain it"
+            }
+        );
+    }
     md.push_str("\n## Which\n\n| rank | effect | what | parameters | plausible | BIC | held-out RMS before | after |\n|---|---|---|---|---|---|---|---|\n");
     for (k, r) in d.ranking.iter().enumerate() {
         let params: Vec<String> = r
@@ -942,11 +1024,11 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
     if let Some(best) = d.ranking.first() {
         let _ = write!(
             md,
-            "\n## How far\n\nHeld-out RMS normalized residual of the weave eigenvalues: {:.2} with the model as it is, {:.2} with\n\
+            "\n## How far\n\nHeld-out RMS normalized residual of the weaves (eigenvalue and mode shape): {:.2} with the model as it is, {:.2} with\n\
              {} ({:.0} % smaller). Variance of θ and γ over the rides' windows accounted for by the eigenvalues (the\n\
              modes' amplitudes fitted, the eigenvalues held; each ride with the effect refitted without it): {} before,\n\
-             {} after. Fitted to every ride, the residuals before and after:\n\n\
-             | ride | Δσ before | Δσ after | Δω before | Δω after | Δ\\|γ/θ\\| before | after |\n|---|---|---|---|---|---|---|\n",
+             {} after. Fitted to every ride, the residuals before and after (in combined standard errors):\n\n\
+             | ride | Δσ before | Δσ after | Δω before | Δω after | Δ\\|γ/θ\\| before | after | Δarg(γ/θ) (°) before | after |\n|---|---|---|---|---|---|---|---|---|\n",
             best.heldout_rms_before,
             best.heldout_rms_after,
             best.effect,
@@ -959,7 +1041,7 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
         for (a, b) in d.residuals.iter().zip(&d.residuals_after) {
             let _ = writeln!(
                 md,
-                "| {} | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} | {:+.3} |",
+                "| {} | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.3} ({:+.1}σ) | {:+.1} ({:+.1}σ) | {:+.1} ({:+.1}σ) |",
                 a.ride,
                 a.re,
                 a.re_z,
@@ -970,7 +1052,13 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
                 b.im,
                 b.im_z,
                 a.shape_ratio,
-                b.shape_ratio
+                a.shape_ratio_z,
+                b.shape_ratio,
+                b.shape_ratio_z,
+                a.shape_phase_rad.to_degrees(),
+                a.shape_phase_z,
+                b.shape_phase_rad.to_degrees(),
+                b.shape_phase_z
             );
         }
     }

@@ -324,6 +324,26 @@ pub fn predict(
     obs: &Observation,
     guess: Complex<f64>,
 ) -> Option<Complex<f64>> {
+    predict_weave(bike, effects, params, obs, guess, false).map(|(w, _)| w)
+}
+
+/// [`predict`], and with `shape` the mode shape γ/θ there too (a clock's scale changes the
+/// eigenvalue the ride reports, not the shape). `None` when there is no weave, or no shape
+/// when one is asked for.
+pub fn predict_weave(
+    bike: &LinearBike,
+    effects: &[Effect],
+    params: &[f64],
+    obs: &Observation,
+    guess: Complex<f64>,
+    shape: bool,
+) -> Option<(Complex<f64>, Option<Complex<f64>>)> {
     let v = true_speed(effects, params, obs);
-    Some(bike.weave_near(v, guess)? / clock(effects, params))
+    let w = bike.weave_near(v, guess)?;
+    let s = if shape {
+        Some(bike.mode_shape(v, w)?)
+    } else {
+        None
+    };
+    Some((w / clock(effects, params), s))
 }

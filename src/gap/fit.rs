@@ -1,9 +1,10 @@
-//! Fitting the candidate effects to a campaign's eigenvalues: generalized least squares with
-//! the full covariance (each ride's fit errors, its speed's, and the model's from the measured
-//! parameters, correlated across rides), a bounded Nelder–Mead search after a grid, standard
-//! errors from the χ² curvature, and leave-one-ride-out predictions.
+//! Fitting the candidate effects to a campaign's weaves (the eigenvalue, and the mode shape
+//! |γ/θ| with its phase): generalized least squares with the full covariance (each ride's fit
+//! errors, its speed's, and the model's from the measured parameters, correlated across
+//! rides), a bounded Nelder–Mead search after a grid, standard errors from the χ² curvature,
+//! and leave-one-ride-out predictions.
 
-use super::effects::{linear_bike, predict, specs, Effect};
+use super::effects::{linear_bike, predict_weave, specs, Effect};
 use super::Observation;
 use crate::model::Benchmark;
 use nalgebra::{Complex, DMatrix, DVector};
@@ -14,7 +15,10 @@ pub struct Campaign<'a> {
     pub obs: &'a [Observation],
     pub base: &'a Benchmark,
     pub guesses: Vec<Complex<f64>>,
-    /// Covariance of `[re₀, im₀, re₁, im₁, …]` of the residuals (experiment − model).
+    /// The parts of each ride's residual: 2, the eigenvalue's real and imaginary parts; 4, and
+    /// the mode shape's |γ/θ| and phase (rad).
+    pub parts: usize,
+    /// Covariance of `[re₀, im₀, (|γ/θ|₀, arg₀,) re₁, …]` of the residuals (experiment − model).
     pub cov: DMatrix<f64>,
 }
 
@@ -26,7 +30,8 @@ pub struct Subset<'c, 'a> {
 }
 
 impl<'a> Campaign<'a> {
-    /// The residuals of `rides` (experiment − prediction), `None` when a ride has no weave.
+    /// The residuals of `rides` (experiment − prediction, [`Campaign::parts`] per ride, the
+    /// phase wrapped to ±π), `None` when a ride has no weave or no mode shape.
     pub fn residuals(
         &self,
         effects: &[Effect],
@@ -34,19 +39,33 @@ impl<'a> Campaign<'a> {
         rides: &[usize],
     ) -> Option<DVector<f64>> {
         let bike = linear_bike(self.base, effects, params);
-        let mut r = DVector::zeros(2 * rides.len());
+        let p = self.parts;
+        let mut r = DVector::zeros(p * rides.len());
         for (k, &i) in rides.iter().enumerate() {
             let o = &self.obs[i];
-            let p = predict(&bike, effects, params, o, self.guesses[i])?;
-            r[2 * k] = o.weave.re - p.re;
-            r[2 * k + 1] = o.weave.im - p.im;
+            let (w, shape) = predict_weave(&bike, effects, params, o, self.guesses[i], p > 2)?;
+            r[p * k] = o.weave.re - w.re;
+            r[p * k + 1] = o.weave.im - w.im;
+            if let Some(s) = shape {
+                r[p * k + 2] = o.shape_ratio.value - s.norm();
+                r[p * k + 3] =
+                    crate::model::uncertain::wrap_near(o.shape_phase_rad.value, s.arg()) - s.arg();
+            }
         }
         Some(r)
     }
 
+    /// The indices of `rides`' parts in the residual vector.
+    fn indices(&self, rides: &[usize]) -> Vec<usize> {
+        rides
+            .iter()
+            .flat_map(|&i| (0..self.parts).map(move |a| self.parts * i + a))
+            .collect()
+    }
+
     /// The subset of `rides`; `None` when its covariance is not positive definite.
     pub fn subset(&self, rides: Vec<usize>) -> Option<Subset<'_, 'a>> {
-        let idx: Vec<usize> = rides.iter().flat_map(|&i| [2 * i, 2 * i + 1]).collect();
+        let idx = self.indices(&rides);
         let cov = self.cov.select_rows(idx.iter()).select_columns(idx.iter());
         Some(Subset {
             campaign: self,
@@ -55,23 +74,15 @@ impl<'a> Campaign<'a> {
         })
     }
 
-    /// Ride `i`'s own 2×2 covariance, inverted; `None` when singular.
-    pub fn ride_precision(&self, i: usize) -> Option<nalgebra::Matrix2<f64>> {
-        let c = nalgebra::Matrix2::new(
-            self.cov[(2 * i, 2 * i)],
-            self.cov[(2 * i, 2 * i + 1)],
-            self.cov[(2 * i + 1, 2 * i)],
-            self.cov[(2 * i + 1, 2 * i + 1)],
-        );
-        c.try_inverse()
-    }
-
-    /// (experiment − prediction) of ride `i` in its own standard errors, squared and summed
-    /// over the two parts; `None` when the prediction fails.
+    /// (experiment − prediction) of ride `i` in its own covariance (its block of
+    /// [`Campaign::cov`]): rᵀ Σᵢ⁻¹ r over its parts; `None` when the prediction fails or the
+    /// block is singular.
     pub fn ride_chi2(&self, effects: &[Effect], params: &[f64], i: usize) -> Option<f64> {
         let r = self.residuals(effects, params, &[i])?;
-        let r = nalgebra::Vector2::new(r[0], r[1]);
-        Some((r.transpose() * self.ride_precision(i)? * r)[(0, 0)])
+        let idx = self.indices(&[i]);
+        let block = self.cov.select_rows(idx.iter()).select_columns(idx.iter());
+        let w = block.cholesky()?.l().solve_lower_triangular(&r)?;
+        Some(w.norm_squared())
     }
 }
 
@@ -276,7 +287,9 @@ pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) ->
             hess[(j, i)] = v;
         }
     }
-    let dof = (2 * subset.len()).saturating_sub(n).max(1) as f64;
+    let dof = (subset.campaign.parts * subset.len())
+        .saturating_sub(n)
+        .max(1) as f64;
     let birge = (fit.chi2 / dof).max(1.0);
     match (hess * 0.5).try_inverse() {
         Some(inv) => (0..n)

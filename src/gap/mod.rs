@@ -26,7 +26,7 @@ pub mod fit;
 pub mod linear;
 mod stats;
 
-use crate::model::uncertain::Parametrized;
+use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
 use crate::ride::dynamic::{DynamicTest, SpeedSource};
 use effects::Effect;
 use fit::{fit_effects, param_se, refine, Campaign};
@@ -46,6 +46,8 @@ pub struct Observation {
     pub speed_correction_mps: f64,
     pub speed_se_mps: f64,
     pub speed_source: SpeedSource,
+    /// Every source of the speed the ride's log offers, compared.
+    pub speed_sources: crate::ride::speed::SpeedSources,
     pub weave: Complex<f64>,
     pub re_se: f64,
     pub im_se: f64,
@@ -67,6 +69,7 @@ impl Observation {
             },
             speed_se_mps: t.speed.speed_se_mps,
             speed_source: t.speed.source,
+            speed_sources: t.speed.sources.clone(),
             weave: Complex::new(t.fit.weave.re, t.fit.weave.im),
             re_se: t.fit.weave.re_se,
             im_se: t.fit.weave.im_se,
@@ -100,6 +103,10 @@ pub struct RideResidual {
     pub speed_mps: f64,
     /// The correction of a noted speed for the slowing before the window (m/s; 0 for `Sync`).
     pub speed_correction_mps: f64,
+    pub speed_se_mps: f64,
+    /// The source the speed is taken from, and every source the log offers, compared.
+    pub speed_source: SpeedSource,
+    pub speed_sources: crate::ride::speed::SpeedSources,
     /// Experiment − model (1/s), real and imaginary parts.
     pub re: f64,
     pub im: f64,
@@ -108,11 +115,14 @@ pub struct RideResidual {
     pub im_se: f64,
     pub re_z: f64,
     pub im_z: f64,
-    /// The mode shape: |γ/θ| and its phase (rad), experiment − model, in the fit's standard
-    /// errors only (the model's shape error is not propagated).
+    /// The mode shape: |γ/θ| and its phase (rad), experiment − model, with their combined
+    /// standard errors (the fit's with its floor, the speed's, the model's from the
+    /// parameters; the fit's alone when the shape is left out of the diagnosis).
     pub shape_ratio: f64,
+    pub shape_ratio_se: f64,
     pub shape_ratio_z: f64,
     pub shape_phase_rad: f64,
+    pub shape_phase_se_rad: f64,
     pub shape_phase_z: f64,
 }
 
@@ -194,12 +204,22 @@ pub struct Diagnosis {
     pub p_value: f64,
     pub chi2_without_parameter_error: f64,
     pub p_value_without_parameter_error: f64,
+    /// The parts of each ride in the residuals and the fits: 4 (the eigenvalue's real and
+    /// imaginary parts, the mode shape's |γ/θ| and phase) or 2 (the eigenvalue only, when
+    /// the shape is left out or the model has none at some ride).
+    pub parts_per_ride: usize,
+    /// The targeted test: the single effect of the library that lowers the campaign's χ² the
+    /// most, its likelihood ratio and p-value over all the single effects tried.
+    pub targeted: Option<TargetedTest>,
+    /// The campaign's test: the smaller of the χ² test's p and the targeted test's, doubled
+    /// (either may find the gap); significant below [`SIGNIFICANCE`].
+    pub campaign_p_value: f64,
     /// The variance of θ and γ over the rides' windows that the eigenvalues account for (mean
     /// over rides and the two signals; modes' amplitudes, offsets and trends fitted, eigenvalues
     /// held): the model as it is, and with the best explanation refitted without each ride.
     pub heldout_vaf_before: Option<f64>,
     pub heldout_vaf_after: Option<f64>,
-    /// p < 0.01.
+    /// `campaign_p_value` < [`SIGNIFICANCE`].
     pub significant: bool,
     /// The gap is significant without the parameters' uncertainty but not with it.
     pub parameters_could_explain: bool,
@@ -242,17 +262,71 @@ pub const CLOSED_RMS: f64 = 2.0;
 /// with one degree of freedom: the pair's extra parameter) and by the BIC.
 pub const PAIR_GAIN_CHI2: f64 = 6.63;
 
+/// The experimental mode shape's standard error has at least this relative part in |γ/θ| …
+pub const SHAPE_RATIO_FLOOR: f64 = 0.0;
+/// … and this much in its phase (rad).
+pub const SHAPE_PHASE_FLOOR_RAD: f64 = 0.0;
+
 /// Options of [`diagnose`].
 #[derive(Debug, Clone)]
 pub struct GapOptions {
     /// Threads for the candidates' held-out fits.
     pub threads: usize,
+    /// Fit and rank on the mode shape as well as the eigenvalue.
+    pub shape: bool,
 }
 
 impl Default for GapOptions {
     fn default() -> Self {
-        GapOptions { threads: 1 }
+        GapOptions {
+            threads: 1,
+            shape: true,
+        }
     }
+}
+
+/// The targeted part of the campaign's test (see [`Diagnosis::targeted`]).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct TargetedTest {
+    pub effect: String,
+    /// χ² of the unextended model minus χ² with the effect fitted, over the effect's Birge
+    /// factor `max(1, χ²/dof)` (a fit that leaves more scatter than the errors allow tells
+    /// that much less).
+    pub likelihood_ratio: f64,
+    /// The effect's parameters: the likelihood ratio's degrees of freedom.
+    pub dof: usize,
+    /// Its p-value under χ²(dof), times the number of single effects tried (Bonferroni).
+    pub p_value: f64,
+}
+
+/// The campaign's targeted test: among the single effects of the ranking, the one whose fit
+/// lowers the campaign's χ² the most; its likelihood ratio is χ²-distributed with as many
+/// degrees of freedom as it has parameters when the model is right (Wilks), and the p-value is
+/// multiplied by the number of effects tried. Sets `targeted` and `campaign_p_value`.
+fn targeted_test(d: &mut Diagnosis) {
+    let chi2_before = d.chi2;
+    let singles: Vec<&Ranked> = d.ranking.iter().filter(|r| r.effects.len() == 1).collect();
+    let tried = singles.len().max(1) as f64;
+    d.targeted = singles
+        .iter()
+        .map(|r| {
+            let k = r.params.len();
+            let birge = (r.chi2 / d.dof.saturating_sub(k).max(1) as f64).max(1.0);
+            let lr = ((chi2_before - r.chi2) / birge).max(0.0);
+            TargetedTest {
+                effect: r.effect.clone(),
+                likelihood_ratio: lr,
+                dof: k,
+                p_value: (stats::chi2_sf(lr, k) * tried).min(1.0),
+            }
+        })
+        .min_by(|a, b| {
+            a.p_value
+                .total_cmp(&b.p_value)
+                .then(b.likelihood_ratio.total_cmp(&a.likelihood_ratio))
+        });
+    let p_targeted = d.targeted.as_ref().map_or(1.0, |t| t.p_value);
+    d.campaign_p_value = (2.0 * d.p_value.min(p_targeted)).min(1.0);
 }
 
 /// Runs the dynamic test of every ride of `manifest` (on `threads` threads) and diagnoses the
@@ -284,7 +358,10 @@ pub fn diagnose_campaign(
         &rides,
         &failed,
         model,
-        &GapOptions { threads },
+        &GapOptions {
+            threads,
+            ..GapOptions::default()
+        },
         &|done, total| progress("candidates", done, total),
     )
 }
@@ -309,6 +386,9 @@ pub fn diagnose(
         bands: Vec::new(),
         chi2: f64::NAN,
         dof: 2 * n,
+        parts_per_ride: 2,
+        targeted: None,
+        campaign_p_value: f64::NAN,
         p_value: f64::NAN,
         chi2_without_parameter_error: f64::NAN,
         p_value_without_parameter_error: f64::NAN,
@@ -329,26 +409,58 @@ pub fn diagnose(
     }
     // The model at the rides' speeds, its covariance, and the speeds' contribution.
     let speeds: Vec<f64> = rides.iter().map(|o| o.speed_mps).collect();
-    let (guesses, model_cov) = model.weave_covariance(&speeds)?;
+    let wm = model.weave_model(&speeds)?;
+    let shapes_usable = wm.shapes.iter().all(|s| s.is_finite())
+        && rides.iter().all(|o| {
+            [o.shape_ratio, o.shape_phase_rad]
+                .iter()
+                .all(|e| e.value.is_finite() && e.se.is_finite() && e.se > 0.0)
+        });
+    let parts = if options.shape && shapes_usable { 4 } else { 2 };
+    let guesses = wm.weaves.clone();
+    let model_idx: Vec<usize> = (0..n)
+        .flat_map(|i| (0..parts).map(move |a| WEAVE_PARTS * i + a))
+        .collect();
+    let model_cov = wm
+        .cov
+        .select_rows(model_idx.iter())
+        .select_columns(model_idx.iter());
     let base = model.nominal();
-    let mut exp_cov = DMatrix::zeros(2 * n, 2 * n);
     let unextended = linear::LinearBike::whipple(&base);
+    let mut exp_cov = DMatrix::zeros(parts * n, parts * n);
     for (i, o) in rides.iter().enumerate() {
-        exp_cov[(2 * i, 2 * i)] = o.re_se.powi(2);
-        exp_cov[(2 * i + 1, 2 * i + 1)] = o.im_se.powi(2);
+        let variances = [
+            o.re_se,
+            o.im_se,
+            o.shape_ratio
+                .se
+                .hypot(SHAPE_RATIO_FLOOR * o.shape_ratio.value),
+            o.shape_phase_rad.se.hypot(SHAPE_PHASE_FLOOR_RAD),
+        ];
+        for a in 0..parts {
+            exp_cov[(parts * i + a, parts * i + a)] = variances[a].powi(2);
+        }
         if o.speed_se_mps > 0.0 {
             let h = 1e-4;
-            let dv = match (
-                unextended.weave_near(o.speed_mps + h, guesses[i]),
-                unextended.weave_near(o.speed_mps - h, guesses[i]),
-            ) {
-                (Some(a), Some(b)) => (a - b) / (2.0 * h),
-                _ => Complex::new(0.0, 0.0),
+            let at = |v: f64| -> Option<[f64; 4]> {
+                let w = unextended.weave_near(v, guesses[i])?;
+                let s = unextended.mode_shape(v, w)?;
+                Some([
+                    w.re,
+                    w.im,
+                    s.norm(),
+                    crate::model::uncertain::wrap_near(s.arg(), wm.shapes[i].arg()),
+                ])
             };
-            let g = [dv.re * o.speed_se_mps, dv.im * o.speed_se_mps];
-            for a in 0..2 {
-                for b in 0..2 {
-                    exp_cov[(2 * i + a, 2 * i + b)] += g[a] * g[b];
+            let g: [f64; 4] = match (at(o.speed_mps + h), at(o.speed_mps - h)) {
+                (Some(a), Some(b)) => {
+                    std::array::from_fn(|k| (a[k] - b[k]) / (2.0 * h) * o.speed_se_mps)
+                }
+                _ => [0.0; 4],
+            };
+            for a in 0..parts {
+                for b in 0..parts {
+                    exp_cov[(parts * i + a, parts * i + b)] += g[a] * g[b];
                 }
             }
         }
@@ -358,58 +470,71 @@ pub fn diagnose(
         obs: rides,
         base: &base,
         guesses: guesses.clone(),
+        parts,
         cov: &exp_cov + &model_cov,
     };
+    d.parts_per_ride = parts;
+    d.dof = parts * n;
     let full = campaign.subset(all.clone()).ok_or(GapError::Covariance)?;
     let r0 = campaign
         .residuals(&[], &[], &all)
         .ok_or(GapError::Covariance)?;
     d.chi2 = full.chi2(&[], &[]);
-    d.p_value = stats::chi2_sf(d.chi2, 2 * n);
+    d.p_value = stats::chi2_sf(d.chi2, d.dof);
     d.chi2_without_parameter_error = exp_cov
         .clone()
         .cholesky()
         .and_then(|c| c.l().solve_lower_triangular(&r0))
         .map_or(f64::NAN, |w| w.norm_squared());
-    d.p_value_without_parameter_error = stats::chi2_sf(d.chi2_without_parameter_error, 2 * n);
-    d.significant = d.p_value < SIGNIFICANCE;
-    d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
+    d.p_value_without_parameter_error = stats::chi2_sf(d.chi2_without_parameter_error, d.dof);
     d.residuals = rides
         .iter()
         .enumerate()
         .map(|(i, o)| {
-            let (re_se, im_se) = (
-                campaign.cov[(2 * i, 2 * i)].sqrt(),
-                campaign.cov[(2 * i + 1, 2 * i + 1)].sqrt(),
-            );
-            let model_weave = Complex::new(o.weave.re - r0[2 * i], o.weave.im - r0[2 * i + 1]);
+            let se = |a: usize| campaign.cov[(parts * i + a, parts * i + a)].sqrt();
+            let (re_se, im_se) = (se(0), se(1));
+            let (ratio_se, phase_se) = if parts > 2 {
+                (se(2), se(3))
+            } else {
+                (o.shape_ratio.se, o.shape_phase_rad.se)
+            };
+            let model_weave =
+                Complex::new(o.weave.re - r0[parts * i], o.weave.im - r0[parts * i + 1]);
             let (dr, dp) = shape_residual(&unextended, o, o.speed_mps, model_weave);
             RideResidual {
                 ride: o.ride.clone(),
                 speed_mps: o.speed_mps,
                 speed_correction_mps: o.speed_correction_mps,
-                re: r0[2 * i],
-                im: r0[2 * i + 1],
+                speed_se_mps: o.speed_se_mps,
+                speed_source: o.speed_source,
+                speed_sources: o.speed_sources.clone(),
+                re: r0[parts * i],
+                im: r0[parts * i + 1],
                 re_se,
                 im_se,
-                re_z: r0[2 * i] / re_se,
-                im_z: r0[2 * i + 1] / im_se,
+                re_z: r0[parts * i] / re_se,
+                im_z: r0[parts * i + 1] / im_se,
                 shape_ratio: dr,
-                shape_ratio_z: dr / o.shape_ratio.se,
+                shape_ratio_se: ratio_se,
+                shape_ratio_z: dr / ratio_se,
                 shape_phase_rad: dp,
-                shape_phase_z: dp / o.shape_phase_rad.se,
+                shape_phase_se_rad: phase_se,
+                shape_phase_z: dp / phase_se,
             }
         })
         .collect();
     d.bands = speed_bands(&d.residuals);
     d.conclusive = true;
     d.ranking = rank(&campaign, options, progress)?;
+    targeted_test(&mut d);
+    d.significant = d.campaign_p_value < SIGNIFICANCE;
+    d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
     if d.significant {
         d.tied = tied(&d.ranking);
     }
     if let Some(best) = d.ranking.first() {
         let k = best.params.len();
-        d.best_fit_p_value = stats::chi2_sf(best.chi2, (2 * n).saturating_sub(k).max(1));
+        d.best_fit_p_value = stats::chi2_sf(best.chi2, d.dof.saturating_sub(k).max(1));
         d.explained = d.significant
             && best.heldout_rms_after <= EXPLAINED_HELDOUT_RMS
             && best.heldout_rms_after < best.heldout_rms_before
@@ -446,18 +571,19 @@ pub fn diagnose(
                 .enumerate()
                 .map(|(i, before)| {
                     let o = &rides[i];
-                    let weave = Complex::new(o.weave.re - r[2 * i], o.weave.im - r[2 * i + 1]);
+                    let weave =
+                        Complex::new(o.weave.re - r[parts * i], o.weave.im - r[parts * i + 1]);
                     let v = effects::true_speed(&best.effects, &best.params, o);
                     let (dr, dp) = shape_residual(&bike, o, v, weave * clock);
                     RideResidual {
-                        re: r[2 * i],
-                        im: r[2 * i + 1],
-                        re_z: r[2 * i] / before.re_se,
-                        im_z: r[2 * i + 1] / before.im_se,
+                        re: r[parts * i],
+                        im: r[parts * i + 1],
+                        re_z: r[parts * i] / before.re_se,
+                        im_z: r[parts * i + 1] / before.im_se,
                         shape_ratio: dr,
-                        shape_ratio_z: dr / o.shape_ratio.se,
+                        shape_ratio_z: dr / before.shape_ratio_se,
                         shape_phase_rad: dp,
-                        shape_phase_z: dp / o.shape_phase_rad.se,
+                        shape_phase_z: dp / before.shape_phase_se_rad,
                         ..before.clone()
                     }
                 })
@@ -604,7 +730,8 @@ fn rank(
     let before = (0..n)
         .map(|i| campaign.ride_chi2(&[], &[], i).unwrap_or(f64::INFINITY))
         .sum::<f64>();
-    let rms = |s: f64| (s / (2 * n) as f64).sqrt();
+    let parts = n * campaign.parts;
+    let rms = |s: f64| (s / parts as f64).sqrt();
     let total = 2 * Effect::ALL.len() - 1 + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let evaluate = |effects: &[Effect]| -> Option<Ranked> {
@@ -631,7 +758,7 @@ fn rank(
                 .all(|(spec, &p)| (spec.plausible.0..=spec.plausible.1).contains(&p)),
             units: effects::specs(&effects).iter().map(|p| p.unit).collect(),
             effects,
-            bic: f.chi2 + f.params.len() as f64 * ((2 * n) as f64).ln(),
+            bic: f.chi2 + f.params.len() as f64 * (parts as f64).ln(),
             chi2: f.chi2,
             params: f.params,
             params_se: se,
@@ -750,7 +877,15 @@ fn tied(ranked: &[Ranked]) -> Vec<String> {
     }
 }
 
-/// The diagnosis in words.
+/// What each ride's residual is made of.
+fn decided_on(parts: usize) -> &'static str {
+    if parts > 2 {
+        "the weave's eigenvalue and mode shape"
+    } else {
+        "the weave's eigenvalue"
+    }
+}
+
 /// Where the residual the closest candidate leaves lies: the RMS normalized residual of σ, ω
 /// and the mode shape's |γ/θ| and phase (the largest named), and the ride furthest from it.
 fn where_left(d: &Diagnosis) -> String {
@@ -792,6 +927,7 @@ fn where_left(d: &Diagnosis) -> String {
     out
 }
 
+/// The diagnosis in words.
 fn verdict(d: &Diagnosis) -> String {
     let mut v = String::new();
     let part = |name: &str, unit: &str, sel: &dyn Fn(&RideResidual) -> (f64, f64, f64)| {
@@ -811,23 +947,40 @@ fn verdict(d: &Diagnosis) -> String {
     };
     let _ = write!(
         v,
-        "{}; {}; {} (in the fit's errors only). ",
+        "{}; {}; {}. ",
         part("Weave frequency", "rad/s", &|r| (r.im, r.im_se, r.im_z)),
         part("weave damping rate (σ)", "1/s", &|r| (
             r.re, r.re_se, r.re_z
         )),
         part("mode shape |γ/θ|", "rad/rad", &|r| (
             r.shape_ratio,
-            r.shape_ratio / r.shape_ratio_z,
+            r.shape_ratio_se,
             r.shape_ratio_z
         ))
     );
     let _ = write!(
         v,
-        "Campaign χ² = {:.1} for {} degrees of freedom (p = {}), with the measured parameters' uncertainty included: ",
+        "Campaign χ² = {:.1} for {} degrees of freedom ({}; {} of each ride, the measured parameters' uncertainty included)",
         d.chi2,
         d.dof,
-        stats::format_p(d.p_value)
+        stats::p_is(d.p_value),
+        decided_on(d.parts_per_ride)
+    );
+    if let Some(t) = &d.targeted {
+        let _ = write!(
+            v,
+            "; the single effect that lowers it most, {}, by a likelihood ratio of {:.1} on {} degree{} of freedom ({} for the best of the effects tried)",
+            t.effect,
+            t.likelihood_ratio,
+            t.dof,
+            if t.dof == 1 { "" } else { "s" },
+            stats::p_is(t.p_value)
+        );
+    }
+    let _ = write!(
+        v,
+        "; the campaign's test, either of the two: {}: ",
+        stats::p_is(d.campaign_p_value)
     );
     if !d.significant {
         v.push_str(if d.parameters_could_explain {
@@ -866,13 +1019,13 @@ fn verdict(d: &Diagnosis) -> String {
     if !d.explained {
         let _ = write!(
             v,
-            "No candidate of the library explains it: the closest, {} ({}), leaves the rides left out at an RMS of {:.2} standard errors (from {:.2}; an explanation brings it to about 1, at most {EXPLAINED_HELDOUT_RMS}), and its fit to every ride gives χ² = {:.1} (p = {}). ",
+            "No candidate of the library explains it: the closest, {} ({}), leaves the rides left out at an RMS of {:.2} standard errors (from {:.2}; an explanation brings it to about 1, at most {EXPLAINED_HELDOUT_RMS}), and its fit to every ride gives χ² = {:.1} ({}). ",
             best.effect,
             params.join(", "),
             best.heldout_rms_after,
             best.heldout_rms_before,
             best.chi2,
-            stats::format_p(d.best_fit_p_value)
+            stats::p_is(d.best_fit_p_value)
         );
         v.push_str(&where_left(d));
         return v;
@@ -929,13 +1082,22 @@ impl Diagnosis {
         );
         let _ = writeln!(
             out,
-            "  {:<10} {:>9} {:>18} {:>6} {:>18} {:>6} {:>9} {:>6}",
-            "ride", "speed m/s", "Δσ 1/s", "z", "Δω rad/s", "z", "Δ|γ/θ|", "z"
+            "  {:<10} {:>9} {:>18} {:>6} {:>18} {:>6} {:>18} {:>6} {:>16} {:>6}",
+            "ride",
+            "speed m/s",
+            "Δσ 1/s",
+            "z",
+            "Δω rad/s",
+            "z",
+            "Δ|γ/θ| rad/rad",
+            "z",
+            "Δarg(γ/θ) °",
+            "z"
         );
         for r in &self.residuals {
             let _ = writeln!(
                 out,
-                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1} {:>+9.3} {:>+6.1}",
+                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1} {:>+8.3} ± {:<7.3} {:>+6.1} {:>+6.1} ± {:<5.1} {:>+6.1}",
                 r.ride,
                 r.speed_mps,
                 r.re,
@@ -945,7 +1107,11 @@ impl Diagnosis {
                 r.im_se,
                 r.im_z,
                 r.shape_ratio,
-                r.shape_ratio_z
+                r.shape_ratio_se,
+                r.shape_ratio_z,
+                r.shape_phase_rad.to_degrees(),
+                r.shape_phase_se_rad.to_degrees(),
+                r.shape_phase_z
             );
         }
         for b in &self.bands {
@@ -964,7 +1130,22 @@ impl Diagnosis {
             self.chi2_without_parameter_error,
             stats::format_p(self.p_value_without_parameter_error)
         );
-        let _ = writeln!(out, "Which: candidates by held-out RMS normalized residual");
+        if let Some(t) = &self.targeted {
+            let _ = writeln!(
+                out,
+                "  targeted: {} lowers χ² by {:.1} on {} dof (p {} over the single effects tried); the campaign's test p {}",
+                t.effect,
+                t.likelihood_ratio,
+                t.dof,
+                stats::format_p(t.p_value),
+                stats::format_p(self.campaign_p_value)
+            );
+        }
+        let _ = writeln!(
+            out,
+            "Which: candidates fitted on {} by held-out RMS normalized residual",
+            decided_on(self.parts_per_ride)
+        );
         let _ = writeln!(
             out,
             "  {:<28} {:>30} {:>8} {:>8} {:>9}",

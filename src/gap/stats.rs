@@ -82,6 +82,16 @@ pub fn chi2_sf(x: f64, k: usize) -> f64 {
 }
 
 /// A p-value for text: three significant digits, or "< 1e-300".
+/// "p = 0.034", "p = 1.20e-05" or "p < 1e-300".
+pub fn p_is(p: f64) -> String {
+    let f = format_p(p);
+    if f.starts_with('<') {
+        format!("p {f}")
+    } else {
+        format!("p = {f}")
+    }
+}
+
 pub fn format_p(p: f64) -> String {
     if p < 1e-300 {
         "< 1e-300".into()

@@ -186,29 +186,65 @@ impl Parametrized {
     }
 }
 
+/// The model's weave at a set of speeds: its eigenvalue and mode shape, and their covariance
+/// from the measured parameters.
+#[derive(Debug, Clone)]
+pub struct WeaveModel {
+    /// The weave eigenvalue at each speed.
+    pub weaves: Vec<Complex<f64>>,
+    /// Its mode shape γ/θ (steer over roll, complex); `NaN` where the model gives none.
+    pub shapes: Vec<Complex<f64>>,
+    /// Covariance of `[re₀, im₀, |γ/θ|₀, arg₀, re₁, …]` (arg in rad), propagated from the
+    /// parameters: correlated across speeds, since one parameter set makes every speed's weave.
+    pub cov: nalgebra::DMatrix<f64>,
+}
+
+/// The parts [`Parametrized::weave_model`] gives per speed.
+pub const WEAVE_PARTS: usize = 4;
+
 impl Parametrized {
-    /// The weave eigenvalue at each of `speeds` (any order) and the covariance of their parts,
-    /// `[re₀, im₀, re₁, im₁, …]`, propagated from the parameters' (correlated across speeds:
-    /// one parameter set makes every speed's eigenvalue).
-    pub fn weave_covariance(
-        &self,
-        speeds: &[f64],
-    ) -> Result<(Vec<Complex<f64>>, nalgebra::DMatrix<f64>), ParamError> {
+    /// The weave eigenvalue and its mode shape γ/θ at each of `speeds` (any order), with the
+    /// covariance of their parts propagated from the parameters. The phase of each perturbed
+    /// shape is taken within ±π of the nominal one.
+    pub fn weave_model(&self, speeds: &[f64]) -> Result<WeaveModel, ParamError> {
         let nominal = Canonical::from_benchmark(&self.benchmark_at(self.inputs.values()));
         let sweep = nominal.sweep(speeds)?;
+        let weaves: Vec<Complex<f64>> = sweep.eigenvalues.iter().map(|e| e[0]).collect();
+        let shape_of = |c: &Canonical, v: f64, w: Complex<f64>| -> Complex<f64> {
+            c.mode_shape(v, w)
+                .map(|x| x[1] / x[0])
+                .filter(|z| z.is_finite())
+                .unwrap_or(Complex::new(f64::NAN, f64::NAN))
+        };
+        let shapes: Vec<Complex<f64>> = speeds
+            .iter()
+            .zip(&weaves)
+            .map(|(&v, &w)| shape_of(&nominal, v, w))
+            .collect();
         let (_, cov) = propagate(&self.inputs, |x| {
             let c = Canonical::from_benchmark(&self.benchmark_at(x));
-            let mut out = Vec::with_capacity(2 * speeds.len());
+            let mut out = Vec::with_capacity(WEAVE_PARTS * speeds.len());
             for (i, &v) in speeds.iter().enumerate() {
                 let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
                 let w = super::match_order(&sweep.eigenvalues[i], &ev)[0];
-                out.push(w.re);
-                out.push(w.im);
+                let s = shape_of(&c, v, w);
+                out.extend([w.re, w.im, s.norm(), wrap_near(s.arg(), shapes[i].arg())]);
             }
             out
         });
-        Ok((sweep.eigenvalues.iter().map(|e| e[0]).collect(), cov))
+        Ok(WeaveModel {
+            weaves,
+            shapes,
+            cov,
+        })
     }
+}
+
+/// `angle` (rad) moved by whole turns to within ±π of `near`.
+pub fn wrap_near(angle: f64, near: f64) -> f64 {
+    let d = (angle - near + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+        - std::f64::consts::PI;
+    near + d
 }
 
 /// Loads any bicycle file as a parametrized model: a lab bicycle (TOML with `[geometry]`)
