@@ -6,7 +6,7 @@ use bikeproc::gap::{diagnose_campaign, Diagnosis};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::model::uncertain;
 use bikeproc::ride::dynamic::RideManifest;
-use bikeproc::sim::campaign::{blind_campaign, BlindDesign, BlindTruth, Withheld};
+use bikeproc::sim::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Withheld};
 use std::path::PathBuf;
 
 fn root() -> PathBuf {
@@ -22,10 +22,25 @@ fn scratch(name: &str) -> PathBuf {
 /// Simulates a blind campaign into a scratch folder and diagnoses it against the measured
 /// bicycle (the diagnosis sees the logs and the manifest only).
 fn blind_design(withheld: Withheld, design: BlindDesign, seed: u64) -> (Diagnosis, BlindTruth) {
+    blind_plus(withheld, design, seed, &[])
+}
+
+/// [`blind_design`] with rides added at `extra` release speeds (m/s).
+fn blind_plus(
+    withheld: Withheld,
+    design: BlindDesign,
+    seed: u64,
+    extra: &[f64],
+) -> (Diagnosis, BlindTruth) {
     let bike_path = root().join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();
-    let (files, truth) = blind_campaign(&lab, "bike.toml", withheld, design, seed).unwrap();
-    let dir = scratch(&format!("{}_{design:?}_{seed}", withheld.label()));
+    let (files, truth) =
+        blind_campaign_plus(&lab, "bike.toml", withheld, design, seed, extra).unwrap();
+    let dir = scratch(&format!(
+        "{}_{design:?}_{seed}_{}",
+        withheld.label(),
+        extra.len()
+    ));
     for (p, text) in &files {
         if p.as_os_str() != "truth.json" {
             std::fs::write(dir.join(p), text).unwrap();
@@ -60,6 +75,10 @@ struct Score {
     controls_quiet: usize,
     outside: usize,
     outside_unexplained: usize,
+    /// Tied cases, and those the two recommended rides untie with the withheld effect found
+    /// (printed, not asserted: issue 12's item 5 is open, 1 of 7 broken when measured).
+    ties_retried: usize,
+    ties_broken: usize,
     /// (effect, seed, fitted, truth) of every parameter the diagnosis pins down (standard
     /// error under 30 % of its value).
     params: Vec<(&'static str, u64, f64, f64)>,
@@ -109,6 +128,21 @@ fn score(
                 s.cases += 1;
                 s.right += usize::from(ok);
                 s.ties += usize::from(d.tied.len() > 1);
+                if d.tied.len() > 1 && !d.next_rides.is_empty() {
+                    // Item 5: the two rides the diagnosis recommends, simulated and added.
+                    let extra: Vec<f64> =
+                        d.next_rides.iter().map(|n| n.release_speed_mps).collect();
+                    let (again, _) = blind_plus(w, design, seed, &extra);
+                    let broken = again.tied.len() <= 1 && found(&again, w);
+                    println!(
+                        "  with rides released at {extra:?}: tied {:?}, best {}: {}",
+                        again.tied,
+                        again.ranking.first().map_or("", |r| r.effect.as_str()),
+                        if broken { "broken" } else { "still tied" }
+                    );
+                    s.ties_retried += 1;
+                    s.ties_broken += usize::from(broken);
+                }
                 if let Some(r) = d.ranking.iter().find(|r| r.effect == w.label()) {
                     for ((&fit, &se), &t) in r.params.iter().zip(&r.params_se).zip(&truth.params) {
                         if se.is_finite() && se < 0.3 * fit.abs() {
@@ -120,10 +154,12 @@ fn score(
         }
     }
     println!(
-        "{} of {} right, {} tied, {} of {} controls quiet, {} of {} outside the library unexplained, {} parameters checked",
+        "{} of {} right, {} tied ({} of {} broken by the two rides recommended), {} of {} controls quiet, {} of {} outside the library unexplained, {} parameters checked",
         s.right,
         s.cases,
         s.ties,
+        s.ties_broken,
+        s.ties_retried,
         s.controls_quiet,
         s.controls,
         s.outside_unexplained,
@@ -164,7 +200,7 @@ fn assert_bars(s: &Score, min_params: usize) {
 }
 
 /// Acceptance, the design with a reed switch: 12 rides at 3.8–6.55 m/s, `Sync` on every other,
-/// realistic sensors; seven kinds of effect in the library, two outside it (a steer spring,
+/// realistic sensors; nine kinds of effect in the library, two outside it (a steer spring,
 /// headset friction), and the control, five seeds each.
 ///
 /// The sensor clock's time scale is run too and printed, not counted: at a size a real
@@ -182,6 +218,8 @@ fn blind_campaigns_find_the_withheld_effect() {
             Withheld::FrameMass,
             Withheld::WheelSpin,
             Withheld::FrontIxx,
+            Withheld::FrameIxx,
+            Withheld::Trail,
             Withheld::SpeedScale,
         ],
         &[Withheld::TimeScale],
@@ -365,7 +403,7 @@ fn gap_json_has_the_documented_keys() {
 
 /// Acceptance (issue 12), the lab's other design: 14 coasting rides with no reed switch, each
 /// speed the speedometer's reading at the release rounded to 0.1 m/s, the kick 1–1.5 s after
-/// it; seven kinds of effect in the library, two outside it (a steer spring, headset
+/// it; nine kinds of effect in the library, two outside it (a steer spring, headset
 /// friction), and the control, five seeds each.
 #[test]
 fn blind_noted_campaigns() {
@@ -378,6 +416,8 @@ fn blind_noted_campaigns() {
             Withheld::FrameMass,
             Withheld::WheelSpin,
             Withheld::FrontIxx,
+            Withheld::FrameIxx,
+            Withheld::Trail,
             Withheld::SpeedScale,
         ],
         &[Withheld::TimeScale],

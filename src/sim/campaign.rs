@@ -620,6 +620,16 @@ pub fn noted_reading(rng: &mut Rng, speedometer_reading: f64) -> f64 {
     (shown * 10.0).round() / 10.0
 }
 
+/// A factor off from 1 by `lo`–`hi`, either way (one draw for the size, one for the sign).
+fn off_by(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
+    let size = rng.range(lo, hi);
+    if rng.range(0.0, 1.0) < 0.5 {
+        1.0 - size
+    } else {
+        1.0 + size
+    }
+}
+
 /// An effect withheld from the gap diagnosis, for its blind check; its label is the name the
 /// diagnosis gives the effect it finds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -639,6 +649,12 @@ pub enum Withheld {
     WheelSpin,
     /// The front frame's I_xx 1.25–1.45 times what was measured.
     FrontIxx,
+    /// The rear frame's I_xx 0.6–0.75 or 1.25–1.4 times what was measured (a pendulum
+    /// misread).
+    FrameIxx,
+    /// The trail 0.8–0.88 or 1.12–1.2 times what was measured (a fork's offset or head angle
+    /// measured off).
+    Trail,
     /// A speedometer reading 4–8 % high.
     SpeedScale,
     /// The sensors sampling 2.5–4 % fast (far beyond a real sensor's crystal, ±50 ppm: at that
@@ -663,7 +679,7 @@ pub enum BlindDesign {
 }
 
 impl Withheld {
-    pub const ALL: [Withheld; 11] = [
+    pub const ALL: [Withheld; 13] = [
         Withheld::None,
         Withheld::SteerDamping,
         Withheld::Tyres,
@@ -671,6 +687,8 @@ impl Withheld {
         Withheld::FrameMass,
         Withheld::WheelSpin,
         Withheld::FrontIxx,
+        Withheld::FrameIxx,
+        Withheld::Trail,
         Withheld::SpeedScale,
         Withheld::TimeScale,
         Withheld::SteerSpring,
@@ -687,6 +705,8 @@ impl Withheld {
             Withheld::FrameMass => "frame_mass",
             Withheld::WheelSpin => "wheel_spin",
             Withheld::FrontIxx => "front_ixx",
+            Withheld::FrameIxx => "frame_ixx",
+            Withheld::Trail => "trail",
             Withheld::SpeedScale => "speed_scale",
             Withheld::TimeScale => "time_scale",
             Withheld::SteerSpring => "steer_spring",
@@ -725,6 +745,19 @@ pub fn blind_campaign(
     withheld: Withheld,
     design: BlindDesign,
     seed: u64,
+) -> Result<(Files, BlindTruth), super::ride::RideError> {
+    blind_campaign_plus(measured, bike_file, withheld, design, seed, &[])
+}
+
+/// [`blind_campaign`] with more rides after its own, released at `extra_speeds_mps` (the
+/// rides a diagnosis recommends next); the campaign's own rides are the same.
+pub fn blind_campaign_plus(
+    measured: &crate::inertia::bike::LabBike,
+    bike_file: &str,
+    withheld: Withheld,
+    design: BlindDesign,
+    seed: u64,
+    extra_speeds_mps: &[f64],
 ) -> Result<(Files, BlindTruth), super::ride::RideError> {
     use super::ride::{simulate_ride, Effects, PointMass, RideSpec};
     use super::whipple::{Body, TyreModel};
@@ -778,6 +811,16 @@ pub fn blind_campaign(
             bike.i_hxx *= k;
             vec![k]
         }
+        Withheld::FrameIxx => {
+            let k = off_by(&mut rng, 0.25, 0.4);
+            bike.i_bxx *= k;
+            vec![k]
+        }
+        Withheld::Trail => {
+            let k = off_by(&mut rng, 0.12, 0.2);
+            bike.c *= k;
+            vec![k]
+        }
         Withheld::SpeedScale => {
             let k = rng.range(1.04, 1.08);
             effects.speedometer_scale = k;
@@ -813,17 +856,21 @@ pub fn blind_campaign(
         BlindDesign::Sync => 12,
         BlindDesign::Noted => 14,
     };
-    for k in 0..rides {
+    for k in 0..rides + extra_speeds_mps.len() {
+        let extra = k.checked_sub(rides).map(|e| extra_speeds_mps[e]);
         let spec = match design {
             BlindDesign::Sync => {
-                let mut spec = RideSpec::lab(3.8 + 0.25 * k as f64, effects.clone());
+                let mut spec =
+                    RideSpec::lab(extra.unwrap_or(3.8 + 0.25 * k as f64), effects.clone());
                 spec.sync = k % 2 == 1;
                 spec.kick.peak_force_n = rng.range(12.0, 18.0);
                 spec
             }
-            BlindDesign::Noted => {
-                coasting_ride(&mut rng, 3.8 + 2.7 * k as f64 / 13.0, effects.clone())
-            }
+            BlindDesign::Noted => coasting_ride(
+                &mut rng,
+                extra.unwrap_or(3.8 + 2.7 * k as f64 / 13.0),
+                effects.clone(),
+            ),
         };
         let ride = simulate_ride(&bike, &spec, 100 * seed + k as u64)?;
         let name = format!("ride_{:02}", k + 1);
