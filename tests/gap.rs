@@ -65,6 +65,21 @@ fn found(d: &Diagnosis, w: Withheld) -> bool {
         }
 }
 
+/// The effects of the library each blind test withholds and scores.
+const COUNTED: [Withheld; 9] = [
+    Withheld::SteerDamping,
+    Withheld::Tyres,
+    Withheld::FrontMass,
+    Withheld::FrameMass,
+    Withheld::WheelSpin,
+    Withheld::FrontIxx,
+    Withheld::FrameIxx,
+    Withheld::Trail,
+    Withheld::SpeedScale,
+];
+/// Effects the library does not have: a steer spring, headset friction.
+const OUTSIDE: [Withheld; 2] = [Withheld::SteerSpring, Withheld::SteerFriction];
+
 /// What a blind test counted.
 #[derive(Default)]
 struct Score {
@@ -211,19 +226,9 @@ fn assert_bars(s: &Score, min_params: usize) {
 fn blind_campaigns_find_the_withheld_effect() {
     let s = score(
         BlindDesign::Sync,
-        &[
-            Withheld::SteerDamping,
-            Withheld::Tyres,
-            Withheld::FrontMass,
-            Withheld::FrameMass,
-            Withheld::WheelSpin,
-            Withheld::FrontIxx,
-            Withheld::FrameIxx,
-            Withheld::Trail,
-            Withheld::SpeedScale,
-        ],
+        &COUNTED,
         &[Withheld::TimeScale],
-        &[Withheld::SteerSpring, Withheld::SteerFriction],
+        &OUTSIDE,
     );
     assert_bars(&s, 25);
 }
@@ -409,19 +414,9 @@ fn gap_json_has_the_documented_keys() {
 fn blind_noted_campaigns() {
     let s = score(
         BlindDesign::Noted,
-        &[
-            Withheld::SteerDamping,
-            Withheld::Tyres,
-            Withheld::FrontMass,
-            Withheld::FrameMass,
-            Withheld::WheelSpin,
-            Withheld::FrontIxx,
-            Withheld::FrameIxx,
-            Withheld::Trail,
-            Withheld::SpeedScale,
-        ],
+        &COUNTED,
         &[Withheld::TimeScale],
-        &[Withheld::SteerSpring, Withheld::SteerFriction],
+        &OUTSIDE,
     );
     assert_bars(&s, 25);
 }
