@@ -29,7 +29,7 @@ pub mod stats;
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
 use crate::ride::dynamic::{DynamicTest, SpeedSource};
 use effects::Effect;
-use fit::{fit_effects, param_se, refine, Campaign};
+use fit::{fit_effects, param_se, refit_near, Campaign};
 use nalgebra::{Complex, DMatrix};
 use std::fmt::Write as _;
 
@@ -827,7 +827,7 @@ fn heldout(
                     .iter()
                     .map(|p| 0.05 * (p.hi - p.lo))
                     .collect();
-                refine(&s, effects, full_fit, &step).params
+                refit_near(&s, effects, full_fit, &step).params
             }
             None => full_fit.to_vec(),
         };
