@@ -3,7 +3,9 @@
 //! In: the text of a `NAME.log` (orientation: Euler, Quaternion or Matrix) or `NAME_cal.log`
 //! (Calibrated) file, tab-separated or in the Spanish locale (`;` and decimal `,`).
 //! Out: every data column on the sensors' 100 Hz grid (a row's place on the grid comes from the
-//! packet counter, checked against the receiver's time stamps), the gaps left by dropped packets and
+//! packet counter, the reliable clock; the receiver's time stamps, which jitter and arrive late
+//! in bursts, only resolve the counter's wraps over long gaps and catch a corrupt counter), the
+//! gaps left by dropped packets and
 //! corrupt rows, and per sensor its orientation as unit quaternions (rotation sensor → global).
 //!
 //! Nothing is bridged: a missing sample is simply absent from [`Log::grid_index`]. Every error names
@@ -15,6 +17,11 @@ use std::path::{Path, PathBuf};
 
 /// The packet counter is an unsigned 16-bit number: it wraps from 65535 to 0.
 const COUNTER_MODULUS: u64 = 65_536;
+
+/// How late the receiver may stamp a packet (s): Bluetooth delivers packets in bursts, tens of
+/// milliseconds late, and the stamps jitter by about a millisecond. A row's counter step is
+/// taken when the time step agrees with it within this (and 2 % of a longer gap's drift).
+const RECEIVER_LATENCY_S: f64 = 0.1;
 
 /// How an orientation file encodes each sensor's rotation, or `Calibrated` for a `_cal` file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -674,7 +681,8 @@ impl<'a> Parser<'a> {
             let grid = match prev {
                 None => 0,
                 Some((pc, pt, pg)) => {
-                    if time <= pt {
+                    // Equal stamps are a burst delivered at once (stamps to 0.01 s).
+                    if time < pt {
                         return Err(self.err(
                             Some(no),
                             Some(field_col(line, separator, time_col)),
@@ -793,8 +801,8 @@ impl<'a> Parser<'a> {
             .round()
             .max(0.0) as u64;
         let step = d + wraps * COUNTER_MODULUS;
-        // The receiver's clock jitters by about a millisecond and drifts a little.
-        let tolerance = 0.5 + 0.02 * by_time;
+        // The receiver's clock jitters, drifts a little and stamps packets late in bursts.
+        let tolerance = 0.5 + 0.02 * by_time + RECEIVER_LATENCY_S * rate_hz;
         if (step as f64 - by_time).abs() <= tolerance {
             return Ok(step);
         }
@@ -965,6 +973,34 @@ mod tests {
         let text = format!("{HEAD}10\t0.00\t1\t2\t3\n12\t{t:.3}\t1\t2\t3\n");
         let log = parse(&text).unwrap();
         assert_eq!(log.grid_index, vec![0, 65_538]);
+    }
+
+    /// A receiver whose stamps jitter by ±4 ms, stamp to 0.01 s, and deliver 40 ms late in
+    /// bursts every half second: the counter places every row, no gap is invented (issue 14:
+    /// a log was rejected for a 3.2 ms jitter).
+    #[test]
+    fn jitter_and_late_bursts_follow_the_counter() {
+        let mut text = String::from(HEAD);
+        let mut state = 12_345_u64;
+        let mut last = 0.0_f64;
+        for k in 0..400_u64 {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            let jitter = ((state >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.008;
+            let late = if k % 50 < 4 {
+                0.04 - 0.01 * (k % 50) as f64
+            } else {
+                0.0
+            };
+            // Stamped to 0.01 s, never before the previous stamp.
+            let t = ((k as f64 / 100.0 + jitter + late) * 100.0).round() / 100.0;
+            last = t.max(last);
+            text += &format!("{}\t{last:.2}\t1\t2\t3\n", (60_000 + k) % COUNTER_MODULUS);
+        }
+        let log = parse(&text).unwrap();
+        assert_eq!(log.grid_index, (0..400).collect::<Vec<u64>>());
+        assert_eq!(log.gaps.gaps, 0);
     }
 
     #[test]

@@ -718,6 +718,7 @@ fn simulate(s: SimCommand) -> Result<()> {
         extra_header: vec![],
         declare_decimal: true,
         jitter_s: if c.perfect_link { 0.0 } else { 0.0005 },
+        late_bursts_per_minute: 0.0,
     };
     let rec = sim::simulate_pendulum(&p, &release, &placement, &sensor, &link, &spec, c.seed);
     let cal = bikeproc::log::Log::cal_path(&c.out);

@@ -66,6 +66,7 @@ fn spec(shot: &Shot, seed: u64) -> FileSpec {
         extra_header: vec![],
         declare_decimal: seed % 2 == 0,
         jitter_s: 0.0005,
+        late_bursts_per_minute: 0.0,
     }
 }
 
@@ -733,7 +734,8 @@ pub struct BlindTruth {
 
 /// A campaign of 12 rides (3.8–6.55 m/s; `Sync` on every other ride, the noted reading on the
 /// rest) on the measured bicycle with one effect withheld at a magnitude drawn from its
-/// realistic range, realistic sensors and noise, no drag (so the noted speed is the speed of
+/// realistic range, realistic sensors and noise, a receiver that stamps packets late in 6
+/// bursts a minute, no drag (so the noted speed is the speed of
 /// the window and only the withheld effect parts the rides from the model). Files: the
 /// manifest (`rides.toml`, naming `bike_file`), the logs, and the sealed `truth.json`.
 ///
@@ -872,6 +874,9 @@ pub fn blind_campaign_plus(
                 effects.clone(),
             ),
         };
+        // A Bluetooth receiver that gets packets late now and then.
+        let mut spec = spec;
+        spec.receiver_late_bursts_per_minute = 6.0;
         let ride = simulate_ride(&bike, &spec, 100 * seed + k as u64)?;
         let name = format!("ride_{:02}", k + 1);
         files.push((format!("{name}.log").into(), ride.angles_log));

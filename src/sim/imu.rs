@@ -252,6 +252,10 @@ pub struct FileSpec {
     pub declare_decimal: bool,
     /// The receiver stamps its own clock: time-stamp jitter, standard deviation (s), cut at 3σ.
     pub jitter_s: f64,
+    /// Bursts per minute in which the receiver gets packets late, 2–5 at once (20–50 ms): the
+    /// packets of a burst carry the stamp of its last one. Drawn from their own stream (the
+    /// first counter's), the same in a pair's two files; 0 leaves the file as without.
+    pub late_bursts_per_minute: f64,
 }
 
 impl FileSpec {
@@ -275,6 +279,7 @@ impl FileSpec {
             extra_header: vec![],
             declare_decimal: false,
             jitter_s: 0.0005,
+            late_bursts_per_minute: 0.0,
         }
     }
 }
@@ -362,15 +367,31 @@ pub fn write_log(
     };
     let deg = 180.0 / std::f64::consts::PI;
     let mut values: Vec<f64> = Vec::with_capacity(9);
+    let mut late = (spec.late_bursts_per_minute > 0.0)
+        .then(|| Rng::new(0x1A7E_5EED ^ ((spec.first_counter as u64) << 20)));
+    let late_p = spec.late_bursts_per_minute / (60.0 * spec.rate_hz);
+    let (mut burst_last, mut last_stamp) = (None::<usize>, 0.0_f64);
     for (n, &packet) in packets.iter().enumerate() {
         // Jitter is drawn for every sample so that the files do not depend on which are dropped.
         let jitter =
             (rng.normal() * spec.jitter_s).clamp(-3.0 * spec.jitter_s, 3.0 * spec.jitter_s);
+        // A late burst: packets n … its last are stamped when the last arrives.
+        if let Some(r) = late.as_mut() {
+            if burst_last.is_none_or(|e| n > e) && r.uniform() < late_p {
+                burst_last = Some(n + 1 + (r.uniform() * 4.0) as usize);
+            }
+        }
+        let delivered = burst_last.filter(|&e| n <= e).unwrap_or(n);
         if packet == Packet::Dropped {
             continue;
         }
         let counter = (spec.first_counter as u64 + n as u64) % 65_536;
-        let time = (n as f64 / spec.rate_hz + jitter).max(0.0);
+        let mut time = (delivered as f64 / spec.rate_hz + jitter).max(0.0);
+        if late.is_some() {
+            // The receiver's clock does not run backwards.
+            time = time.max(last_stamp);
+            last_stamp = time;
+        }
         let _ = write!(out, "{counter}");
         out.push(sep);
         fmt_num(&mut out, time, 3, spec.precision, spanish);

@@ -224,6 +224,9 @@ pub struct RideSpec {
     /// The magnetometer heading drifts (as the sensors do near steel, ~0.5°/min).
     #[serde(default = "yes")]
     pub heading_drift: bool,
+    /// Bursts per minute in which the receiver stamps packets late ([`FileSpec`]); 0: none.
+    #[serde(default)]
+    pub receiver_late_bursts_per_minute: f64,
 }
 
 fn yes() -> bool {
@@ -264,6 +267,7 @@ impl RideSpec {
             fault: None,
             mounting_error_deg: None,
             heading_drift: true,
+            receiver_late_bursts_per_minute: 0.0,
         }
     }
 }
@@ -681,6 +685,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
         (seed % 65_536) as u16,
     );
     fspec.sensors.push(("00300418".into(), "handlebar".into()));
+    fspec.late_bursts_per_minute = spec.receiver_late_bursts_per_minute;
     if spec.fault == Some(Fault::SensorsSwapped) {
         fspec.sensors[0].1 = "handlebar".into();
         fspec.sensors[1].1 = "frame".into();
