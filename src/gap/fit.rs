@@ -278,32 +278,10 @@ pub fn refit_near(
         .map(|i| start[i].clamp(lo[i] + h[i], hi[i] - h[i]))
         .collect();
     let f = |x: &[f64]| subset.chi2(effects, x);
-    let at = |d: &[(usize, f64)]| -> f64 {
-        let mut x = x0.clone();
-        for &(i, s) in d {
-            x[i] += s * h[i];
-        }
-        f(&x)
-    };
     let f0 = f(&x0);
-    let mut grad = DVector::zeros(n);
-    let mut hess = DMatrix::zeros(n, n);
-    for i in 0..n {
-        let (fp, fm) = (at(&[(i, 1.0)]), at(&[(i, -1.0)]));
-        grad[i] = (fp - fm) / (2.0 * h[i]);
-        hess[(i, i)] = (fp - 2.0 * f0 + fm) / (h[i] * h[i]);
-        for j in 0..i {
-            let v = (at(&[(i, 1.0), (j, 1.0)])
-                - at(&[(i, 1.0), (j, -1.0)])
-                - at(&[(i, -1.0), (j, 1.0)])
-                + at(&[(i, -1.0), (j, -1.0)]))
-                / (4.0 * h[i] * h[j]);
-            hess[(i, j)] = v;
-            hess[(j, i)] = v;
-        }
-    }
+    let (grad, hess) = central_differences(&f, &x0, f0, &h);
     if f0.is_finite() && grad.iter().all(|g| g.is_finite()) {
-        if let Some(chol) = hess.clone().cholesky() {
+        if let Some(chol) = hess.cholesky() {
             let dx = chol.solve(&grad);
             let x1: Vec<f64> = (0..n)
                 .map(|i| (x0[i] - dx[i]).clamp(lo[i], hi[i]))
@@ -320,25 +298,28 @@ pub fn refit_near(
     refine(subset, effects, start, step)
 }
 
-/// Standard errors of fitted parameters from the χ² curvature, `cov = 2 H⁻¹` (central
-/// differences, steps of 1e-3 of each range), inflated by √(χ²/dof) when that exceeds 1 (the
-/// scatter the covariance does not explain). `NaN` where the curvature is not positive.
-pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
-    let (lo, hi) = bounds(effects);
-    let n = lo.len();
-    let h: Vec<f64> = (0..n).map(|i| 1e-3 * (hi[i] - lo[i])).collect();
-    let f = |x: &[f64]| subset.chi2(effects, x);
+/// The gradient and Hessian of `f` at `x0` (where it is `f0`) by central differences with
+/// steps `h`: 2n + 2n(n−1) evaluations (3 for one parameter with `f0`, 9 for two).
+fn central_differences(
+    f: &dyn Fn(&[f64]) -> f64,
+    x0: &[f64],
+    f0: f64,
+    h: &[f64],
+) -> (DVector<f64>, DMatrix<f64>) {
+    let n = x0.len();
     let at = |d: &[(usize, f64)]| -> f64 {
-        let mut x = fit.params.clone();
+        let mut x = x0.to_vec();
         for &(i, s) in d {
             x[i] += s * h[i];
         }
         f(&x)
     };
-    let f0 = fit.chi2;
+    let mut grad = DVector::zeros(n);
     let mut hess = DMatrix::zeros(n, n);
     for i in 0..n {
-        hess[(i, i)] = (at(&[(i, 1.0)]) - 2.0 * f0 + at(&[(i, -1.0)])) / (h[i] * h[i]);
+        let (fp, fm) = (at(&[(i, 1.0)]), at(&[(i, -1.0)]));
+        grad[i] = (fp - fm) / (2.0 * h[i]);
+        hess[(i, i)] = (fp - 2.0 * f0 + fm) / (h[i] * h[i]);
         for j in 0..i {
             let v = (at(&[(i, 1.0), (j, 1.0)])
                 - at(&[(i, 1.0), (j, -1.0)])
@@ -349,6 +330,18 @@ pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) ->
             hess[(j, i)] = v;
         }
     }
+    (grad, hess)
+}
+
+/// Standard errors of fitted parameters from the χ² curvature, `cov = 2 H⁻¹` (central
+/// differences, steps of 1e-3 of each range), inflated by √(χ²/dof) when that exceeds 1 (the
+/// scatter the covariance does not explain). `NaN` where the curvature is not positive.
+pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
+    let (lo, hi) = bounds(effects);
+    let n = lo.len();
+    let h: Vec<f64> = (0..n).map(|i| 1e-3 * (hi[i] - lo[i])).collect();
+    let f = |x: &[f64]| subset.chi2(effects, x);
+    let (_, hess) = central_differences(&f, &fit.params, fit.chi2, &h);
     let dof = (subset.campaign.parts * subset.len())
         .saturating_sub(n)
         .max(1) as f64;
