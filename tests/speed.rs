@@ -72,12 +72,17 @@ struct Z {
     im: f64,
 }
 
-fn coasting_rides(n: usize, first_seed: u64, effects: Effects) -> (Vec<Z>, Vec<String>) {
+fn coasting_rides(
+    n: usize,
+    first_seed: u64,
+    effects: Effects,
+    released_mps: (f64, f64),
+) -> (Vec<Z>, Vec<String>) {
     let (model, bike) = bikes();
     let out = parallel(n, |i| {
         let seed = first_seed + i as u64;
         let mut rng = Rng::new(seed);
-        let v = rng.range(3.7, 6.3);
+        let v = rng.range(released_mps.0, released_mps.1);
         let spec = coasting_ride(&mut rng, v, effects.clone());
         let (r, t) = analyse(
             &bike,
@@ -126,7 +131,6 @@ fn coasting_rides(n: usize, first_seed: u64, effects: Effects) -> (Vec<Z>, Vec<S
 /// kinematic speed's |mean| under 1 and sd under 1.25 (its SE holds the tyres' slip).
 fn assert_calibrated(z: &[Z], failed: &[String]) {
     println!("failed: {failed:?}");
-    assert!(failed.len() <= 2, "{} rides failed", failed.len());
     let col =
         |f: fn(&Z) -> f64| -> Vec<f64> { z.iter().map(f).filter(|x| x.is_finite()).collect() };
     let (ms, ss) = mean_sd(&col(|z| z.speed));
@@ -138,6 +142,7 @@ fn assert_calibrated(z: &[Z], failed: &[String]) {
         "speed z: mean {ms:.3} sd {ss:.3}; kinematic z: mean {mk:.3} sd {sk:.3} (relative {mkr:.4} ± {skr:.4}); σ z: mean {mr:.3} sd {sr:.3}; ω z: mean {mi:.3} sd {si:.3} ({} rides)",
         z.len()
     );
+    assert!(failed.len() <= 2, "{} rides failed", failed.len());
     assert!(
         ms.abs() < 0.2 && (0.8..=1.25).contains(&ss),
         "speed: mean {ms}, sd {ss}"
@@ -153,7 +158,7 @@ fn assert_calibrated(z: &[Z], failed: &[String]) {
 /// the weave's real and imaginary parts too (standard deviation 0.8–1.25).
 #[test]
 fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
-    let (z, failed) = coasting_rides(100, 40_000, Effects::default());
+    let (z, failed) = coasting_rides(100, 40_000, Effects::default(), (3.7, 6.3));
     assert_calibrated(&z, &failed);
 }
 
@@ -166,6 +171,30 @@ fn speed_and_eigenvalue_errors_hold_with_tyres_and_damping() {
         speedometer_scale: 1.0,
         ..Effects::realistic()
     };
-    let (z, failed) = coasting_rides(100, 50_000, effects);
+    let (z, failed) = coasting_rides(100, 50_000, effects, (3.7, 6.3));
     assert_calibrated(&z, &failed);
+}
+
+/// Below the weave speed (released at 3.0–3.5 m/s, the weave growing or near neutral): a ride either is
+/// refused, its reason named, or gives an eigenvalue within 3.5 of its standard errors of the
+/// truth at its stated speed. Followed to 0.2 rad of roll, a growing weave saturates: before
+/// the fit stopped at 0.1 rad (`GROWING_MAX_ROLL_RAD`), such rides came out with σ 4–5
+/// combined standard errors low and made effect-free campaigns "significant".
+#[test]
+fn growing_weaves_are_fitted_in_the_linear_range_or_refused() {
+    let (z, failed) = coasting_rides(30, 60_000, Effects::default(), (3.0, 3.5));
+    println!("failed: {failed:?}");
+    for f in &failed {
+        assert!(f.contains("too short") || f.contains("no weave"), "{f}");
+    }
+    let worst = z
+        .iter()
+        .map(|z| z.re.abs().max(z.im.abs()))
+        .fold(0.0, f64::max);
+    println!(
+        "{} rides fitted, {} refused; largest |z| {worst:.2}",
+        z.len(),
+        failed.len()
+    );
+    assert!(!z.is_empty() && worst < 3.5, "largest |z| {worst}");
 }

@@ -56,6 +56,12 @@ pub struct RideSignals {
     /// sensor's orientation (its tilt only matters: no magnetometer in it); NaN where the
     /// angles file lacks the sample.
     pub yaw_rate_rad_per_s: Vec<f64>,
+    /// Per `_cal` sample, what the frame sensor's lever arm r (from a point moving with the
+    /// bicycle's forward speed) adds to [`RideSignals::forward_accel_mps2`] per metre of each
+    /// of its components (sensor axes): the forward part of ω̇ × r + ω × (ω × r), which is
+    /// c · r with c = f × ω̇ + (f · ω) ω − |ω|² f (f the forward axis, ω the gyro less its
+    /// standstill bias, ω̇ by central differences). NaN at a gap's edge.
+    pub lever_regressors: Vec<[f64; 3]>,
     /// When the kick struck (s, the peak of the frame's lateral acceleration after the push).
     pub kick_s: f64,
     /// When the bicycle was caught or the motion was lost (s): the last moment the frame's
@@ -257,6 +263,21 @@ pub fn read_ride(
             Err(_) => f64::NAN,
         })
         .collect();
+    let rates: Vec<Vector3<f64>> = gyro_frame.iter().map(|w| w - gyro_bias).collect();
+    let lever_regressors = (0..rates.len())
+        .map(|k| {
+            let neighbours = (k.checked_sub(1), rates.get(k + 1));
+            match neighbours {
+                (Some(p), Some(next)) if cal.grid_index[p] + 2 == cal.grid_index[k + 1] => {
+                    let w = rates[k];
+                    let wd = (next - rates[p]) * (0.5 * rate);
+                    let c = forward.cross(&wd) + w * forward.dot(&w) - forward * w.norm_squared();
+                    [c.x, c.y, c.z]
+                }
+                _ => [f64::NAN; 3],
+            }
+        })
+        .collect();
     let (kick_s, catch_s, release_s) = events(
         &cal.grid_index,
         &acc_frame,
@@ -285,6 +306,7 @@ pub fn read_ride(
         imu_index: cal.grid_index.clone(),
         forward_accel_mps2,
         yaw_rate_rad_per_s,
+        lever_regressors,
         log,
     })
 }
