@@ -56,6 +56,9 @@ pub struct Observation {
     pub shape_phase_rad: crate::fit::Estimate,
     /// The fitted window's time (s), roll and steer (rad), for the time-series check.
     pub window: Option<[Vec<f64>; 3]>,
+    /// The window's length (s) and the bicycle's forward acceleration over it (m/s²).
+    pub window_s: f64,
+    pub window_accel_mps2: f64,
 }
 
 impl Observation {
@@ -75,6 +78,8 @@ impl Observation {
             im_se: t.fit.weave.im_se,
             shape_ratio: t.fit.shape.ratio,
             shape_phase_rad: t.fit.shape.phase_rad,
+            window_s: t.fit.end_s - t.fit.start_s,
+            window_accel_mps2: t.speed.sources.window_accel_mps2,
             window: {
                 let rows: Vec<&[f64; 3]> = t
                     .trace
@@ -584,24 +589,32 @@ pub fn diagnose(
         for a in 0..parts {
             exp_cov[(parts * i + a, parts * i + a)] = variances[a].powi(2);
         }
+        // The model's weave and shape per m/s of speed at the ride's.
+        let h = 1e-4;
+        let at = |v: f64| -> Option<[f64; 4]> {
+            let w = unextended.weave_near(v, guesses[i])?;
+            let s = unextended.mode_shape(v, w)?;
+            Some([
+                w.re,
+                w.im,
+                s.norm(),
+                crate::model::uncertain::wrap_near(s.arg(), wm.shapes[i].arg()),
+            ])
+        };
+        let per_mps: [f64; 4] = match (at(o.speed_mps + h), at(o.speed_mps - h)) {
+            (Some(a), Some(b)) => std::array::from_fn(|k| (a[k] - b[k]) / (2.0 * h)),
+            _ => [0.0; 4],
+        };
+        // The shape drifts as the bicycle slows over the window (the fit holds it constant):
+        // up to the change over half the window, as the eigenvalue's drift when its own fit
+        // fails. Near the weave speed the shape changes fast with speed: without this, rides
+        // there made effect-free campaigns "significant".
+        let half_change_mps = o.window_accel_mps2.abs() * 0.5 * o.window_s.max(0.0);
+        for a in 2..parts {
+            exp_cov[(parts * i + a, parts * i + a)] += (per_mps[a] * half_change_mps).powi(2);
+        }
         if o.speed_se_mps > 0.0 {
-            let h = 1e-4;
-            let at = |v: f64| -> Option<[f64; 4]> {
-                let w = unextended.weave_near(v, guesses[i])?;
-                let s = unextended.mode_shape(v, w)?;
-                Some([
-                    w.re,
-                    w.im,
-                    s.norm(),
-                    crate::model::uncertain::wrap_near(s.arg(), wm.shapes[i].arg()),
-                ])
-            };
-            let g: [f64; 4] = match (at(o.speed_mps + h), at(o.speed_mps - h)) {
-                (Some(a), Some(b)) => {
-                    std::array::from_fn(|k| (a[k] - b[k]) / (2.0 * h) * o.speed_se_mps)
-                }
-                _ => [0.0; 4],
-            };
+            let g = per_mps.map(|d| d * o.speed_se_mps);
             for a in 0..parts {
                 for b in 0..parts {
                     exp_cov[(parts * i + a, parts * i + b)] += g[a] * g[b];
