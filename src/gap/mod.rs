@@ -1,17 +1,23 @@
 //! Gap stage: where measurement and model part, which unmodelled effect causes it, and how far
 //! the gap shrinks once that effect is in the model.
 //!
-//! In: a campaign's dynamic tests (each ride's weave eigenvalue with its standard errors and its
-//! speed, [`crate::ride::dynamic`]) and the measured bicycle with its parameters' uncertainty
-//! ([`crate::model::uncertain`]). Out: a [`Diagnosis`]:
-//! - **where**: each ride's residual (experiment − model) in units of the combined standard
-//!   error (the ride's fit and speed, and the model's from the measured parameters, correlated
-//!   across rides), the residuals by speed band, a χ² test of the whole campaign, and whether
-//!   the parameters' own uncertainty could explain the gap;
+//! In: a campaign's dynamic tests (each ride's weave eigenvalue and mode shape γ/θ with their
+//! standard errors, its speed from every source its log offers, [`crate::ride::dynamic`]) and
+//! the measured bicycle with its parameters' uncertainty ([`crate::model::uncertain`]). Out: a
+//! [`Diagnosis`]:
+//! - **where**: each ride's residual (experiment − model: σ, ω, |γ/θ|, arg γ/θ) in units of the
+//!   combined standard error (the ride's fit, its speed and the shape's drift over the window,
+//!   and the model's from the measured parameters, correlated across rides), the residuals by
+//!   speed band, and whether the parameters' own uncertainty could explain the gap;
+//! - **whether**: the campaign's test, either the χ² of every ride with that covariance or the
+//!   likelihood ratio of the single effect that lowers it most (Bonferroni over the library),
+//!   p doubled;
 //! - **which**: every effect of [`effects`] fitted to the campaign by generalized least squares
-//!   on the eigenvalues, ranked by leave-one-ride-out prediction (each ride predicted by the
-//!   effect fitted to the others), pairs of the best effects when no single one closes the gap,
-//!   effects the held-out test cannot tell apart reported as tied;
+//!   on the eigenvalues and mode shapes, ranked by leave-one-ride-out prediction (each ride
+//!   predicted by the effect fitted to the others), pairs of the best effects when no single
+//!   one closes the gap, effects the held-out test cannot tell apart reported as tied with the
+//!   two rides to make next; an explanation only when the rides left out are predicted within
+//!   [`EXPLAINED_HELDOUT_RMS`] and the fit passes the χ² test, "not explained" otherwise;
 //! - **how far**: the held-out RMS normalized residual before and after, and the variance of
 //!   the rides' θ and γ that the eigenvalues account for.
 //!
