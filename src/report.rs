@@ -884,10 +884,7 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
             md,
             "| {} | {} | {} | {} | {} | {} | {} | {} |",
             r.ride,
-            serde_json::to_value(r.speed_source)
-                .ok()
-                .and_then(|v| v.as_str().map(str::to_string))
-                .unwrap_or_default(),
+            r.speed_source.name(),
             s.noted
                 .as_ref()
                 .map_or("—".into(), |n| format!("{:.2}", n.reading.speed_mps)),

@@ -369,6 +369,16 @@ pub fn pick_sensor<'l>(
     }
 }
 
+/// `angle` (rad) moved by whole turns into [−π, π).
+pub fn wrap_pi(angle: f64) -> f64 {
+    (angle + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+/// `angle` (rad) moved by whole turns to within ±π of `near`.
+pub fn wrap_near(angle: f64, near: f64) -> f64 {
+    near + wrap_pi(angle - near)
+}
+
 /// The mean of a set of nearby rotations (normalised sum of sign-aligned quaternions).
 pub fn mean_rotation(qs: &[UnitQuaternion<f64>]) -> Option<UnitQuaternion<f64>> {
     let first = qs.first()?;

@@ -323,21 +323,10 @@ pub fn clock(effects: &[Effect], params: &[f64]) -> f64 {
 
 /// The weave the extended model predicts for a ride, as the ride would report it: at the
 /// true speed behind the reported one (a noted reading over the speedometer's scale; a `Sync`
-/// speed times the clock's), the eigenvalue over the clock's scale. `guess` picks the branch
-/// (the unextended model's weave at the ride's speed). `None` when there is no weave there.
-pub fn predict(
-    bike: &LinearBike,
-    effects: &[Effect],
-    params: &[f64],
-    obs: &Observation,
-    guess: Complex<f64>,
-) -> Option<Complex<f64>> {
-    predict_weave(bike, effects, params, obs, guess, false).map(|(w, _)| w)
-}
-
-/// [`predict`], and with `shape` the mode shape γ/θ there too (a clock's scale changes the
-/// eigenvalue the ride reports, not the shape). `None` when there is no weave, or no shape
-/// when one is asked for.
+/// speed times the clock's), the eigenvalue over the clock's scale; with `shape`, its mode
+/// shape γ/θ there too (a clock's scale changes the eigenvalue the ride reports, not the
+/// shape). `guess` picks the branch (the unextended model's weave at the ride's speed). `None`
+/// when there is no weave there, or no shape when one is asked for.
 pub fn predict_weave(
     bike: &LinearBike,
     effects: &[Effect],

@@ -48,8 +48,7 @@ impl<'a> Campaign<'a> {
             r[p * k + 1] = o.weave.im - w.im;
             if let Some(s) = shape {
                 r[p * k + 2] = o.shape_ratio.value - s.norm();
-                r[p * k + 3] =
-                    crate::model::uncertain::wrap_near(o.shape_phase_rad.value, s.arg()) - s.arg();
+                r[p * k + 3] = crate::signal::wrap_pi(o.shape_phase_rad.value - s.arg());
             }
         }
         Some(r)

@@ -146,12 +146,10 @@ fn shape_residual(
     weave: Complex<f64>,
 ) -> (f64, f64) {
     match bike.mode_shape(speed_mps, weave) {
-        Some(m) => {
-            let d = o.shape_phase_rad.value - m.arg();
-            let wrapped = (d + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
-                - std::f64::consts::PI;
-            (o.shape_ratio.value - m.norm(), wrapped)
-        }
+        Some(m) => (
+            o.shape_ratio.value - m.norm(),
+            crate::signal::wrap_pi(o.shape_phase_rad.value - m.arg()),
+        ),
         None => (f64::NAN, f64::NAN),
     }
 }
@@ -412,7 +410,7 @@ fn next_rides(
                             .map(|a| {
                                 let mut diff = b[a] - x[a];
                                 if a == 3 {
-                                    diff = crate::model::uncertain::wrap_near(diff, 0.0);
+                                    diff = crate::signal::wrap_pi(diff);
                                 }
                                 (diff / typical[a]).powi(2)
                             })
@@ -584,7 +582,7 @@ pub fn diagnose(
     let unextended = linear::LinearBike::whipple(&base);
     let mut exp_cov = DMatrix::zeros(parts * n, parts * n);
     for (i, o) in rides.iter().enumerate() {
-        let variances = [
+        let standard_errors = [
             o.re_se,
             o.im_se,
             o.shape_ratio
@@ -593,7 +591,7 @@ pub fn diagnose(
             o.shape_phase_rad.se.hypot(SHAPE_PHASE_FLOOR_RAD),
         ];
         for a in 0..parts {
-            exp_cov[(parts * i + a, parts * i + a)] = variances[a].powi(2);
+            exp_cov[(parts * i + a, parts * i + a)] = standard_errors[a].powi(2);
         }
         // The model's weave and shape per m/s of speed at the ride's.
         let h = 1e-4;
@@ -604,7 +602,7 @@ pub fn diagnose(
                 w.re,
                 w.im,
                 s.norm(),
-                crate::model::uncertain::wrap_near(s.arg(), wm.shapes[i].arg()),
+                crate::signal::wrap_near(s.arg(), wm.shapes[i].arg()),
             ])
         };
         let per_mps: [f64; 4] = match (at(o.speed_mps + h), at(o.speed_mps - h)) {

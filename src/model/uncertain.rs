@@ -6,6 +6,7 @@ use super::lab::lab_to_benchmark;
 use super::params::{Benchmark, ParamError};
 use super::{Canonical, Stability};
 use crate::inertia::bike::LabBike;
+use crate::signal::wrap_near;
 use crate::uncertainty::{propagate, Inputs, Measured};
 use nalgebra::Complex;
 use std::path::Path;
@@ -238,13 +239,6 @@ impl Parametrized {
             cov,
         })
     }
-}
-
-/// `angle` (rad) moved by whole turns to within ±π of `near`.
-pub fn wrap_near(angle: f64, near: f64) -> f64 {
-    let d = (angle - near + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-        - std::f64::consts::PI;
-    near + d
 }
 
 /// Loads any bicycle file as a parametrized model: a lab bicycle (TOML with `[geometry]`)

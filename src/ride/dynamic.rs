@@ -208,13 +208,8 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     let mut end = s.catch_s - 0.05;
     let limit = end;
     end = end.min(start + MAX_WINDOW_S);
-    if let Some(k) = s
-        .index
-        .iter()
-        .zip(&s.roll_rad)
-        .position(|(&i, r)| i as f64 / rate > start && r.abs() > MAX_ROLL_RAD)
-    {
-        end = end.min(s.index[k] as f64 / rate - 0.05);
+    if let Some(t) = first_roll_beyond(s, start, MAX_ROLL_RAD) {
+        end = end.min(t - 0.05);
     }
     let too_short = |end: f64, why: String| {
         ride_err(
@@ -269,11 +264,8 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     }
     // A growing weave (below the weave speed) only while the motion is small.
     if fit.weave.re > 0.0 {
-        if let Some(k) = s.index.iter().zip(&s.roll_rad).position(|(&i, r)| {
-            let t = i as f64 / rate;
-            t > start && t < end && r.abs() > GROWING_MAX_ROLL_RAD
-        }) {
-            let linear_end = s.index[k] as f64 / rate - 0.05;
+        if let Some(t) = first_roll_beyond(s, start, GROWING_MAX_ROLL_RAD).filter(|&t| t < end) {
+            let linear_end = t - 0.05;
             let cycles = (linear_end - start) * fit.weave.im / std::f64::consts::TAU;
             if linear_end - start < MIN_WINDOW_S || cycles < MIN_CYCLES {
                 return Err(ride_err(
@@ -324,6 +316,17 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
         ));
     }
     Ok(fit)
+}
+
+/// When the roll first exceeds `limit_rad` in size after `start_s` (s), if it does.
+fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f64> {
+    let rate = s.sample_rate_hz;
+    s.index
+        .iter()
+        .zip(&s.roll_rad)
+        .map(|(&i, r)| (i as f64 / rate, r))
+        .find(|&(t, r)| t > start_s && r.abs() > limit_rad)
+        .map(|(t, _)| t)
 }
 
 /// How much of [`coasting_bias`] is taken off the fitted eigenvalue, and (the same) the

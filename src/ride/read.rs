@@ -234,10 +234,7 @@ pub fn read_ride(
         roll.push(tilt);
         let h = fwd_g.y.atan2(fwd_g.x);
         heading.push(match heading.last() {
-            Some(&prev) => {
-                prev + (h - prev + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                    - std::f64::consts::PI
-            }
+            Some(&prev) => crate::signal::wrap_near(h, prev),
             None => h,
         });
         let rel = body.inverse() * qb[k] * rest_rel.inverse();

@@ -111,6 +111,17 @@ pub enum SpeedSource {
     Kinematic,
 }
 
+impl SpeedSource {
+    /// Its name in the outputs (as in the JSON).
+    pub fn name(self) -> &'static str {
+        match self {
+            SpeedSource::Noted => "noted",
+            SpeedSource::Sync => "sync",
+            SpeedSource::Kinematic => "kinematic",
+        }
+    }
+}
+
 /// Every source of the speed where the eigenvalue applies.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SpeedSources {
@@ -200,12 +211,12 @@ impl SpeedSources {
     /// The sources present, by name, best first.
     pub fn named(&self) -> Vec<(&'static str, SpeedEstimate)> {
         [
-            ("sync", self.sync),
-            ("noted", self.noted.map(|n| n.estimate)),
-            ("kinematic", self.kinematic),
+            (SpeedSource::Sync, self.sync),
+            (SpeedSource::Noted, self.noted.map(|n| n.estimate)),
+            (SpeedSource::Kinematic, self.kinematic),
         ]
         .into_iter()
-        .filter_map(|(n, e)| Some((n, e?)))
+        .filter_map(|(n, e)| Some((n.name(), e?)))
         .collect()
     }
 
@@ -281,14 +292,21 @@ fn accel_between_with(
     b: f64,
     f: impl Fn(f64, [f64; 3]) -> f64,
 ) -> Vec<(f64, f64)> {
+    cal_samples(s, a, b)
+        .map(|(t, x, c)| (t, f(x, c)))
+        .filter(|&(_, x)| x.is_finite())
+        .collect()
+}
+
+/// The `_cal` samples in `[a, b]` (s): (time, forward acceleration, lever regressors).
+fn cal_samples(s: &RideSignals, a: f64, b: f64) -> impl Iterator<Item = (f64, f64, [f64; 3])> + '_ {
     let rate = s.sample_rate_hz;
     s.imu_index
         .iter()
         .zip(&s.forward_accel_mps2)
         .zip(&s.lever_regressors)
-        .map(|((&i, &x), &c)| (i as f64 / rate, f(x, c)))
-        .filter(|&(t, x)| t >= a && t <= b && x.is_finite())
-        .collect()
+        .map(move |((&i, &x), &c)| (i as f64 / rate, x, c))
+        .filter(move |&(t, _, _)| t >= a && t <= b)
 }
 
 /// The trapezoid integral of samples (time, value), gaps bridged linearly.
@@ -384,16 +402,8 @@ struct LeverArm {
 impl LeverArm {
     /// `None` when fewer than 50 samples or the regression is singular.
     fn fit(s: &RideSignals, from_s: f64, to_s: f64) -> Option<LeverArm> {
-        let rate = s.sample_rate_hz;
-        let rows: Vec<(f64, f64, [f64; 3])> = s
-            .imu_index
-            .iter()
-            .zip(&s.forward_accel_mps2)
-            .zip(&s.lever_regressors)
-            .map(|((&i, &a), &c)| (i as f64 / rate, a, c))
-            .filter(|(t, a, c)| {
-                *t >= from_s && *t <= to_s && a.is_finite() && c.iter().all(|x| x.is_finite())
-            })
+        let rows: Vec<(f64, f64, [f64; 3])> = cal_samples(s, from_s, to_s)
+            .filter(|(_, a, c)| a.is_finite() && c.iter().all(|x| x.is_finite()))
             .collect();
         let n = rows.len();
         if n < 50 {
@@ -433,9 +443,8 @@ impl LeverArm {
     fn se_of_integral(&self, s: &RideSignals, a: f64, b: f64) -> f64 {
         let rate = s.sample_rate_hz;
         let mut g = nalgebra::Vector3::zeros();
-        for (&i, c) in s.imu_index.iter().zip(&s.lever_regressors) {
-            let t = i as f64 / rate;
-            if t >= a && t <= b && c.iter().all(|x| x.is_finite()) {
+        for (_, _, c) in cal_samples(s, a, b) {
+            if c.iter().all(|x| x.is_finite()) {
                 g += nalgebra::Vector3::new(c[0], c[1], c[2]) / rate;
             }
         }
