@@ -191,10 +191,45 @@ fn growing_weaves_are_fitted_in_the_linear_range_or_refused() {
         .iter()
         .map(|z| z.re.abs().max(z.im.abs()))
         .fold(0.0, f64::max);
+    let (mr, sr) = mean_sd(&z.iter().map(|z| z.re).collect::<Vec<_>>());
+    let (mi, si) = mean_sd(&z.iter().map(|z| z.im).collect::<Vec<_>>());
     println!(
-        "{} rides fitted, {} refused; largest |z| {worst:.2}",
+        "{} rides fitted, {} refused; largest |z| {worst:.2}; σ z {mr:.2} ± {sr:.2}, ω z {mi:.2} ± {si:.2}",
         z.len(),
         failed.len()
     );
     assert!(!z.is_empty() && worst < 3.5, "largest |z| {worst}");
+}
+
+/// Issue 12, item 4: rides released at 2.8–6.3 m/s (the weave speed of the lab's bicycle is
+/// 3.1 m/s, so about a fifth of them below it once the bicycle has slowed to the kick) lose at
+/// most 15 % to refusals, with the realistic effects and without; the fitted ones' eigenvalue
+/// errors stay within 4 standard errors.
+#[test]
+fn a_campaign_from_2_8_to_6_3_m_per_s_loses_at_most_15_percent() {
+    for (effects, first_seed) in [
+        (Effects::default(), 70_000),
+        (
+            Effects {
+                speedometer_scale: 1.0,
+                ..Effects::realistic()
+            },
+            71_000,
+        ),
+    ] {
+        let (z, failed) = coasting_rides(40, first_seed, effects, (2.8, 6.3));
+        let worst = z
+            .iter()
+            .map(|z| z.re.abs().max(z.im.abs()))
+            .fold(0.0, f64::max);
+        let (mr, sr) = mean_sd(&z.iter().map(|z| z.re).collect::<Vec<_>>());
+        let (mi, si) = mean_sd(&z.iter().map(|z| z.im).collect::<Vec<_>>());
+        println!(
+            "failed: {failed:?}\n{} fitted, {} refused; largest |z| {worst:.2}; σ z {mr:.2} ± {sr:.2}, ω z {mi:.2} ± {si:.2}",
+            z.len(),
+            failed.len()
+        );
+        assert!(failed.len() <= 6, "{} of 40 refused", failed.len());
+        assert!(worst < 4.0, "largest |z| {worst}");
+    }
 }
