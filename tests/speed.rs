@@ -175,18 +175,9 @@ fn speed_and_eigenvalue_errors_hold_with_tyres_and_damping() {
     assert_calibrated(&z, &failed);
 }
 
-/// Below the weave speed (released at 3.0–3.5 m/s, the weave growing or near neutral): a ride either is
-/// refused, its reason named, or gives an eigenvalue within 3.5 of its standard errors of the
-/// truth at its stated speed. Followed to 0.2 rad of roll, a growing weave saturates: before
-/// the fit stopped at 0.1 rad (`GROWING_MAX_ROLL_RAD`), such rides came out with σ 4–5
-/// combined standard errors low and made effect-free campaigns "significant".
-#[test]
-fn growing_weaves_are_fitted_in_the_linear_range_or_refused() {
-    let (z, failed) = coasting_rides(30, 60_000, Effects::default(), (3.0, 3.5));
-    println!("failed: {failed:?}");
-    for f in &failed {
-        assert!(f.contains("too short") || f.contains("no weave"), "{f}");
-    }
+/// Prints how many rides were fitted and refused and the σ and ω normalized errors' means
+/// and standard deviations; returns the largest |z| of either part.
+fn summarize(z: &[Z], failed: &[String]) -> f64 {
     let worst = z
         .iter()
         .map(|z| z.re.abs().max(z.im.abs()))
@@ -198,6 +189,22 @@ fn growing_weaves_are_fitted_in_the_linear_range_or_refused() {
         z.len(),
         failed.len()
     );
+    worst
+}
+
+/// Below the weave speed (released at 3.0–3.5 m/s, the weave growing or near neutral): a ride
+/// either is refused, its reason named, or gives an eigenvalue within 3.5 of its standard
+/// errors of the truth at its stated speed. Measured: 27 of 30 fitted (4 when the window
+/// waited 0.8 s after the kick and stopped at 0.1 rad of roll), σ z −0.64 ± 0.46, ω z
+/// 0.40 ± 0.33, largest |z| 1.77; without the motion's size in the errors the largest was 3.1.
+#[test]
+fn growing_weaves_are_fitted_in_the_linear_range_or_refused() {
+    let (z, failed) = coasting_rides(30, 60_000, Effects::default(), (3.0, 3.5));
+    println!("failed: {failed:?}");
+    for f in &failed {
+        assert!(f.contains("too short") || f.contains("no weave"), "{f}");
+    }
+    let worst = summarize(&z, &failed);
     assert!(!z.is_empty() && worst < 3.5, "largest |z| {worst}");
 }
 
@@ -218,17 +225,8 @@ fn a_campaign_from_2_8_to_6_3_m_per_s_loses_at_most_15_percent() {
         ),
     ] {
         let (z, failed) = coasting_rides(40, first_seed, effects, (2.8, 6.3));
-        let worst = z
-            .iter()
-            .map(|z| z.re.abs().max(z.im.abs()))
-            .fold(0.0, f64::max);
-        let (mr, sr) = mean_sd(&z.iter().map(|z| z.re).collect::<Vec<_>>());
-        let (mi, si) = mean_sd(&z.iter().map(|z| z.im).collect::<Vec<_>>());
-        println!(
-            "failed: {failed:?}\n{} fitted, {} refused; largest |z| {worst:.2}; σ z {mr:.2} ± {sr:.2}, ω z {mi:.2} ± {si:.2}",
-            z.len(),
-            failed.len()
-        );
+        println!("failed: {failed:?}");
+        let worst = summarize(&z, &failed);
         assert!(failed.len() <= 6, "{} of 40 refused", failed.len());
         assert!(worst < 4.0, "largest |z| {worst}");
     }

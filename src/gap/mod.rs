@@ -324,7 +324,8 @@ pub struct NextRide {
     /// slowing between release and window.
     pub release_speed_mps: f64,
     /// For each candidate tied with the best: how far apart their predictions of that ride
-    /// are, in a typical ride's standard errors (√Σz² over the parts), in the order of `tied`.
+    /// are, in the standard errors of the campaign's ride nearest that speed (√Σz² over the
+    /// parts), in the order of `tied`.
     pub separation_se: Vec<f64>,
 }
 
@@ -336,10 +337,10 @@ const SEPARATED_CHI2: f64 = 9.0;
 /// a 0.05 m/s grid from 0.5 m/s below the campaign's slowest ride to 0.5 m/s above its
 /// fastest, each maximizing Σ over the best's tied rivals of min(D, 9), D the squared
 /// separation of the two candidates' predictions of a ride there (together with the rides
-/// already chosen) in a typical ride's standard errors: the median over the rides of each
-/// part's (the fit's, the speed's; not the model's, which both candidates share). A ride at
-/// that speed is predicted from the campaign's ride nearest to it, speed source and slowing
-/// alike.
+/// already chosen) in the standard errors of the campaign's ride nearest that speed (the
+/// fit's, the speed's; not the model's, which both candidates share): a ride near the weave
+/// speed is measured less well than one above it. A ride at that speed is predicted from that
+/// nearest ride, speed source and slowing alike.
 fn next_rides(
     campaign: &Campaign<'_>,
     exp_cov: &DMatrix<f64>,
@@ -356,34 +357,30 @@ fn next_rides(
         .collect();
     let obs = campaign.obs;
     let p = campaign.parts;
-    let typical: Vec<f64> = (0..p)
-        .map(|a| {
-            let mut v: Vec<f64> = (0..obs.len())
-                .map(|i| exp_cov[(p * i + a, p * i + a)].sqrt())
-                .collect();
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
+    // A ride at speed v is expected to be measured as well as the campaign's ride nearest to
+    // it: the standard errors of its parts (the fit's and the speed's).
+    let nearest = |v: f64| -> Option<usize> {
+        (0..obs.len()).min_by(|&a, &b| {
+            (obs[a].speed_mps - v)
+                .abs()
+                .total_cmp(&(obs[b].speed_mps - v).abs())
         })
-        .collect();
+    };
+    let se_of = |i: usize, a: usize| exp_cov[(p * i + a, p * i + a)].sqrt();
     let (lo, hi) = obs
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
             (a.min(o.speed_mps), b.max(o.speed_mps))
         });
     let mean_slowing = obs.iter().map(|o| o.speed_correction_mps).sum::<f64>() / obs.len() as f64;
-    let predict_at = |r: &Ranked, v: f64| -> Option<Vec<f64>> {
-        let nearest = obs.iter().enumerate().min_by(|a, b| {
-            (a.1.speed_mps - v)
-                .abs()
-                .total_cmp(&(b.1.speed_mps - v).abs())
-        })?;
+    let predict_at = |r: &Ranked, v: f64, i: usize| -> Option<Vec<f64>> {
         let o = Observation {
             speed_mps: v,
-            ..nearest.1.clone()
+            ..obs[i].clone()
         };
         let bike = effects::linear_bike(campaign.base, &r.effects, &r.params);
-        let guess = linear::LinearBike::whipple(campaign.base)
-            .weave_near(v, campaign.guesses[nearest.0])?;
+        let guess =
+            linear::LinearBike::whipple(campaign.base).weave_near(v, campaign.guesses[i])?;
         let (w, shape) = effects::predict_weave(&bike, &r.effects, &r.params, &o, guess, p > 2)?;
         let mut out = vec![w.re, w.im];
         if let Some(s) = shape {
@@ -399,20 +396,20 @@ fn next_rides(
     let d: Vec<Vec<f64>> = grid
         .iter()
         .map(|&v| {
-            let Some(b) = predict_at(best, v) else {
+            let Some((i, b)) = nearest(v).and_then(|i| Some((i, predict_at(best, v, i)?))) else {
                 return vec![0.0; rivals.len()];
             };
             rivals
                 .iter()
                 .map(|r| {
-                    predict_at(r, v).map_or(0.0, |x| {
+                    predict_at(r, v, i).map_or(0.0, |x| {
                         (0..b.len())
                             .map(|a| {
                                 let mut diff = b[a] - x[a];
                                 if a == 3 {
                                     diff = crate::signal::wrap_pi(diff);
                                 }
-                                (diff / typical[a]).powi(2)
+                                (diff / se_of(i, a)).powi(2)
                             })
                             .sum()
                     })
