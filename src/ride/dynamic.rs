@@ -234,49 +234,34 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
         }
     };
     let fit_between = |a: f64, b: f64| fit_span(s, options, a, b).map_err(|e| ride_err(path, e));
+    // What the window after the castor's tail cannot give (`why`), a window from just after
+    // the kick may: a weave that grows, or a slow one, has its cycle there.
+    let early = |why: String| {
+        early_window(s, options)
+            .map_err(|early| ride_err(path, format!("{why} (from just after the kick, {early})")))
+    };
     if end - start < MIN_WINDOW_S {
-        // Too short a motion after the castor's tail: a weave that grows may still give a
-        // cycle from just after the kick.
-        return early_window(s, options).map_err(|early| {
-            ride_err(
-                path,
-                format!(
-                    "too short: the free motion after the kick (at {:.2} s) lasts {:.2} s before {}; \
-                     an eigenvalue needs at least {MIN_WINDOW_S} s and {MIN_CYCLES} weave cycles \
-                     (from just after the kick, {early})",
-                    s.kick_s,
-                    (end - start).max(0.0),
-                    ending(end),
-                ),
-            )
-        });
+        return early(format!(
+            "too short: the free motion after the kick (at {:.2} s) lasts {:.2} s before {}; \
+             an eigenvalue needs at least {MIN_WINDOW_S} s and {MIN_CYCLES} weave cycles",
+            s.kick_s,
+            (end - start).max(0.0),
+            ending(end),
+        ));
     }
-    // No oscillation that fits after the castor's tail: a weave grown out of the linear range
-    // may still have had a cycle from just after the kick.
-    let mut fit = fit_span(s, options, start, end).or_else(|no_weave| {
-        early_window(s, options).map_err(|early| {
-            ride_err(
-                path,
-                format!("{no_weave}; from just after the kick, {early}"),
-            )
-        })
-    })?;
-    if fit.start_s < start {
-        return Ok(fit);
-    }
+    let mut fit = match fit_span(s, options, start, end) {
+        Ok(fit) => fit,
+        Err(no_weave) => return early(no_weave),
+    };
     // A slow weave gets two cycles, even if that takes longer than MAX_WINDOW_S (when they
     // fit).
     (fit, end) = two_cycles(s, options, fit, end, limit);
     if fit.weave.re > 0.0 {
-        return early_window(s, options).map_err(|why| {
-            ride_err(
-                path,
-                format!(
-                    "too short: the weave grows (σ {:+.2} /s, below the weave speed) and {why}",
-                    fit.weave.re
-                ),
-            )
-        });
+        return early(format!(
+            "too short: the weave grows (σ {:+.2} /s, below the weave speed) out of the linear \
+             range",
+            fit.weave.re
+        ));
     }
     // Where the weave sinks into the noise.
     let at_ref = fit.eval(fit.t_ref_s);
@@ -299,26 +284,19 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     }
     let cycles = (end - start) * fit.weave.im / std::f64::consts::TAU;
     if cycles < MIN_CYCLES {
-        // A slow weave near the weave speed: from just after the kick, one cycle may do.
-        return early_window(s, options).map_err(|early| {
-            ride_err(
-                path,
-                format!(
-                    "too short: the free motion after the kick (at {:.2} s) holds {cycles:.1} \
-                     weave cycles ({:.2} s at {:.2} rad/s); an eigenvalue needs at least \
-                     {MIN_CYCLES} (from just after the kick, {early})",
-                    s.kick_s,
-                    end - start,
-                    fit.weave.im
-                ),
-            )
-        });
+        return early(format!(
+            "too short: the free motion after the kick (at {:.2} s) holds {cycles:.1} weave \
+             cycles ({:.2} s at {:.2} rad/s); an eigenvalue needs at least {MIN_CYCLES}",
+            s.kick_s,
+            end - start,
+            fit.weave.im
+        ));
     }
     Ok(fit)
 }
 
-/// The window of a weave that grows or is slow: from [`EARLY_AFTER_KICK_S`] after the kick (the castor
-/// mode and the kick's tail fitted as real modes rather than waited out) until the roll
+/// The window of a weave that grows or is slow: from [`EARLY_AFTER_KICK_S`] after the kick
+/// (the castor mode and the kick's tail fitted as real modes rather than waited out) until the roll
 /// passes [`EARLY_MAX_ROLL_RAD`], the catch, or two weave cycles; at least
 /// [`EARLY_MIN_CYCLES`] cycles. `Err` says, for the caller's message, why there is no such
 /// window.
@@ -337,7 +315,7 @@ fn early_window(s: &RideSignals, options: &ModalOptions) -> Result<ModalFit, Str
         });
         format!(
             "its roll passes {EARLY_MAX_ROLL_RAD} rad, where the linear model no longer holds, \
-             {:.2} s after the kick's tail{cycles}; a growing weave needs at least \
+             {:.2} s after the kick's tail{cycles}; that window needs at least \
              {MIN_WINDOW_S} s and {EARLY_MIN_CYCLES} cycle",
             (end - start).max(0.0)
         )
@@ -404,22 +382,24 @@ const NONLINEAR_SE_PER_RAD2: f64 = 2.5;
 
 /// The largest roll (rad, in size) between `from_s` and `to_s`.
 fn largest_roll_rad(s: &RideSignals, from_s: f64, to_s: f64) -> f64 {
-    let rate = s.sample_rate_hz;
-    s.index
-        .iter()
-        .zip(&s.roll_rad)
-        .filter(|&(&i, _)| (from_s..=to_s).contains(&(i as f64 / rate)))
+    roll_series(s)
+        .filter(|(t, _)| (from_s..=to_s).contains(t))
         .map(|(_, r)| r.abs())
         .fold(0.0, f64::max)
 }
 
-/// When the roll first exceeds `limit_rad` in size after `start_s` (s), if it does.
-fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f64> {
+/// The roll (rad) with its time (s), sample by sample.
+fn roll_series(s: &RideSignals) -> impl Iterator<Item = (f64, f64)> + '_ {
     let rate = s.sample_rate_hz;
     s.index
         .iter()
         .zip(&s.roll_rad)
-        .map(|(&i, r)| (i as f64 / rate, r))
+        .map(move |(&i, &r)| (i as f64 / rate, r))
+}
+
+/// When the roll first exceeds `limit_rad` in size after `start_s` (s), if it does.
+fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f64> {
+    roll_series(s)
         .find(|&(t, r)| t > start_s && r.abs() > limit_rad)
         .map(|(t, _)| t)
 }
