@@ -77,11 +77,22 @@ impl<'a> Campaign<'a> {
     /// [`Campaign::cov`]): rᵀ Σᵢ⁻¹ r over its parts; `None` when the prediction fails or the
     /// block is singular.
     pub fn ride_chi2(&self, effects: &[Effect], params: &[f64], i: usize) -> Option<f64> {
+        Some(self.ride_whitened(effects, params, i)?.norm_squared())
+    }
+
+    /// Ride `i`'s residual whitened by its own covariance, `L⁻¹ r` with `Σᵢ = L Lᵀ`: its parts
+    /// are independent standard normal when the prediction is right; `None` as
+    /// [`Campaign::ride_chi2`].
+    pub fn ride_whitened(
+        &self,
+        effects: &[Effect],
+        params: &[f64],
+        i: usize,
+    ) -> Option<DVector<f64>> {
         let r = self.residuals(effects, params, &[i])?;
         let idx = self.indices(&[i]);
         let block = self.cov.select_rows(idx.iter()).select_columns(idx.iter());
-        let w = block.cholesky()?.l().solve_lower_triangular(&r)?;
-        Some(w.norm_squared())
+        block.cholesky()?.l().solve_lower_triangular(&r)
     }
 }
 

@@ -182,9 +182,13 @@ pub struct Ranked {
     /// The same as sums of squared normalized residuals (Σz² over 2N parts).
     pub heldout_chi2_before: f64,
     pub heldout_chi2_after: f64,
-    /// Each held-out ride's z² (its two parts), in the campaign's order.
+    /// Each held-out ride's z² (its parts), in the campaign's order.
     #[serde(skip)]
     pub heldout_per_ride: Vec<f64>,
+    /// Each held-out ride's residual whitened by its covariance (its z², summed, is
+    /// `heldout_per_ride`); empty where the prediction failed.
+    #[serde(skip)]
+    pub heldout_whitened: Vec<Vec<f64>>,
     /// The parameters fitted without each ride, in the campaign's order.
     #[serde(skip)]
     pub heldout_params: Vec<Vec<f64>>,
@@ -262,7 +266,8 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// The best candidate is told from another when the rides left out favour it by more than this
 /// in Σz² …
 pub const TIE_CHI2: f64 = 2.0;
-/// … and by more than this many standard errors of the ride-by-ride difference.
+/// … and by more than this many of that sum's standard deviations had the two been equally
+/// right ([`distinguishable`]).
 pub const TIE_SE: f64 = 2.0;
 /// Fewer usable rides than this support no conclusion.
 pub const MIN_RIDES: usize = 4;
@@ -819,7 +824,8 @@ fn weighted_mean(xs: impl Iterator<Item = (f64, f64)>) -> crate::fit::Estimate {
     }
 }
 
-/// Held-out z² of each ride for a candidate, and the parameters refitted without it: the ride
+/// Held-out residual of each ride for a candidate, whitened ([`Campaign::ride_whitened`];
+/// empty where the prediction fails), and the parameters refitted without it: the ride
 /// predicted by the candidate refitted without it (from the full fit), in the ride's own
 /// standard errors. (Conditioning the prediction on the other rides' residuals, through the
 /// model's correlated parameter error, was tried: it lets the parameters' prior absorb the
@@ -829,7 +835,7 @@ fn heldout(
     campaign: &Campaign<'_>,
     effects: &[Effect],
     full_fit: &[f64],
-) -> (Vec<f64>, Vec<Vec<f64>>) {
+) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let n = campaign.obs.len();
     let mut per_ride = Vec::with_capacity(n);
     let mut fits = Vec::with_capacity(n);
@@ -847,8 +853,8 @@ fn heldout(
         };
         per_ride.push(
             campaign
-                .ride_chi2(effects, &params, i)
-                .unwrap_or(f64::INFINITY),
+                .ride_whitened(effects, &params, i)
+                .map_or(Vec::new(), |w| w.iter().copied().collect()),
         );
         fits.push(params);
     }
@@ -916,7 +922,17 @@ fn rank(
         let full = campaign.subset((0..n).collect())?;
         let f = fit_effects(&full, &effects);
         let se = param_se(&full, &effects, &f);
-        let (per_ride, heldout_params) = heldout(campaign, &effects, &f.params);
+        let (whitened, heldout_params) = heldout(campaign, &effects, &f.params);
+        let per_ride: Vec<f64> = whitened
+            .iter()
+            .map(|w| {
+                if w.is_empty() {
+                    f64::INFINITY
+                } else {
+                    w.iter().map(|x| x * x).sum()
+                }
+            })
+            .collect();
         let held: f64 = per_ride.iter().sum();
         progress(
             done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
@@ -944,6 +960,7 @@ fn rank(
             heldout_chi2_before: before,
             heldout_chi2_after: held,
             heldout_per_ride: per_ride,
+            heldout_whitened: whitened,
             heldout_params,
         })
     };
@@ -1017,23 +1034,29 @@ fn sort(ranked: &mut [Ranked]) {
     });
 }
 
-/// Whether the rides left out tell `a` from `b`: a paired test on their held-out z², ride by
-/// ride — `a` is better when the mean difference exceeds [`TIE_SE`] of its standard errors
-/// and [`TIE_CHI2`] in total.
+/// Whether the rides left out tell `a` from `b`: `a` is better when S = Σᵢ (z²_b,i − z²_a,i),
+/// the held-out χ² by which it beats `b`, exceeds [`TIE_CHI2`] and [`TIE_SE`] of its standard
+/// deviation had the two been equally right. With the whitened residuals of ride i, r_a and
+/// r_b = r_a + dᵢ (dᵢ the two predictions' difference in the ride's standard errors), each
+/// term is |dᵢ|² + 2 dᵢ·r_a: its standard deviation is 2|dᵢ| when r_a is pure noise (Vuong's
+/// test with the separations known), so S is judged against 2 √Σ|dᵢ|². (A paired t-test on
+/// the terms, used before, could never pass with the separation in two rides of 16: its
+/// statistic is then 1.46 whatever their size, so the rides recommended to break a tie could
+/// not break it.)
 fn distinguishable(a: &Ranked, b: &Ranked) -> bool {
-    let d: Vec<f64> = b
-        .heldout_per_ride
-        .iter()
-        .zip(&a.heldout_per_ride)
-        .map(|(x, y)| x - y)
-        .collect();
-    let n = d.len() as f64;
-    if n < 2.0 || d.iter().any(|v| !v.is_finite()) {
-        return true;
+    let (mut s, mut d2) = (0.0, 0.0);
+    for (ra, rb) in a.heldout_whitened.iter().zip(&b.heldout_whitened) {
+        if ra.is_empty() || rb.is_empty() || ra.len() != rb.len() {
+            // A candidate that cannot predict a ride the other can is told apart by it.
+            if ra.len() != rb.len() {
+                return true;
+            }
+            continue;
+        }
+        s += rb.iter().map(|x| x * x).sum::<f64>() - ra.iter().map(|x| x * x).sum::<f64>();
+        d2 += ra.iter().zip(rb).map(|(x, y)| (y - x).powi(2)).sum::<f64>();
     }
-    let mean = d.iter().sum::<f64>() / n;
-    let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    mean * n > TIE_CHI2 && mean > TIE_SE * (var / n).sqrt()
+    s > TIE_CHI2 && s > TIE_SE * 2.0 * d2.sqrt()
 }
 
 /// The candidates as plausible as the best that the rides left out cannot tell from it
@@ -1211,7 +1234,7 @@ fn verdict(d: &Diagnosis) -> String {
     if d.tied.len() > 1 {
         let _ = write!(
             v,
-            "The rides left out cannot tell apart: {} (ride by ride, none is better than the best by {TIE_SE} standard errors); the best of them, ",
+            "The rides left out cannot tell apart: {} (none is worse than the best by {TIE_SE} standard deviations of the held-out χ² difference its predictions' separation allows); the best of them, ",
             d.tied.join(", ")
         );
     } else {
