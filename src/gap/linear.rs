@@ -236,9 +236,15 @@ impl LinearBike {
         ratio.is_finite().then_some(ratio)
     }
 
-    /// Every eigenvalue of the state matrix at speed `v`.
+    /// Every eigenvalue of the state matrix at speed `v` (a rigid bicycle's through the fixed
+    /// 4×4 decomposition, [`crate::model::eigenvalues_of`]).
     pub fn eigenvalues(&self, v: f64) -> Option<Vec<Complex<f64>>> {
-        crate::model::eigenvalues_dyn(&self.state_matrix(v)?)
+        let a = self.state_matrix(v)?;
+        if a.nrows() == 4 {
+            let fixed = nalgebra::Matrix4::from_column_slice(a.as_slice());
+            return crate::model::eigenvalues_of(&fixed).map(|e| e.to_vec());
+        }
+        crate::model::eigenvalues_dyn(&a)
     }
 
     /// The oscillatory eigenvalue (im > 0) nearest `guess` at speed `v`; `None` when there is

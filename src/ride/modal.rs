@@ -27,6 +27,9 @@ use crate::fit::{levenberg_marquardt, Estimate, LeastSquares};
 use nalgebra::{Complex, DMatrix, DVector};
 
 /// Errors of the modal fit.
+/// The most real modes a fit carries beside the weave.
+pub const MAX_REAL_MODES: usize = 2;
+
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ModalError {
     #[error("the window holds {0} samples: too few to fit the modes")]
@@ -38,7 +41,8 @@ pub enum ModalError {
 /// Which terms beside the weave a fit carries.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct Structure {
-    /// Real modes (capsize, castor) beside the weave: 0, 1 or 2.
+    /// Real modes (capsize, castor) beside the weave: 0, 1 or 2 ([`MAX_REAL_MODES`]; a
+    /// structure asked for with more is fitted with that many).
     pub real_modes: usize,
     /// The weave's eigenvalue drifts linearly in time (σ̇, ω̇): only in the drift's check.
     pub drift: bool,
@@ -130,23 +134,29 @@ impl ModalFit {
     pub fn eval(&self, t: f64) -> [f64; 2] {
         let st = self.structure;
         let p = &self.params;
-        [0, 1].map(|s| model_value(p, st, s, t - self.t_ref_s, t - self.start_s))
+        model_values(p, st, t - self.t_ref_s, t - self.start_s)
     }
 }
 
-/// The value of signal `s` (0: θ, 1: γ) of the model at τ, τ₀.
-fn model_value(p: &[f64], st: Structure, s: usize, tau: f64, tau0: f64) -> f64 {
+/// The values of the model's two signals (θ, γ) at τ, τ₀.
+fn model_values(p: &[f64], st: Structure, tau: f64, tau0: f64) -> [f64; 2] {
     let (e, cos, sin) = carrier(p, st, tau);
-    let l = st.nonlinear() + s * st.linear();
-    let mut x = e * (p[l] * cos + p[l + 1] * sin);
-    for k in 0..st.real_modes {
-        x += p[l + 2 + k] * (p[real_index(st, k)] * tau0).exp();
+    let mut exps = [0.0; MAX_REAL_MODES];
+    for (k, ex) in exps.iter_mut().enumerate().take(st.real_modes) {
+        *ex = (p[real_index(st, k)] * tau0).exp();
     }
-    x += p[l + 2 + st.real_modes];
-    if st.trend {
-        x += p[l + 3 + st.real_modes] * tau;
-    }
-    x
+    [0, 1].map(|s| {
+        let l = st.nonlinear() + s * st.linear();
+        let mut x = e * (p[l] * cos + p[l + 1] * sin);
+        for (k, ex) in exps.iter().enumerate().take(st.real_modes) {
+            x += p[l + 2 + k] * ex;
+        }
+        x += p[l + 2 + st.real_modes];
+        if st.trend {
+            x += p[l + 3 + st.real_modes] * tau;
+        }
+        x
+    })
 }
 
 fn real_index(st: Structure, k: usize) -> usize {
@@ -178,15 +188,15 @@ impl Problem<'_> {
 
     /// Per-signal residual sums of squares (unweighted, rad²).
     fn rss(&self, p: &[f64]) -> [f64; 2] {
-        [0, 1].map(|s| {
-            self.t
-                .iter()
-                .zip(self.x[s])
-                .map(|(&t, &x)| {
-                    (model_value(p, self.st, s, t - self.t_ref, t - self.t0) - x).powi(2)
-                })
-                .sum()
-        })
+        let mut out = [0.0; 2];
+        for (i, &t) in self.t.iter().enumerate() {
+            // The carrier is θ's and γ's alike: computed once per sample.
+            let values = model_values(p, self.st, t - self.t_ref, t - self.t0);
+            for s in 0..2 {
+                out[s] += (values[s] - self.x[s][i]).powi(2);
+            }
+        }
+        out
     }
 
     /// The linear parameters for fixed nonlinear ones (per signal, normal equations with
@@ -196,8 +206,9 @@ impl Problem<'_> {
         let nl = st.linear();
         let mut p = nonlinear.to_vec();
         p.resize(st.params(), 0.0);
+        // The columns are θ's and γ's alike.
+        let rows: Vec<Vec<f64>> = self.t.iter().map(|&t| self.linear_row(&p, t)).collect();
         for s in 0..2 {
-            let rows: Vec<Vec<f64>> = self.t.iter().map(|&t| self.linear_row(&p, t)).collect();
             let mut norms = vec![0.0f64; nl];
             for r in &rows {
                 for (k, v) in r.iter().enumerate() {
@@ -251,9 +262,11 @@ impl LeastSquares for Problem<'_> {
             let tau = t - self.t_ref;
             let tau0 = t - self.t0;
             let (e, cos, sin) = carrier(p, st, tau);
-            let exps: Vec<f64> = (0..st.real_modes)
-                .map(|k| (p[real_index(st, k)] * tau0).exp())
-                .collect();
+            let mut exps = [0.0; MAX_REAL_MODES];
+            for (k, ex) in exps.iter_mut().enumerate().take(st.real_modes) {
+                *ex = (p[real_index(st, k)] * tau0).exp();
+            }
+            let exps = &exps[..st.real_modes];
             for s in 0..2 {
                 let w = self.weight[s];
                 let row = i + s * n;
@@ -304,24 +317,45 @@ fn noise_level(x: &[f64]) -> f64 {
 /// weighted periodogram on a 0.02 rad/s grid, each signal less its least-squares parabola
 /// (a slow real mode's drift would otherwise leak into the low frequencies).
 fn dominant_omega(t: &[f64], x: [&[f64]; 2], weight: [f64; 2]) -> f64 {
+    const STEP_RAD_PER_S: f64 = 0.02;
     let mut best = (0.0, 1.0);
     let centred: Vec<Vec<f64>> = x.iter().map(|s| less_parabola(t, s)).collect();
+    // Each sample's phasor e^{iω(tᵢ − t₀)}, advanced from one ω to the next by a rotation
+    // (e^{iΔω(tᵢ − t₀)}, the samples' times need not be even) and set afresh every 64 steps
+    // so that rounding cannot build up: a sine and cosine per sample every 64 frequencies
+    // instead of every one.
+    let step: Vec<(f64, f64)> = t
+        .iter()
+        .map(|&ti| (STEP_RAD_PER_S * (ti - t[0])).sin_cos())
+        .collect();
+    let mut phasor = vec![(0.0, 1.0); t.len()];
     let mut omega = 1.0;
+    let mut k = 0usize;
     while omega <= 20.0 {
-        let mut power = 0.0;
-        for (s, xs) in centred.iter().enumerate() {
-            let (mut c, mut sn) = (0.0, 0.0);
-            for (&ti, &xi) in t.iter().zip(xs) {
-                let (si, ci) = (omega * (ti - t[0])).sin_cos();
-                c += xi * ci;
-                sn += xi * si;
+        if k % 64 == 0 {
+            for (p, &ti) in phasor.iter_mut().zip(t) {
+                *p = (omega * (ti - t[0])).sin_cos();
             }
-            power += weight[s].powi(2) * (c * c + sn * sn);
+        }
+        let (mut c, mut sn) = ([0.0; 2], [0.0; 2]);
+        for (i, &(si, ci)) in phasor.iter().enumerate() {
+            for s in 0..2 {
+                c[s] += centred[s][i] * ci;
+                sn[s] += centred[s][i] * si;
+            }
+        }
+        for (p, &(ss, cs)) in phasor.iter_mut().zip(&step) {
+            *p = (p.0 * cs + p.1 * ss, p.1 * cs - p.0 * ss);
+        }
+        k += 1;
+        let mut power = 0.0;
+        for s in 0..2 {
+            power += weight[s].powi(2) * (c[s] * c[s] + sn[s] * sn[s]);
         }
         if power > best.0 {
             best = (power, omega);
         }
-        omega += 0.02;
+        omega += STEP_RAD_PER_S;
     }
     best.1
 }
@@ -431,7 +465,11 @@ pub fn fit_modes(
     // Every structure, each from the base eigenvalue and the best starting real rates.
     let mut best: Option<Candidate> = None;
     let structures: Vec<Structure> = match options.only {
-        Some(st) => vec![Structure { drift: false, ..st }],
+        Some(st) => vec![Structure {
+            drift: false,
+            real_modes: st.real_modes.min(MAX_REAL_MODES),
+            ..st
+        }],
         None => (0..=2)
             .flat_map(|real_modes| {
                 [false, true].map(|trend| Structure {
@@ -511,7 +549,7 @@ pub fn vaf_with_modes(
     real_rates: &[f64],
 ) -> Option<[f64; 2]> {
     let n = t_s.len();
-    if n < 40 || roll_rad.len() != n || steer_rad.len() != n || real_rates.len() > 2 {
+    if n < 40 || roll_rad.len() != n || steer_rad.len() != n || real_rates.len() > MAX_REAL_MODES {
         return None;
     }
     let problem = Problem {
