@@ -35,8 +35,8 @@ pub mod stats;
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
 use crate::ride::dynamic::{DynamicTest, SpeedSource};
 use effects::Effect;
-use fit::{fit_effects, param_se, refit_near, Campaign};
-use nalgebra::{Complex, DMatrix};
+use fit::{fit_effects, param_se, refit_near, Campaign, ResidualCache};
+use nalgebra::{Complex, DMatrix, DVector};
 use std::fmt::Write as _;
 
 /// One ride's experimental weave, as the dynamic test gave it.
@@ -249,7 +249,7 @@ pub struct Diagnosis {
     /// The best candidate's goodness of fit: p of its χ² on 2N − k degrees of freedom.
     pub best_fit_p_value: f64,
     /// When candidates are tied: the rides to make next, where their predictions differ most.
-    pub next_rides: Vec<NextRide>,
+    pub next_rides: NextRides,
     pub verdict: String,
 }
 
@@ -328,42 +328,78 @@ pub struct NextRide {
     /// … and so the speed to release the bicycle at (m/s): the same less the campaign's mean
     /// slowing between release and window.
     pub release_speed_mps: f64,
-    /// For each candidate tied with the best: how far apart their predictions of that ride
-    /// are, in the standard errors of the campaign's ride nearest that speed (√Σz² over the
-    /// parts), in the order of `tied`.
+    /// For each candidate tied with the best: how far apart their predictions of a ride there
+    /// are, in the standard errors the tie test weighs it with (√(δᵀ Σ⁻¹ δ) over the parts;
+    /// Σ the fit's and the speed's errors of the campaign's ride nearest that speed and the
+    /// model's at that speed), in the order of `tied` without the best.
     pub separation_se: Vec<f64>,
 }
 
-/// Two rides past a separation this large (in standard errors) tell a pair apart; the
-/// choice of the next rides stops gaining there (3 standard errors).
-const SEPARATED_CHI2: f64 = 9.0;
+/// The rides to make next and what they are expected to achieve.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct NextRides {
+    /// Two speeds, best first; empty when nothing is tied.
+    pub rides: Vec<NextRide>,
+    /// For each candidate tied with the best, in the order of `tied` without the best: the
+    /// squared separation Σ|dᵢ|² the campaign's rides already give the pair in the tie test …
+    pub separation_now: Vec<f64>,
+    /// … and what it takes to expect the test to pass by one of its standard deviations,
+    /// [`UNTIE_SEPARATION`].
+    pub separation_needed: f64,
+    /// Rides at the two speeds, alternately, expected to reach it for every tied pair; `None`
+    /// when rides there add (almost) nothing (then the candidates differ no more than the
+    /// measured bicycle's own uncertainty lets the model move, and only a better measured
+    /// bicycle can tell them apart).
+    pub rides_needed: Option<usize>,
+}
+
+/// The squared separation Σ|dᵢ|² at which the tie test is expected to pass by one of its
+/// standard deviations: S ≈ Σ|dᵢ|² − 2√Σ|dᵢ|² must exceed [`TIE_SE`] · 2√Σ|dᵢ|², so
+/// √Σ|dᵢ|² ≥ 2·TIE_SE + 2 (36 with TIE_SE = 2).
+pub const UNTIE_SEPARATION: f64 = (2.0 * TIE_SE + 2.0) * (2.0 * TIE_SE + 2.0);
+
+/// More rides than this at the recommended speeds count as "none would do".
+const MAX_RIDES_NEEDED: usize = 100;
 
 /// The rides to make next when candidates are tied: two speeds, chosen one after the other on
 /// a 0.05 m/s grid from 0.5 m/s below the campaign's slowest ride to 0.5 m/s above its
-/// fastest, each maximizing Σ over the best's tied rivals of min(D, 9), D the squared
-/// separation of the two candidates' predictions of a ride there (together with the rides
-/// already chosen) in the standard errors of the campaign's ride nearest that speed (the
-/// fit's, the speed's; not the model's, which both candidates share): a ride near the weave
-/// speed is measured less well than one above it. A ride at that speed is predicted from that
-/// nearest ride, speed source and slowing alike.
+/// fastest (at least 0.3 m/s apart), each maximizing Σ over the best's tied rivals of
+/// min(D, needed), D the squared separation of the two candidates' predictions of a ride
+/// there (with the rides already chosen) and "needed" what the pair still lacks of
+/// [`UNTIE_SEPARATION`].
+///
+/// D is weighed as the tie test ([`distinguishable`]) will weigh the ride once made: by its
+/// own covariance, the fit's and the speed's errors of the campaign's ride nearest that speed
+/// (a ride near the weave speed is measured less well than one above it) plus the model's
+/// error at that speed, propagated from the measured parameters. That last part matters: the
+/// candidates often differ by less than the measured bicycle's uncertainty moves its weave, and
+/// weighing a ride by its fit's errors alone promised three to four times the separation the
+/// recommended rides then gave. A ride at that speed is predicted from that nearest ride,
+/// speed source and slowing alike.
 fn next_rides(
     campaign: &Campaign<'_>,
     exp_cov: &DMatrix<f64>,
+    model: &Parametrized,
     ranking: &[Ranked],
     tied: &[String],
-) -> Vec<NextRide> {
+) -> NextRides {
     let (Some(best), true) = (ranking.first(), tied.len() > 1) else {
-        return Vec::new();
+        return NextRides::default();
     };
     let rivals: Vec<&Ranked> = tied
         .iter()
         .filter(|t| **t != best.effect)
         .filter_map(|t| ranking.iter().find(|r| r.effect == *t))
         .collect();
+    let separation_now: Vec<f64> = rivals.iter().map(|r| heldout_contrast(best, r).1).collect();
+    let needed: Vec<f64> = separation_now
+        .iter()
+        .map(|now| (UNTIE_SEPARATION - now).max(0.0))
+        .collect();
     let obs = campaign.obs;
     let p = campaign.parts;
     // A ride at speed v is expected to be measured as well as the campaign's ride nearest to
-    // it: the standard errors of its parts (the fit's and the speed's).
+    // it: the covariance of its parts (the fit's and the speed's).
     let nearest = |v: f64| -> Option<usize> {
         (0..obs.len()).min_by(|&a, &b| {
             (obs[a].speed_mps - v)
@@ -371,7 +407,7 @@ fn next_rides(
                 .total_cmp(&(obs[b].speed_mps - v).abs())
         })
     };
-    let se_of = |i: usize, a: usize| exp_cov[(p * i + a, p * i + a)].sqrt();
+    let block = |m: &DMatrix<f64>, start: usize| m.view((start, start), (p, p)).into_owned();
     let (lo, hi) = obs
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
@@ -397,44 +433,63 @@ fn next_rides(
         .map(|k| (lo - 0.5).max(0.5) + 0.05 * k as f64)
         .take_while(|&v| v <= hi + 0.5 + 1e-9)
         .collect();
+    // The model's error at every grid speed (one propagation); where it fails, the nearest
+    // ride's (its block of the campaign's covariance less the fit's and the speed's).
+    let model_at_grid = model.weave_model(&grid).ok();
     // D of each rival at each grid speed.
     let d: Vec<Vec<f64>> = grid
         .iter()
-        .map(|&v| {
+        .enumerate()
+        .map(|(k, &v)| {
+            let zero = vec![0.0; rivals.len()];
             let Some((i, b)) = nearest(v).and_then(|i| Some((i, predict_at(best, v, i)?))) else {
-                return vec![0.0; rivals.len()];
+                return zero;
+            };
+            let model_block = match &model_at_grid {
+                Some(wm) => block(&wm.cov, WEAVE_PARTS * k),
+                None => block(&campaign.cov, p * i) - block(exp_cov, p * i),
+            };
+            let Some(chol) = (block(exp_cov, p * i) + model_block).cholesky() else {
+                return zero;
             };
             rivals
                 .iter()
                 .map(|r| {
                     predict_at(r, v, i).map_or(0.0, |x| {
-                        (0..b.len())
-                            .map(|a| {
-                                let mut diff = b[a] - x[a];
+                        let delta = DVector::from_iterator(
+                            b.len(),
+                            (0..b.len()).map(|a| {
+                                let diff = b[a] - x[a];
                                 if a == 3 {
-                                    diff = crate::signal::wrap_pi(diff);
+                                    crate::signal::wrap_pi(diff)
+                                } else {
+                                    diff
                                 }
-                                (diff / se_of(i, a)).powi(2)
-                            })
-                            .sum()
+                            }),
+                        );
+                        chol.l()
+                            .solve_lower_triangular(&delta)
+                            .map_or(0.0, |w| w.norm_squared())
                     })
                 })
                 .collect()
         })
         .collect();
     let mut so_far = vec![0.0; rivals.len()];
-    let mut out = Vec::new();
+    let mut rides = Vec::new();
     for _ in 0..2 {
         let gain = |k: usize| -> f64 {
             so_far
                 .iter()
                 .zip(&d[k])
-                .map(|(s, x)| (s + x).min(SEPARATED_CHI2))
+                .zip(&needed)
+                .map(|((s, x), n)| (s + x).min(*n))
                 .sum()
         };
         let Some(k) = (0..grid.len())
             .filter(|&k| {
-                out.iter()
+                rides
+                    .iter()
                     .all(|n: &NextRide| (n.speed_mps - grid[k]).abs() >= 0.3)
             })
             .max_by(|&a, &b| gain(a).total_cmp(&gain(b)).then(b.cmp(&a)))
@@ -444,13 +499,38 @@ fn next_rides(
         for (s, x) in so_far.iter_mut().zip(&d[k]) {
             *s += x;
         }
-        out.push(NextRide {
+        rides.push(NextRide {
             speed_mps: grid[k],
             release_speed_mps: grid[k] - mean_slowing,
             separation_se: d[k].iter().map(|x| x.sqrt()).collect(),
         });
     }
-    out
+    // Rides alternately at the two speeds until every pair has what it needs.
+    let rides_needed = (|| {
+        let per_ride: Vec<Vec<f64>> = rides
+            .iter()
+            .map(|r| r.separation_se.iter().map(|x| x * x).collect())
+            .collect();
+        if per_ride.is_empty() {
+            return None;
+        }
+        let mut got = vec![0.0; rivals.len()];
+        for n in 0..=MAX_RIDES_NEEDED {
+            if got.iter().zip(&needed).all(|(g, need)| g >= need) {
+                return Some(n);
+            }
+            for (g, x) in got.iter_mut().zip(&per_ride[n % per_ride.len()]) {
+                *g += x;
+            }
+        }
+        None
+    })();
+    NextRides {
+        rides,
+        separation_now,
+        separation_needed: UNTIE_SEPARATION,
+        rides_needed,
+    }
 }
 
 /// The campaign's targeted test: among the single effects of the ranking, the one whose fit
@@ -554,7 +634,7 @@ pub fn diagnose(
         tied: Vec::new(),
         explained: false,
         best_fit_p_value: f64::NAN,
-        next_rides: Vec::new(),
+        next_rides: NextRides::default(),
         verdict: String::new(),
     };
     if let Some(reason) = insufficiency(rides, failed) {
@@ -694,7 +774,7 @@ pub fn diagnose(
     d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
     if d.significant {
         d.tied = tied(&d.ranking);
-        d.next_rides = next_rides(&campaign, &exp_cov, &d.ranking, &d.tied);
+        d.next_rides = next_rides(&campaign, &exp_cov, model, &d.ranking, &d.tied);
     }
     if let Some(best) = d.ranking.first() {
         let k = best.params.len();
@@ -839,6 +919,7 @@ fn heldout(
     let n = campaign.obs.len();
     let mut per_ride = Vec::with_capacity(n);
     let mut fits = Vec::with_capacity(n);
+    let cache = ResidualCache::new(campaign, effects);
     for i in 0..n {
         let others: Vec<usize> = (0..n).filter(|&j| j != i).collect();
         let params = match campaign.subset(others) {
@@ -847,7 +928,7 @@ fn heldout(
                     .iter()
                     .map(|p| 0.05 * (p.hi - p.lo))
                     .collect();
-                refit_near(&s, effects, full_fit, &step).params
+                refit_near(&s, &cache, full_fit, &step).params
             }
             None => full_fit.to_vec(),
         };
@@ -1044,19 +1125,38 @@ fn sort(ranked: &mut [Ranked]) {
 /// statistic is then 1.46 whatever their size, so the rides recommended to break a tie could
 /// not break it.)
 fn distinguishable(a: &Ranked, b: &Ranked) -> bool {
-    let (mut s, mut d2) = (0.0, 0.0);
-    for (ra, rb) in a.heldout_whitened.iter().zip(&b.heldout_whitened) {
-        if ra.is_empty() || rb.is_empty() || ra.len() != rb.len() {
-            // A candidate that cannot predict a ride the other can is told apart by it.
-            if ra.len() != rb.len() {
-                return true;
-            }
-            continue;
-        }
-        s += rb.iter().map(|x| x * x).sum::<f64>() - ra.iter().map(|x| x * x).sum::<f64>();
-        d2 += ra.iter().zip(rb).map(|(x, y)| (y - x).powi(2)).sum::<f64>();
-    }
+    let (s, d2) = heldout_contrast(a, b);
     s > TIE_CHI2 && s > TIE_SE * 2.0 * d2.sqrt()
+}
+
+/// (S, Σ|dᵢ|²) of the tie test between `a` and `b` (see [`Diagnosis::tied`]): the held-out χ²
+/// by which `a` beats `b`, and the squared separation of their held-out predictions in the
+/// rides' standard errors; the sums of [`ride_contrasts`]. S is infinite when one of the two
+/// cannot predict a ride the other can (that ride tells them apart).
+pub fn heldout_contrast(a: &Ranked, b: &Ranked) -> (f64, f64) {
+    ride_contrasts(a, b)
+        .iter()
+        .fold((0.0, 0.0), |(s, d2), c| match c {
+            Some((si, di)) => (s + si, d2 + di),
+            None => (f64::INFINITY, d2),
+        })
+}
+
+/// Each ride's part of [`heldout_contrast`], in the campaign's order: (z²_b − z²_a, |d|²);
+/// `None` where one of the two predicts the ride and the other cannot.
+pub fn ride_contrasts(a: &Ranked, b: &Ranked) -> Vec<Option<(f64, f64)>> {
+    a.heldout_whitened
+        .iter()
+        .zip(&b.heldout_whitened)
+        .map(|(ra, rb)| {
+            (ra.len() == rb.len()).then(|| {
+                (
+                    rb.iter().map(|x| x * x).sum::<f64>() - ra.iter().map(|x| x * x).sum::<f64>(),
+                    ra.iter().zip(rb).map(|(x, y)| (y - x).powi(2)).sum::<f64>(),
+                )
+            })
+        })
+        .collect()
 }
 
 /// The candidates as plausible as the best that the rides left out cannot tell from it
@@ -1268,22 +1368,38 @@ fn verdict(d: &Diagnosis) -> String {
 
 /// The next rides in words (empty when none are recommended).
 fn next_rides_text(d: &Diagnosis) -> String {
-    if d.next_rides.is_empty() {
+    let next = &d.next_rides;
+    if next.rides.is_empty() {
         return String::new();
     }
-    let rides: Vec<String> = d
-        .next_rides
+    let rides: Vec<String> = next
+        .rides
         .iter()
         .map(|n| {
             let most = n.separation_se.iter().copied().fold(0.0, f64::max);
             format!(
-                "{:.2} m/s where the eigenvalue applies (release at about {:.1} m/s; the tied candidates' predictions up to {most:.1} standard errors of a ride apart)",
+                "{:.2} m/s where the eigenvalue applies (release at about {:.1} m/s; a ride there sets the tied candidates' predictions up to {most:.1} of its standard errors apart)",
                 n.speed_mps, n.release_speed_mps
             )
         })
         .collect();
+    let least = next
+        .separation_now
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let how_many = match next.rides_needed {
+        Some(n) => format!(
+            "about {n} rides there, alternately, are expected to tell them apart (the rides so far give the closest pair a squared separation of {least:.1} of the {:.0} the test needs)",
+            next.separation_needed
+        ),
+        None => format!(
+            "no number of rides is: the rides so far give the closest pair a squared separation of {least:.1} of the {:.0} the test needs, and more rides add almost nothing, because the candidates differ by less than the measured bicycle's own uncertainty moves its weave; measure the bicycle better",
+            next.separation_needed
+        ),
+    };
     format!(
-        " To tell the tied candidates apart, ride next at {}.",
+        " The rides that best tell the tied candidates apart are at {}; {how_many}.",
         rides.join(" and at ")
     )
 }
