@@ -499,7 +499,7 @@ fn moving_mean(x: &[f64], w: usize) -> Vec<f64> {
 }
 
 /// Where the motion is: from the window of largest variance (0.5 s windows) until the variance
-/// sinks to the quiet level (4× the smallest window's) for 2 s. Returns sample indices `[begin, end]`.
+/// sinks to the quiet level (4× the smallest window's, and a tenth of the largest) for 2 s. Returns sample indices `[begin, end]`.
 /// The largest variance is often the window that straddles the release (the held angle, then
 /// the first swing), so `begin` is the end of that window: surely inside the free decay.
 fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
@@ -525,8 +525,14 @@ fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
     let sustain = (2.0 * rate_hz).round() as usize;
     let mut run = 0;
     let mut end = n - 1;
+    // Quiet is also well below the motion (a tenth of the largest variance): a lightly damped
+    // swing recorded without a rest after it (normal in a real lab) has no quiet windows, and
+    // its smallest (at the record's end, where the windows are short) made the swing itself
+    // "quiet", leaving too short a stretch to find its frequency in ("no peak above the
+    // noise" on clean 12-cycle swings).
+    let quiet_below = (4.0 * quiet).min(0.1 * var[imax]);
     for (i, &v) in var.iter().enumerate().skip(imax) {
-        run = if v < 4.0 * quiet { run + 1 } else { 0 };
+        run = if v < quiet_below { run + 1 } else { 0 };
         if run >= sustain {
             end = (i + 1 - run + w / 2).min(n - 1);
             break;
@@ -917,6 +923,26 @@ pub fn crb_omega_variance(amplitude: f64, sigma: f64, dt_s: f64, n: usize, noise
 mod tests {
     use super::*;
 
+    #[test]
+    fn trials_group_by_their_set_up() {
+        assert_eq!(
+            setup_name("RobotForkTorsionalFirst12"),
+            "RobotForkTorsionalFirst"
+        );
+        assert_eq!(setup_name("rod_3"), "rod");
+        assert_eq!(setup_name("frame-x-2"), "frame-x");
+        assert_eq!(setup_name("fork"), "fork");
+        let m = |v| crate::uncertainty::Measured::new(v, 1e-6);
+        let g = group_trials(&[
+            ("b1".into(), m(1.0)),
+            ("a1".into(), m(2.0)),
+            ("b2".into(), m(1.1)),
+        ]);
+        assert_eq!(g.len(), 2);
+        assert_eq!((g[0].setup.as_str(), g[0].trials.len()), ("b", 2));
+        assert_eq!((g[1].setup.as_str(), g[1].trials.len()), ("a", 1));
+    }
+
     /// The exact Fisher matrix of (A, φ, ω, σ, offset), inverted numerically.
     fn exact_crb(
         amplitude: f64,
@@ -990,4 +1016,55 @@ mod tests {
             assert!((got - want).abs() < 1e-9, "{got} vs {want}");
         }
     }
+}
+
+/// The periods of repeated trials of one set-up, combined.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SetupPeriods {
+    /// The set-up: the trials' common name (`RobotForkTorsionalFirst` for
+    /// `RobotForkTorsionalFirst1` … `3`).
+    pub setup: String,
+    pub trials: Vec<String>,
+    /// Each trial's damped period (s) with its fit's standard error.
+    pub periods_s: Vec<crate::uncertainty::Measured>,
+    /// Their mean (s), its standard error including the scatter between trials, the flagged
+    /// trials ([`combine_repeats`](crate::uncertainty::combine_repeats)).
+    pub combined: crate::uncertainty::Repeats,
+}
+
+/// A trial's set-up: its name less a trailing trial number (and a `_` or `-` before it).
+pub fn setup_name(trial: &str) -> &str {
+    trial
+        .trim_end_matches(|c: char| c.is_ascii_digit())
+        .trim_end_matches(['_', '-'])
+}
+
+/// Groups `(trial name, period)` by set-up ([`setup_name`]), set-ups in the order of their
+/// first trial, and combines each.
+pub fn group_trials(trials: &[(String, crate::uncertainty::Measured)]) -> Vec<SetupPeriods> {
+    let mut setups: Vec<(String, Vec<usize>)> = Vec::new();
+    for (i, (name, _)) in trials.iter().enumerate() {
+        let s = setup_name(name);
+        match setups.iter_mut().find(|(n, _)| n == s) {
+            Some((_, members)) => members.push(i),
+            None => setups.push((s.to_string(), vec![i])),
+        }
+    }
+    setups
+        .into_iter()
+        .map(|(setup, members)| {
+            let periods_s: Vec<_> = members.iter().map(|&i| trials[i].1).collect();
+            SetupPeriods {
+                setup,
+                trials: members.iter().map(|&i| trials[i].0.clone()).collect(),
+                combined: crate::uncertainty::combine_repeats(
+                    &periods_s
+                        .iter()
+                        .map(|m| (m.value, m.se))
+                        .collect::<Vec<_>>(),
+                ),
+                periods_s,
+            }
+        })
+        .collect()
 }

@@ -1,12 +1,13 @@
 //! The `bikeproc` command line: argument parsing, output and exit codes over the library.
 //! Exit code 0 on success, 2 when an input is malformed or cannot be analysed, 1 otherwise.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use bikeproc::fit::{self, FitOptions, Trend};
 use bikeproc::inertia::{self, manifest::Kind, text};
 use bikeproc::log::{OutputMode, ReadOptions};
 use bikeproc::signal::{self, Extract};
 use bikeproc::sim::{self, imu, pendulum};
+use bikeproc::uncertainty::Measured;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -50,8 +51,11 @@ enum Command {
 
 #[derive(Args)]
 struct PeriodArgs {
-    /// A `NAME.log` / `NAME_cal.log` file, or a CSV `time_s,value`.
-    file: PathBuf,
+    /// A `NAME.log` / `NAME_cal.log` file, or a CSV `time_s,value`; several files or a folder
+    /// of them for repeated trials (`…1`, `…2`, … of one set-up are combined: mean, scatter,
+    /// flagged trials).
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
     /// Fit this column instead of the rotation about the dominant axis (e.g. Gyr_Z: read from
     /// the `_cal` file when the angles file does not have it).
     #[arg(long)]
@@ -416,15 +420,6 @@ fn period(a: PeriodArgs) -> Result<()> {
         .channel
         .clone()
         .map_or(Extract::DominantRotation, Extract::Channel);
-    let (sig, warnings) = signal::load_signal(
-        &a.file,
-        &extract,
-        a.sensor.as_deref(),
-        &ReadOptions::default(),
-    )?;
-    for w in &warnings {
-        eprintln!("warning: {w}");
-    }
     let options = FitOptions {
         trend: match a.trend {
             TrendArg::Auto => Trend::Auto,
@@ -434,9 +429,134 @@ fn period(a: PeriodArgs) -> Result<()> {
         segment_s: a.segment,
         min_freq_hz: None,
     };
-    let osc = fit::analyse(&sig, &options).with_context(|| format!("{}", a.file.display()))?;
-    let summary = osc.summary(&sig);
-    emit(a.json, &summary, || summary.to_text(&a.file))
+    let measure = |file: &Path| -> Result<fit::OscillationSummary> {
+        let (sig, warnings) =
+            signal::load_signal(file, &extract, a.sensor.as_deref(), &ReadOptions::default())?;
+        for w in &warnings {
+            eprintln!("warning: {}: {w}", file.display());
+        }
+        let osc = fit::analyse(&sig, &options).with_context(|| format!("{}", file.display()))?;
+        Ok(osc.summary(&sig))
+    };
+    if let [file] = a.files.as_slice() {
+        if !file.is_dir() {
+            let summary = measure(file)?;
+            return emit(a.json, &summary, || summary.to_text(file));
+        }
+    }
+    let files = trial_files(&a.files)?;
+    let total = files.len();
+    let mut trials = Vec::new();
+    let mut failed = Vec::new();
+    for (k, file) in files.iter().enumerate() {
+        progress_bar("recordings", k + 1, total);
+        match measure(file) {
+            Ok(s) => trials.push((file.clone(), s)),
+            Err(e) => failed.push(format!("{e:#}")),
+        }
+    }
+    let named: Vec<(String, Measured)> = trials
+        .iter()
+        .map(|(f, s)| {
+            let stem = f
+                .file_stem()
+                .map_or(String::new(), |x| x.to_string_lossy().into_owned());
+            (stem, Measured::new(s.period_s, s.period_se_s))
+        })
+        .collect();
+    let setups = fit::group_trials(&named);
+    #[derive(serde::Serialize)]
+    struct Batch<'a> {
+        setups: &'a [fit::SetupPeriods],
+        failed: &'a [String],
+    }
+    emit(
+        a.json,
+        &Batch {
+            setups: &setups,
+            failed: &failed,
+        },
+        || setups_text(&setups),
+    )?;
+    for f in &failed {
+        eprintln!("error: {f}");
+    }
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        bail!("{} of {total} recordings gave no period", failed.len())
+    }
+}
+
+/// The recordings named (files, and the `.csv` and `.log` files of folders, `_cal` logs left to
+/// their angles log), in name order within each folder.
+fn trial_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut inside: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("{}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    let ext = f.extension().and_then(|e| e.to_str());
+                    let stem = f.file_stem().and_then(|e| e.to_str()).unwrap_or("");
+                    matches!(ext, Some("csv") | Some("log")) && !stem.ends_with("_cal")
+                })
+                .collect();
+            inside.sort();
+            if inside.is_empty() {
+                bail!("{}: no .csv or .log recordings in the folder", p.display());
+            }
+            out.extend(inside);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+/// Repeated trials by set-up, as text.
+fn setups_text(setups: &[fit::SetupPeriods]) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{:<28} {:>22} {:>24} {:>9}  trials (damped period T, s; * flagged, left out)",
+        "set-up", "mean T s", "", "scatter"
+    );
+    for s in setups {
+        let c = &s.combined;
+        let trials: Vec<String> = s
+            .trials
+            .iter()
+            .zip(&s.periods_s)
+            .zip(&c.outlier)
+            .map(|((name, p), &o)| {
+                format!(
+                    "{}{} {:.6} ± {:.6}",
+                    if o { "*" } else { "" },
+                    name.strip_prefix(s.setup.as_str()).unwrap_or(name),
+                    p.value,
+                    p.se
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            out,
+            "{:<28} {:>11.6} ± {:<8.6} {:>24} {:>8.3}%  {}",
+            s.setup,
+            c.mean.value,
+            c.mean.se,
+            if c.scatter_dominates {
+                "(SE from the scatter)"
+            } else {
+                "(SE from the fits)"
+            },
+            100.0 * c.sd / c.plain_mean,
+            trials.join(", ")
+        );
+    }
+    out
 }
 
 fn calibrate_bar(a: CalibrateArgs) -> Result<()> {

@@ -225,10 +225,10 @@ fn small_amplitude_factor(osc: &fit::Oscillation) -> (f64, f64) {
     (1.0 + theta2 / 16.0, theta2.sqrt())
 }
 
-/// Measures every repeat of a test and averages them. Repeats far from the others (more than
-/// 4 robust standard deviations and 0.5 % from the median, with three or more repeats) are
-/// flagged and left out. The mean's standard error is the larger of the fits' own and the
-/// repeats' scatter (Birge ratio): with two repeats the scatter usually dominates.
+/// Measures every repeat of a test and averages them
+/// ([`combine_repeats`](crate::uncertainty::combine_repeats)): repeats far from the others
+/// flagged and left out, the mean's standard error the larger of the fits' own and the
+/// repeats' scatter (with two repeats the scatter usually dominates).
 pub fn measure_test(m: &Manifest, t: &Test, compound: bool) -> Result<TestFrequency, InertiaError> {
     let extract = t
         .channel
@@ -283,49 +283,17 @@ pub fn measure_test(m: &Manifest, t: &Test, compound: bool) -> Result<TestFreque
             first_fit = Some((sig, osc));
         }
     }
-    if repeats.len() >= 3 {
-        let mut f: Vec<f64> = repeats.iter().map(|r| r.freq_hz).collect();
-        f.sort_by(f64::total_cmp);
-        let med = f[f.len() / 2];
-        let mut dev: Vec<f64> = f.iter().map(|x| (x - med).abs()).collect();
-        dev.sort_by(f64::total_cmp);
-        let robust_sd = 1.4826 * dev[dev.len() / 2];
-        for r in &mut repeats {
-            let d = (r.freq_hz - med).abs();
-            r.outlier = d > 4.0 * robust_sd.max(r.freq_se_hz) && d > 0.005 * med;
-        }
-    }
-    let kept: Vec<&Repeat> = repeats.iter().filter(|r| !r.outlier).collect();
-    let n = kept.len() as f64;
-    let wsum: f64 = kept
-        .iter()
-        .map(|r| 1.0 / r.freq_se_hz.max(1e-12).powi(2))
-        .sum();
-    let mean = kept
-        .iter()
-        .map(|r| r.freq_hz / r.freq_se_hz.max(1e-12).powi(2))
-        .sum::<f64>()
-        / wsum;
-    let internal = (1.0 / wsum).sqrt();
-    let plain_mean = kept.iter().map(|r| r.freq_hz).sum::<f64>() / n;
-    let sd = if kept.len() > 1 {
-        (kept
+    let combined = crate::uncertainty::combine_repeats(
+        &repeats
             .iter()
-            .map(|r| (r.freq_hz - plain_mean).powi(2))
-            .sum::<f64>()
-            / (n - 1.0))
-            .sqrt()
-    } else {
-        0.0
-    };
-    let external = sd / n.sqrt();
-    // With a scatter far above the fits' errors, the repeats differ for physical reasons
-    // (re-clamping, amplitude): the plain mean and its scatter are then the estimate.
-    let (freq, se) = if external > internal {
-        (plain_mean, external)
-    } else {
-        (mean, internal)
-    };
+            .map(|r| (r.freq_hz, r.freq_se_hz))
+            .collect::<Vec<_>>(),
+    );
+    for (r, &o) in repeats.iter_mut().zip(&combined.outlier) {
+        r.outlier = o;
+    }
+    let (freq, se) = (combined.mean.value, combined.mean.se);
+    let (plain_mean, sd) = (combined.plain_mean, combined.sd);
     Ok(TestFrequency {
         name: t.name.clone(),
         freq_hz: freq,
