@@ -76,8 +76,18 @@ struct PeriodArgs {
 
 #[derive(Args)]
 struct DynamicArgs {
-    /// A ride's angles log (`ride_03.log`), or a campaign manifest (`rides.toml`).
+    /// A ride's angles log (`ride_03.log`), a campaign manifest (`rides.toml`), or a CSV of
+    /// time series from another instrument (`time_s`, `roll_rad`, `steer_deg`,
+    /// `rear_wheel_speed_m_per_s`, …; with --window).
     file: PathBuf,
+    /// A CSV ride: the free decay to fit, seconds `START:END`.
+    #[arg(long, value_parser = parse_range)]
+    window: Option<(f64, f64)>,
+    /// A CSV ride: columns by other names, `roll=ROLL_COL,steer=…,time=…,wheel_speed=…`
+    /// (quantities: time, roll, roll_rate, steer, steer_rate, wheel_speed; a name ending in
+    /// `_deg` is read as degrees).
+    #[arg(long)]
+    columns: Option<bikeproc::ride::csv::Columns>,
     /// The speedometer's reading at the release (m/s), as noted: carried to where the
     /// eigenvalue applies by the slowing the frame sensor measures. Without it the log's `Sync`
     /// pulses give the speed, or else the yaw rate against the steer (rolling kinematics).
@@ -664,6 +674,12 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
         resamples: a.resamples,
         ..ModalOptions::default()
     };
+    if a.file
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+    {
+        return csv_ride(&a, &modal);
+    }
     if a.file.extension().is_some_and(|e| e == "toml") {
         let manifest = RideManifest::load(&a.file)?;
         let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
@@ -719,6 +735,46 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
     };
     let test = dynamic::dynamic_test(&a.file, &model, &options)?;
     let summary = test.summary();
+    emit(a.json, &summary, || summary.to_text())
+}
+
+/// `bikeproc dynamic FILE.csv --window A:B`: one free decay of another instrument's ride.
+fn csv_ride(a: &DynamicArgs, modal: &bikeproc::ride::modal::ModalOptions) -> Result<()> {
+    use bikeproc::ride::csv::{self, CsvSpeedSource, DecaySummary};
+    let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default())?;
+    let Some(window) = a.window else {
+        bail!(
+            "{}: give the free decay to fit with --window START:END (s)",
+            a.file.display()
+        );
+    };
+    let decay = csv::fit_decay(&ride, window, modal)?;
+    let speed = match (a.speed, decay.speed_mps) {
+        // A given speed: uniform within half the display step, and the reading's own error.
+        (Some(v), _) => Some((
+            Measured::new(
+                v,
+                (a.speed_resolution / 12f64.sqrt()).hypot(a.speed_se_fraction * v),
+            ),
+            CsvSpeedSource::Given,
+        )),
+        (None, Some(v)) => Some((v, CsvSpeedSource::WheelSpeed)),
+        (None, None) => None,
+    };
+    let model = match (&a.bike, speed) {
+        (Some(bike), Some((v, _))) => {
+            let model = bikeproc::model::uncertain::load(bike)?;
+            Some(bikeproc::ride::dynamic::model_weave_at(
+                &a.file,
+                &model,
+                v.value,
+                v.se,
+                &decay.fit.weave,
+            )?)
+        }
+        _ => None,
+    };
+    let summary = DecaySummary::new(&ride, &decay, speed, model);
     emit(a.json, &summary, || summary.to_text())
 }
 

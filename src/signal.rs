@@ -137,73 +137,148 @@ impl Signal {
         reader: R,
         path: &Path,
     ) -> Result<Signal, SignalError> {
+        let table = CsvTable::read(reader, path)?;
+        if table.headers.len() < 2 {
+            return Err(table.error(
+                1,
+                1,
+                format!(
+                    "expected the columns time_s,value, found {} column(s)",
+                    table.headers.len()
+                ),
+            ));
+        }
+        let mut columns = table.columns(&[0, 1])?.into_iter();
+        let (t, v) = (
+            columns.next().unwrap_or_default(),
+            columns.next().unwrap_or_default(),
+        );
+        let (dt, index) = table.sampling_grid(&t)?;
+        Ok(Signal {
+            name: table.headers[1].clone(),
+            unit: String::new(),
+            sample_rate_hz: 1.0 / dt,
+            t0_s: t[0],
+            index,
+            values: v,
+        })
+    }
+}
+
+/// A CSV file of named columns, read whole: fields are parsed as numbers only in the columns
+/// asked for ([`CsvTable::columns`]), so that a timestamp or a label column elsewhere is no
+/// error. Every error names the file, the line and the column.
+pub struct CsvTable {
+    pub path: PathBuf,
+    /// The header's names, trimmed.
+    pub headers: Vec<String>,
+    /// Each data row with its line in the file.
+    rows: Vec<(u64, csv::StringRecord)>,
+}
+
+impl CsvTable {
+    /// Reads a CSV with a header row; every row must have the header's number of fields.
+    pub fn read<R: std::io::Read>(reader: R, path: &Path) -> Result<CsvTable, SignalError> {
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(true)
             .trim(csv::Trim::All)
             .from_reader(reader);
-        let csv_err = |line: u64, column: usize, message: String| SignalError::Csv {
+        let err = |line: u64, column: usize, message: String| SignalError::Csv {
             path: path.to_path_buf(),
             line,
             column,
             message,
         };
-        let headers = rdr
+        let headers: Vec<String> = rdr
             .headers()
-            .map_err(|e| csv_err(1, 1, e.to_string()))?
-            .clone();
-        if headers.len() < 2 {
-            return Err(csv_err(
-                1,
-                1,
-                format!(
-                    "expected the columns time_s,value, found {} column(s)",
-                    headers.len()
-                ),
-            ));
-        }
-        let name = headers.get(1).unwrap_or("value").to_string();
-        let mut t = Vec::new();
-        let mut v = Vec::new();
-        let mut lines = Vec::new();
+            .map_err(|e| err(1, 1, e.to_string()))?
+            .iter()
+            .map(str::to_string)
+            .collect();
+        let mut rows = Vec::new();
         for rec in rdr.records() {
             let rec = rec.map_err(|e| {
                 let line = e.position().map_or(0, |p| p.line());
-                csv_err(line, 1, e.to_string())
+                err(line, 1, e.to_string())
             })?;
             let line = rec.position().map_or(0, |p| p.line());
             if rec.len() != headers.len() {
-                return Err(csv_err(
+                return Err(err(
                     line,
                     1,
                     format!("{} fields, expected {}", rec.len(), headers.len()),
                 ));
             }
-            let mut col = 1;
-            let mut num = |k: usize| -> Result<f64, SignalError> {
+            rows.push((line, rec));
+        }
+        Ok(CsvTable {
+            path: path.to_path_buf(),
+            headers,
+            rows,
+        })
+    }
+
+    /// An error at `line`, `column` of this file.
+    pub fn error(&self, line: u64, column: usize, message: String) -> SignalError {
+        SignalError::Csv {
+            path: self.path.clone(),
+            line,
+            column,
+            message,
+        }
+    }
+
+    /// The index of the first column named any of `names` (case-insensitive).
+    pub fn find(&self, names: &[&str]) -> Option<usize> {
+        names
+            .iter()
+            .find_map(|n| self.headers.iter().position(|h| h.eq_ignore_ascii_case(n)))
+    }
+
+    /// The line of each data row in the file.
+    pub fn lines(&self) -> Vec<u64> {
+        self.rows.iter().map(|(l, _)| *l).collect()
+    }
+
+    /// The columns `which` as finite numbers, parsed row by row (the first bad field in the
+    /// file is the one named).
+    pub fn columns(&self, which: &[usize]) -> Result<Vec<Vec<f64>>, SignalError> {
+        let mut out = vec![Vec::with_capacity(self.rows.len()); which.len()];
+        for (line, rec) in &self.rows {
+            for (col_out, &k) in out.iter_mut().zip(which) {
                 let s = rec.get(k).unwrap_or("");
-                let c = col;
-                col += s.len() + 1;
-                s.parse::<f64>()
+                // The field's position: 1 + the fields before it and their separators.
+                let column = 1
+                    + (0..k)
+                        .map(|j| rec.get(j).map_or(0, str::len) + 1)
+                        .sum::<usize>();
+                let x = s
+                    .parse::<f64>()
                     .ok()
                     .filter(|x| x.is_finite())
                     .ok_or_else(|| {
-                        csv_err(
-                            line,
-                            c,
+                        self.error(
+                            *line,
+                            column,
                             format!(
                                 "`{s}` in column {}: expected a finite number",
-                                headers.get(k).unwrap_or("?")
+                                self.headers.get(k).map_or("?", String::as_str)
                             ),
                         )
-                    })
-            };
-            t.push(num(0)?);
-            v.push(num(1)?);
-            lines.push(line);
+                    })?;
+                col_out.push(x);
+            }
         }
+        Ok(out)
+    }
+
+    /// The sampling grid of the times `t` (s, one per row): the median step and each sample's
+    /// grid index. Times must advance, and lie within a quarter step of the grid.
+    pub fn sampling_grid(&self, t: &[f64]) -> Result<(f64, Vec<u64>), SignalError> {
+        let lines = self.lines();
         if t.len() < 8 {
             return Err(SignalError::Invalid {
-                path: path.to_path_buf(),
+                path: self.path.clone(),
                 line: lines.last().copied().unwrap_or(1) as usize,
                 message: format!("only {} samples: too few for a signal", t.len()),
             });
@@ -211,7 +286,7 @@ impl Signal {
         let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
         for (i, s) in steps.iter().enumerate() {
             if *s <= 0.0 {
-                return Err(csv_err(
+                return Err(self.error(
                     lines[i + 1],
                     1,
                     format!("time {} s does not advance from {} s", t[i + 1], t[i]),
@@ -225,7 +300,7 @@ impl Signal {
             let k = (ti - t[0]) / dt;
             let r = k.round();
             if (k - r).abs() > 0.25 {
-                return Err(csv_err(
+                return Err(self.error(
                     lines[i],
                     1,
                     format!("time {ti} s is off the {:.6} s sampling grid", dt),
@@ -233,14 +308,7 @@ impl Signal {
             }
             index.push(r as u64);
         }
-        Ok(Signal {
-            name,
-            unit: String::new(),
-            sample_rate_hz: 1.0 / dt,
-            t0_s: t[0],
-            index,
-            values: v,
-        })
+        Ok((dt, index))
     }
 }
 

@@ -540,7 +540,19 @@ fn model_weave(
     speed: &Speed,
     exp: &Eigenvalue,
 ) -> Result<ModelWeave, RideError> {
-    let v = speed.speed_mps;
+    model_weave_at(path, model, speed.speed_mps, speed.speed_se_mps, exp)
+}
+
+/// The model's weave at `v` ± `v_se` (m/s) beside the experimental eigenvalue `exp`: its
+/// standard errors from the measured parameters and the speed's, and the differences in the
+/// combined standard errors. `path` names the ride when the model has no weave there.
+pub fn model_weave_at(
+    path: &Path,
+    model: &Parametrized,
+    v: f64,
+    v_se: f64,
+    exp: &Eigenvalue,
+) -> Result<ModelWeave, RideError> {
     let no_weave = || {
         ride_err(
             path,
@@ -556,8 +568,8 @@ fn model_weave(
     }
     let dv = (w(2) - w(0)) / (2.0 * h);
     let (pre, pim) = bands.se[1][0];
-    let re_se = (pre.powi(2) + (dv.re * speed.speed_se_mps).powi(2)).sqrt();
-    let im_se = (pim.powi(2) + (dv.im * speed.speed_se_mps).powi(2)).sqrt();
+    let re_se = (pre.powi(2) + (dv.re * v_se).powi(2)).sqrt();
+    let im_se = (pim.powi(2) + (dv.im * v_se).powi(2)).sqrt();
     let shape = Canonical::from_benchmark(&model.nominal())
         .mode_shape(v, lambda)
         .map(|x| x[1] / x[0])

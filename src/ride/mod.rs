@@ -6,9 +6,12 @@
 //! - [`dynamic`]: one ride or a campaign: window, speed, fit, the model beside it.
 //! - [`speed`]: the speed where the eigenvalue applies, from the noted reading carried by
 //!   the measured slowing, the reed switch, and the rolling kinematics, compared.
+//! - [`csv`]: rides from other instruments, a CSV of named time series → one free decay
+//!   fitted, the speed from the wheel-speed column.
 //! - [`modal`]: θ and γ over the free motion → the modes they share (weave σ ± iω, real
 //!   modes), standard errors, mode shape.
 
+pub mod csv;
 pub mod dynamic;
 pub mod modal;
 pub mod read;

@@ -1,0 +1,394 @@
+//! Rides from other instruments (issue 13): a CSV of time series whose columns are recognised
+//! by name, one free decay of it fitted.
+//!
+//! In: the CSV (`time_s`, `roll_rad`, `roll_rate_rad_per_s`, `steer_deg` or `steer_rad`,
+//! `steer_rate_*`, `rear_wheel_speed_m_per_s`, …; other names through [`Columns`]) and the
+//! window of one free decay. Out: [`CsvRide`], every quantity in SI units on the file's own
+//! time stamps (a receiver's jitter is kept, not gridded), and [`CsvDecay`]: the weave's
+//! eigenvalue and mode shape from roll and steer ([`super::modal::fit_modes`]), and the speed
+//! where it applies from the wheel-speed column.
+//!
+//! What is missing narrows what can be fitted: roll and steer give the eigenvalue and the mode
+//! shape; without a wheel-speed column the speed must be given.
+
+use super::modal::{fit_modes, ModalFit, ModalOptions};
+use super::read::RideError;
+use crate::signal::CsvTable;
+use crate::uncertainty::Measured;
+use std::path::{Path, PathBuf};
+
+/// The quantities a ride's CSV may carry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    Time,
+    Roll,
+    RollRate,
+    Steer,
+    SteerRate,
+    WheelSpeed,
+}
+
+impl Quantity {
+    pub const ALL: [Quantity; 6] = [
+        Quantity::Time,
+        Quantity::Roll,
+        Quantity::RollRate,
+        Quantity::Steer,
+        Quantity::SteerRate,
+        Quantity::WheelSpeed,
+    ];
+
+    /// The key of `--columns` (`roll_rate=gyro_x`).
+    pub fn key(self) -> &'static str {
+        match self {
+            Quantity::Time => "time",
+            Quantity::Roll => "roll",
+            Quantity::RollRate => "roll_rate",
+            Quantity::Steer => "steer",
+            Quantity::SteerRate => "steer_rate",
+            Quantity::WheelSpeed => "wheel_speed",
+        }
+    }
+
+    /// The column names recognised without `--columns`, each with its factor to SI.
+    fn names(self) -> &'static [(&'static str, f64)] {
+        const DEG: f64 = std::f64::consts::PI / 180.0;
+        match self {
+            Quantity::Time => &[("time_s", 1.0), ("time", 1.0), ("t", 1.0)],
+            Quantity::Roll => &[("roll_rad", 1.0), ("roll_deg", DEG)],
+            Quantity::RollRate => &[("roll_rate_rad_per_s", 1.0), ("roll_rate_deg_per_s", DEG)],
+            Quantity::Steer => &[("steer_rad", 1.0), ("steer_deg", DEG)],
+            Quantity::SteerRate => &[("steer_rate_rad_per_s", 1.0), ("steer_rate_deg_per_s", DEG)],
+            Quantity::WheelSpeed => &[
+                ("rear_wheel_speed_m_per_s", 1.0),
+                ("wheel_speed_m_per_s", 1.0),
+                ("speed_m_per_s", 1.0),
+            ],
+        }
+    }
+}
+
+/// Column names given for quantities (`--columns roll_rate=gyro_x,time=time`); a name ending
+/// in `_deg` or `_deg_per_s` is read as degrees, any other as SI.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Columns(pub Vec<(Quantity, String)>);
+
+impl std::str::FromStr for Columns {
+    type Err = String;
+
+    fn from_str(spec: &str) -> Result<Columns, String> {
+        let mut out = Vec::new();
+        for part in spec.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let (key, name) = part
+                .split_once('=')
+                .ok_or_else(|| format!("`{part}`: expected QUANTITY=COLUMN"))?;
+            let q = Quantity::ALL
+                .into_iter()
+                .find(|q| q.key() == key.trim())
+                .ok_or_else(|| {
+                    format!(
+                        "`{key}`: not a quantity (one of {})",
+                        Quantity::ALL.map(Quantity::key).join(", ")
+                    )
+                })?;
+            out.push((q, name.trim().to_string()));
+        }
+        Ok(Columns(out))
+    }
+}
+
+/// A ride read from a CSV: the time stamps (s) and whichever quantities the file has, in SI
+/// units (rad, rad/s, m/s).
+#[derive(Debug, Clone)]
+pub struct CsvRide {
+    pub path: PathBuf,
+    pub time_s: Vec<f64>,
+    pub roll_rad: Option<Vec<f64>>,
+    pub roll_rate_rad_per_s: Option<Vec<f64>>,
+    pub steer_rad: Option<Vec<f64>>,
+    pub steer_rate_rad_per_s: Option<Vec<f64>>,
+    pub wheel_speed_mps: Option<Vec<f64>>,
+    /// Which column gave which quantity.
+    pub columns: Vec<(Quantity, String)>,
+}
+
+fn err(path: &Path, message: impl Into<String>) -> RideError {
+    RideError::Ride {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+/// Reads a ride's CSV: the columns of [`Quantity`] by their recognised names or by `given`.
+/// A time column is required and must advance; a named column that is missing is an error, an
+/// unnamed quantity without a recognised column is simply absent.
+pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError> {
+    let file = std::fs::File::open(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
+    let table = CsvTable::read(file, path).map_err(|e| err(path, e.to_string()))?;
+    let mut found: Vec<(Quantity, usize, f64, String)> = Vec::new();
+    for q in Quantity::ALL {
+        let pick = match given.0.iter().find(|(g, _)| *g == q) {
+            Some((_, name)) => {
+                let k = table.find(&[name]).ok_or_else(|| {
+                    err(
+                        path,
+                        format!(
+                            "no column `{name}` for {} (the columns: {})",
+                            q.key(),
+                            table.headers.join(", ")
+                        ),
+                    )
+                })?;
+                let lower = name.to_ascii_lowercase();
+                let deg = lower.ends_with("_deg") || lower.ends_with("_deg_per_s");
+                Some((
+                    k,
+                    if deg {
+                        std::f64::consts::PI / 180.0
+                    } else {
+                        1.0
+                    },
+                ))
+            }
+            None => q
+                .names()
+                .iter()
+                .find_map(|(n, f)| table.find(&[n]).map(|k| (k, *f))),
+        };
+        if let Some((k, factor)) = pick {
+            found.push((q, k, factor, table.headers[k].clone()));
+        }
+    }
+    if !found.iter().any(|f| f.0 == Quantity::Time) {
+        return Err(err(
+            path,
+            format!(
+                "no time column (time_s, or --columns time=NAME); the columns: {}",
+                table.headers.join(", ")
+            ),
+        ));
+    }
+    let which: Vec<usize> = found.iter().map(|f| f.1).collect();
+    let values = table
+        .columns(&which)
+        .map_err(|e| err(path, e.to_string()))?;
+    let lines = table.lines();
+    let mut ride = CsvRide {
+        path: path.to_path_buf(),
+        time_s: Vec::new(),
+        roll_rad: None,
+        roll_rate_rad_per_s: None,
+        steer_rad: None,
+        steer_rate_rad_per_s: None,
+        wheel_speed_mps: None,
+        columns: found.iter().map(|f| (f.0, f.3.clone())).collect(),
+    };
+    for ((q, _, factor, _), v) in found.iter().zip(values) {
+        let v: Vec<f64> = v.into_iter().map(|x| x * factor).collect();
+        match q {
+            Quantity::Time => ride.time_s = v,
+            Quantity::Roll => ride.roll_rad = Some(v),
+            Quantity::RollRate => ride.roll_rate_rad_per_s = Some(v),
+            Quantity::Steer => ride.steer_rad = Some(v),
+            Quantity::SteerRate => ride.steer_rate_rad_per_s = Some(v),
+            Quantity::WheelSpeed => ride.wheel_speed_mps = Some(v),
+        }
+    }
+    if let Some(i) = ride.time_s.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(err(
+            path,
+            format!(
+                "line {}: time {} s does not advance from {} s",
+                lines[i + 1],
+                ride.time_s[i + 1],
+                ride.time_s[i]
+            ),
+        ));
+    }
+    Ok(ride)
+}
+
+/// One free decay of a CSV ride, fitted.
+#[derive(Debug, Clone)]
+pub struct CsvDecay {
+    /// The window asked for (s) and the samples in it.
+    pub window_s: (f64, f64),
+    pub samples: usize,
+    pub fit: ModalFit,
+    /// The rear wheel's speed over the window (m/s): its mean, with the larger of the standard
+    /// error of that mean and the change over the window over √12 (a drift, uniform over it).
+    pub speed_mps: Option<Measured>,
+}
+
+/// At least this many samples in a window.
+const MIN_WINDOW_SAMPLES: usize = 40;
+
+/// Fits the free decay in `window_s` of `ride` from its roll and steer angles.
+pub fn fit_decay(
+    ride: &CsvRide,
+    window_s: (f64, f64),
+    options: &ModalOptions,
+) -> Result<CsvDecay, RideError> {
+    let path = &ride.path;
+    let (Some(roll), Some(steer)) = (&ride.roll_rad, &ride.steer_rad) else {
+        return Err(err(
+            path,
+            "a free decay is fitted from roll and steer angles: the file has no roll_rad/roll_deg \
+             or no steer_rad/steer_deg column (name others with --columns roll=…,steer=…)",
+        ));
+    };
+    let (a, b) = window_s;
+    let idx: Vec<usize> = (0..ride.time_s.len())
+        .filter(|&i| ride.time_s[i] >= a && ride.time_s[i] <= b)
+        .collect();
+    if idx.len() < MIN_WINDOW_SAMPLES {
+        return Err(err(
+            path,
+            format!(
+                "the window {a}–{b} s holds {} samples: too few to fit (at least {MIN_WINDOW_SAMPLES})",
+                idx.len()
+            ),
+        ));
+    }
+    let pick = |x: &[f64]| -> Vec<f64> { idx.iter().map(|&i| x[i]).collect() };
+    let t = pick(&ride.time_s);
+    let fit = fit_modes(&t, &pick(roll), &pick(steer), options)
+        .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
+    let speed_mps = ride.wheel_speed_mps.as_ref().map(|w| {
+        let v = pick(w);
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let change = (v[v.len() - 1] - v[0]).abs();
+        Measured::new(mean, (sd / n.sqrt()).max(change / 12f64.sqrt()))
+    });
+    Ok(CsvDecay {
+        window_s,
+        samples: idx.len(),
+        fit,
+        speed_mps,
+    })
+}
+
+/// Where a CSV decay's speed comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CsvSpeedSource {
+    /// The wheel-speed column over the window.
+    WheelSpeed,
+    /// Given on the command line (`--speed`).
+    Given,
+}
+
+/// A CSV decay as reported (text and JSON).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct DecaySummary {
+    pub file: String,
+    /// Which column gave which quantity.
+    pub columns: Vec<(Quantity, String)>,
+    pub window_s: [f64; 2],
+    pub samples: usize,
+    pub weave: super::modal::Eigenvalue,
+    pub shape: super::modal::ModeShape,
+    /// The real modes fitted beside the weave (1/s).
+    pub real_modes: Vec<crate::fit::Estimate>,
+    /// Variance accounted for, θ and γ.
+    pub vaf: [f64; 2],
+    pub speed_mps: Option<Measured>,
+    pub speed_source: Option<CsvSpeedSource>,
+    /// The model's weave at that speed, when a bicycle was given.
+    pub model: Option<super::dynamic::ModelWeave>,
+}
+
+impl DecaySummary {
+    pub fn new(
+        ride: &CsvRide,
+        decay: &CsvDecay,
+        speed: Option<(Measured, CsvSpeedSource)>,
+        model: Option<super::dynamic::ModelWeave>,
+    ) -> DecaySummary {
+        DecaySummary {
+            file: ride.path.display().to_string(),
+            columns: ride.columns.clone(),
+            window_s: [decay.window_s.0, decay.window_s.1],
+            samples: decay.samples,
+            weave: decay.fit.weave,
+            shape: decay.fit.shape,
+            real_modes: decay.fit.real_modes.clone(),
+            vaf: decay.fit.vaf,
+            speed_mps: speed.map(|s| s.0),
+            speed_source: speed.map(|s| s.1),
+            model,
+        }
+    }
+
+    /// The human-readable form.
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let cols: Vec<String> = self
+            .columns
+            .iter()
+            .map(|(q, c)| format!("{}={c}", q.key()))
+            .collect();
+        let _ = writeln!(out, "{} ({})", self.file, cols.join(", "));
+        let w = &self.weave;
+        let _ = writeln!(
+            out,
+            "window           {:.2} – {:.2} s ({} samples)",
+            self.window_s[0], self.window_s[1], self.samples
+        );
+        let _ = writeln!(
+            out,
+            "weave            {:.3} ± {:.3} {} {:.3} ± {:.3}i 1/s",
+            w.re,
+            w.re_se,
+            if w.im < 0.0 { "-" } else { "+" },
+            w.im.abs(),
+            w.im_se
+        );
+        let s = &self.shape;
+        let _ = writeln!(
+            out,
+            "mode shape       |γ/θ| {:.3} ± {:.3} rad/rad at {:.1} ± {:.1}°",
+            s.ratio.value,
+            s.ratio.se,
+            s.phase_rad.value.to_degrees(),
+            s.phase_rad.se.to_degrees()
+        );
+        let _ = writeln!(
+            out,
+            "VAF              θ {:.3}, γ {:.3}",
+            self.vaf[0], self.vaf[1]
+        );
+        match (&self.speed_mps, self.speed_source) {
+            (Some(v), Some(src)) => {
+                let _ = writeln!(
+                    out,
+                    "speed            {:.3} ± {:.3} m/s ({})",
+                    v.value,
+                    v.se,
+                    match src {
+                        CsvSpeedSource::WheelSpeed => "the wheel-speed column over the window",
+                        CsvSpeedSource::Given => "given",
+                    }
+                );
+            }
+            _ => {
+                let _ = writeln!(
+                    out,
+                    "speed            unknown (no wheel-speed column; give --speed)"
+                );
+            }
+        }
+        if let Some(m) = &self.model {
+            let _ = writeln!(
+                out,
+                "model weave      {:.3} ± {:.3} + {:.3} ± {:.3}i 1/s: experiment − model {:+.1} σ (real), {:+.1} σ (imaginary)",
+                m.re, m.re_se, m.im, m.im_se, m.re_z, m.im_z
+            );
+        }
+        out
+    }
+}
