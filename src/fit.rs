@@ -457,6 +457,39 @@ fn fit_from_guess(
     fit_damped_sinusoid(&tau, x, t_ref, &p0, trend)
 }
 
+/// Fits a damped sinusoid x(t) = a + e^{−στ}(b sin ωτ + c cos ωτ) to a short record (down to
+/// half a cycle, where no spectrum resolves the frequency): the start is the best of a grid
+/// over ω in `omega_range` (0.05 rad/s steps) and σ from −2 to 6 /s (0.25 /s steps), each with
+/// its linear parameters solved, then Levenberg–Marquardt from it ([`fit_damped_sinusoid`]).
+/// For a roll-rate record after a kick: the weave's σ and ω (the eigenvalue −σ ± iω) with the
+/// fit's standard errors; no trend (half a cycle cannot tell one from the swing).
+pub fn fit_short_decay(
+    t: &[f64],
+    x: &[f64],
+    omega_range: (f64, f64),
+) -> Result<DampedFit, FitError> {
+    if t.len() < 16 || x.len() != t.len() {
+        return Err(FitError::TooShort(t.len()));
+    }
+    let t_ref = t[0];
+    let tau: Vec<f64> = t.iter().map(|v| v - t_ref).collect();
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    let mut omega = omega_range.0;
+    while omega <= omega_range.1 + 1e-9 {
+        for k in 0..=32 {
+            let sigma = -2.0 + 0.25 * k as f64;
+            if let Some((p, r)) = linear_step(sigma, omega, false, &tau, x) {
+                if best.as_ref().is_none_or(|b| r < b.1) {
+                    best = Some((p, r));
+                }
+            }
+        }
+        omega += 0.05;
+    }
+    let (p0, _) = best.ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
+    fit_damped_sinusoid(&tau, x, t_ref, &p0, false)
+}
+
 /// Everything measured about one free oscillation.
 #[derive(Debug, Clone)]
 pub struct Oscillation {

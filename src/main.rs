@@ -80,7 +80,8 @@ struct DynamicArgs {
     /// time series from another instrument (`time_s`, `roll_rad`, `steer_deg`,
     /// `rear_wheel_speed_m_per_s`, …; with --window).
     file: PathBuf,
-    /// A CSV ride: the free decay to fit, seconds `START:END`.
+    /// A CSV ride: the free decay to fit, seconds `START:END` (without it a record of up to
+    /// 10 s is one free decay).
     #[arg(long, value_parser = parse_range)]
     window: Option<(f64, f64)>,
     /// A CSV ride: columns by other names, `roll=ROLL_COL,steer=…,time=…,wheel_speed=…`
@@ -742,13 +743,7 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
 fn csv_ride(a: &DynamicArgs, modal: &bikeproc::ride::modal::ModalOptions) -> Result<()> {
     use bikeproc::ride::csv::{self, CsvSpeedSource, DecaySummary};
     let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default())?;
-    let Some(window) = a.window else {
-        bail!(
-            "{}: give the free decay to fit with --window START:END (s)",
-            a.file.display()
-        );
-    };
-    let decay = csv::fit_decay(&ride, window, modal)?;
+    let decay = csv::fit_decay(&ride, a.window, modal)?;
     let speed = match (a.speed, decay.speed_mps) {
         // A given speed: uniform within half the display step, and the reading's own error.
         (Some(v), _) => Some((
@@ -769,7 +764,7 @@ fn csv_ride(a: &DynamicArgs, modal: &bikeproc::ride::modal::ModalOptions) -> Res
                 &model,
                 v.value,
                 v.se,
-                &decay.fit.weave,
+                &decay.weave,
             )?)
         }
         _ => None,

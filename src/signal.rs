@@ -228,11 +228,17 @@ impl CsvTable {
         }
     }
 
-    /// The index of the first column named any of `names` (case-insensitive).
+    /// The index of the first column named any of `names`: an exact match first (a file may
+    /// have both `Time` and `time`), else one that differs in case only.
     pub fn find(&self, names: &[&str]) -> Option<usize> {
         names
             .iter()
-            .find_map(|n| self.headers.iter().position(|h| h.eq_ignore_ascii_case(n)))
+            .find_map(|n| self.headers.iter().position(|h| h == n))
+            .or_else(|| {
+                names
+                    .iter()
+                    .find_map(|n| self.headers.iter().position(|h| h.eq_ignore_ascii_case(n)))
+            })
     }
 
     /// The line of each data row in the file.

@@ -11,7 +11,7 @@
 //! What is missing narrows what can be fitted: roll and steer give the eigenvalue and the mode
 //! shape; without a wheel-speed column the speed must be given.
 
-use super::modal::{fit_modes, ModalFit, ModalOptions};
+use super::modal::{fit_modes, Eigenvalue, ModalFit, ModalOptions, ModeShape};
 use super::read::RideError;
 use crate::signal::CsvTable;
 use crate::uncertainty::Measured;
@@ -209,13 +209,30 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
     Ok(ride)
 }
 
+/// What a CSV decay was fitted from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FittedFrom {
+    /// Roll and steer angles together ([`fit_modes`]): the eigenvalue and the mode shape.
+    RollAndSteer,
+    /// The roll rate alone ([`crate::fit::fit_short_decay`]): the eigenvalue, no mode shape.
+    RollRate,
+}
+
 /// One free decay of a CSV ride, fitted.
 #[derive(Debug, Clone)]
 pub struct CsvDecay {
-    /// The window asked for (s) and the samples in it.
+    /// The window fitted (s) and the samples in it.
     pub window_s: (f64, f64),
     pub samples: usize,
-    pub fit: ModalFit,
+    pub fitted_from: FittedFrom,
+    pub weave: Eigenvalue,
+    /// The mode shape, from roll and steer only.
+    pub shape: Option<ModeShape>,
+    /// The real modes fitted beside the weave (1/s; roll and steer only).
+    pub real_modes: Vec<crate::fit::Estimate>,
+    /// Variance accounted for (θ and γ, or the roll rate twice).
+    pub vaf: [f64; 2],
     /// The rear wheel's speed over the window (m/s): its mean, with the larger of the standard
     /// error of that mean and the change over the window over √12 (a drift, uniform over it).
     pub speed_mps: Option<Measured>,
@@ -224,21 +241,37 @@ pub struct CsvDecay {
 /// At least this many samples in a window.
 const MIN_WINDOW_SAMPLES: usize = 40;
 
-/// Fits the free decay in `window_s` of `ride` from its roll and steer angles.
+/// A record shorter than this (s) is one free decay when no window is given.
+pub const WHOLE_RECORD_MAX_S: f64 = 10.0;
+
+/// The weave is looked for between these angular frequencies (rad/s) in a roll-rate record.
+const ROLL_RATE_OMEGA_RANGE: (f64, f64) = (1.0, 20.0);
+
+/// Fits the free decay in `window_s` of `ride` (the whole record when `None` and it is shorter
+/// than [`WHOLE_RECORD_MAX_S`]): from roll and steer angles when the file has both, else from
+/// the roll rate alone.
 pub fn fit_decay(
     ride: &CsvRide,
-    window_s: (f64, f64),
+    window_s: Option<(f64, f64)>,
     options: &ModalOptions,
 ) -> Result<CsvDecay, RideError> {
     let path = &ride.path;
-    let (Some(roll), Some(steer)) = (&ride.roll_rad, &ride.steer_rad) else {
-        return Err(err(
-            path,
-            "a free decay is fitted from roll and steer angles: the file has no roll_rad/roll_deg \
-             or no steer_rad/steer_deg column (name others with --columns roll=…,steer=…)",
-        ));
+    let (first, last) = match (ride.time_s.first(), ride.time_s.last()) {
+        (Some(&a), Some(&b)) => (a, b),
+        _ => return Err(err(path, "no samples")),
     };
-    let (a, b) = window_s;
+    let (a, b) = match window_s {
+        Some(w) => w,
+        None if last - first <= WHOLE_RECORD_MAX_S => (first, last),
+        None => return Err(err(
+            path,
+            format!(
+                "the record is {:.1} s long: give the free decay to fit with --window START:END \
+                     (finding every kick of a long recording is not implemented yet)",
+                last - first
+            ),
+        )),
+    };
     let idx: Vec<usize> = (0..ride.time_s.len())
         .filter(|&i| ride.time_s[i] >= a && ride.time_s[i] <= b)
         .collect();
@@ -253,8 +286,6 @@ pub fn fit_decay(
     }
     let pick = |x: &[f64]| -> Vec<f64> { idx.iter().map(|&i| x[i]).collect() };
     let t = pick(&ride.time_s);
-    let fit = fit_modes(&t, &pick(roll), &pick(steer), options)
-        .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
     let speed_mps = ride.wheel_speed_mps.as_ref().map(|w| {
         let v = pick(w);
         let n = v.len() as f64;
@@ -263,12 +294,100 @@ pub fn fit_decay(
         let change = (v[v.len() - 1] - v[0]).abs();
         Measured::new(mean, (sd / n.sqrt()).max(change / 12f64.sqrt()))
     });
-    Ok(CsvDecay {
-        window_s,
+    let decay = |fitted_from, weave, shape, real_modes, vaf| CsvDecay {
+        window_s: (a, b),
         samples: idx.len(),
-        fit,
+        fitted_from,
+        weave,
+        shape,
+        real_modes,
+        vaf,
         speed_mps,
-    })
+    };
+    match (&ride.roll_rad, &ride.steer_rad, &ride.roll_rate_rad_per_s) {
+        (Some(roll), Some(steer), _) => {
+            let fit: ModalFit = fit_modes(&t, &pick(roll), &pick(steer), options)
+                .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
+            Ok(decay(
+                FittedFrom::RollAndSteer,
+                fit.weave,
+                Some(fit.shape),
+                fit.real_modes.clone(),
+                fit.vaf,
+            ))
+        }
+        (_, _, Some(rate)) => {
+            let x = pick(rate);
+            let f = crate::fit::fit_short_decay(&t, &x, ROLL_RATE_OMEGA_RANGE)
+                .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
+            let (sg, om) = (f.sigma(), f.omega_d());
+            let corr = f.covariance[(3, 4)] / (sg.se * om.se);
+            // The fit's errors assume white residuals; a short record's are correlated (the
+            // sensor's filter, the modes the one sinusoid leaves out), and n samples then hold
+            // fewer independent ones: the errors grow by √((1 + ρ)/(1 − ρ)), ρ the residuals'
+            // lag-one autocorrelation (an AR(1) noise's variance inflation).
+            let resid: Vec<f64> = t.iter().zip(&x).map(|(&ti, &xi)| xi - f.eval(ti)).collect();
+            let inflation = ar1_inflation(&resid);
+            let (sg, om) = (
+                crate::fit::Estimate {
+                    value: sg.value,
+                    se: sg.se * inflation,
+                },
+                crate::fit::Estimate {
+                    value: om.value,
+                    se: om.se * inflation,
+                },
+            );
+            let mean = x.iter().sum::<f64>() / x.len() as f64;
+            let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+            let vaf = 1.0 - f.residual_rms.powi(2) * (x.len() - f.params.len()) as f64 / var;
+            Ok(decay(
+                FittedFrom::RollRate,
+                Eigenvalue {
+                    re: -sg.value,
+                    im: om.value,
+                    re_se: sg.se,
+                    im_se: om.se,
+                    re_se_noise: sg.se / inflation,
+                    im_se_noise: om.se / inflation,
+                    re_im_corr: -corr,
+                    re_se_resampled: f64::NAN,
+                    im_se_resampled: f64::NAN,
+                    re_se_drift: 0.0,
+                    im_se_drift: 0.0,
+                },
+                None,
+                Vec::new(),
+                [vaf, vaf],
+            ))
+        }
+        _ => Err(err(
+            path,
+            "a free decay is fitted from roll and steer angles (roll_rad/roll_deg and \
+             steer_rad/steer_deg) or from the roll rate (roll_rate_rad_per_s): the file has neither \
+             (name other columns with --columns roll=…,steer=… or roll_rate=…)",
+        )),
+    }
+}
+
+/// √((1 + ρ)/(1 − ρ)) for the residuals' lag-one autocorrelation ρ (1 when ρ ≤ 0; ρ capped at
+/// 0.95).
+fn ar1_inflation(resid: &[f64]) -> f64 {
+    let n = resid.len();
+    if n < 3 {
+        return 1.0;
+    }
+    let mean = resid.iter().sum::<f64>() / n as f64;
+    let var: f64 = resid.iter().map(|r| (r - mean).powi(2)).sum();
+    if var <= 0.0 {
+        return 1.0;
+    }
+    let lag: f64 = resid
+        .windows(2)
+        .map(|w| (w[0] - mean) * (w[1] - mean))
+        .sum();
+    let rho = (lag / var).clamp(0.0, 0.95);
+    ((1.0 + rho) / (1.0 - rho)).sqrt()
 }
 
 /// Where a CSV decay's speed comes from.
@@ -289,8 +408,10 @@ pub struct DecaySummary {
     pub columns: Vec<(Quantity, String)>,
     pub window_s: [f64; 2],
     pub samples: usize,
-    pub weave: super::modal::Eigenvalue,
-    pub shape: super::modal::ModeShape,
+    pub fitted_from: FittedFrom,
+    pub weave: Eigenvalue,
+    /// From roll and steer only.
+    pub shape: Option<ModeShape>,
     /// The real modes fitted beside the weave (1/s).
     pub real_modes: Vec<crate::fit::Estimate>,
     /// Variance accounted for, θ and γ.
@@ -313,10 +434,11 @@ impl DecaySummary {
             columns: ride.columns.clone(),
             window_s: [decay.window_s.0, decay.window_s.1],
             samples: decay.samples,
-            weave: decay.fit.weave,
-            shape: decay.fit.shape,
-            real_modes: decay.fit.real_modes.clone(),
-            vaf: decay.fit.vaf,
+            fitted_from: decay.fitted_from,
+            weave: decay.weave,
+            shape: decay.shape,
+            real_modes: decay.real_modes.clone(),
+            vaf: decay.vaf,
             speed_mps: speed.map(|s| s.0),
             speed_source: speed.map(|s| s.1),
             model,
@@ -348,20 +470,30 @@ impl DecaySummary {
             w.im.abs(),
             w.im_se
         );
-        let s = &self.shape;
-        let _ = writeln!(
-            out,
-            "mode shape       |γ/θ| {:.3} ± {:.3} rad/rad at {:.1} ± {:.1}°",
-            s.ratio.value,
-            s.ratio.se,
-            s.phase_rad.value.to_degrees(),
-            s.phase_rad.se.to_degrees()
-        );
-        let _ = writeln!(
-            out,
-            "VAF              θ {:.3}, γ {:.3}",
-            self.vaf[0], self.vaf[1]
-        );
+        match &self.shape {
+            Some(s) => {
+                let _ = writeln!(
+                    out,
+                    "mode shape       |γ/θ| {:.3} ± {:.3} rad/rad at {:.1} ± {:.1}°",
+                    s.ratio.value,
+                    s.ratio.se,
+                    s.phase_rad.value.to_degrees(),
+                    s.phase_rad.se.to_degrees()
+                );
+                let _ = writeln!(
+                    out,
+                    "VAF              θ {:.3}, γ {:.3}",
+                    self.vaf[0], self.vaf[1]
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    out,
+                    "mode shape       not measured (fitted from the roll rate alone)"
+                );
+                let _ = writeln!(out, "VAF              roll rate {:.3}", self.vaf[0]);
+            }
+        }
         match (&self.speed_mps, self.speed_source) {
             (Some(v), Some(src)) => {
                 let _ = writeln!(
