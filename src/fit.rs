@@ -1065,6 +1065,24 @@ pub struct SetupPeriods {
     pub combined: crate::uncertainty::Repeats,
 }
 
+impl SetupPeriods {
+    /// Each trial: its name less the set-up's (the trial number), its period, whether it was
+    /// flagged and left out.
+    pub fn each_trial(&self) -> impl Iterator<Item = (&str, crate::uncertainty::Measured, bool)> {
+        self.trials
+            .iter()
+            .zip(&self.periods_s)
+            .zip(&self.combined.outlier)
+            .map(|((name, p), &flagged)| {
+                (
+                    name.strip_prefix(self.setup.as_str()).unwrap_or(name),
+                    *p,
+                    flagged,
+                )
+            })
+    }
+}
+
 /// A trial's set-up: its name less a trailing trial number (and a `_` or `-` before it).
 pub fn setup_name(trial: &str) -> &str {
     trial

@@ -538,15 +538,11 @@ fn setups_text(setups: &[fit::SetupPeriods]) -> String {
     for s in setups {
         let c = &s.combined;
         let trials: Vec<String> = s
-            .trials
-            .iter()
-            .zip(&s.periods_s)
-            .zip(&c.outlier)
-            .map(|((name, p), &o)| {
+            .each_trial()
+            .map(|(name, p, flagged)| {
                 format!(
-                    "{}{} {:.6} ± {:.6}",
-                    if o { "*" } else { "" },
-                    name.strip_prefix(s.setup.as_str()).unwrap_or(name),
+                    "{}{name} {:.6} ± {:.6}",
+                    if flagged { "*" } else { "" },
                     p.value,
                     p.se
                 )
@@ -744,7 +740,7 @@ fn csv_ride(a: &DynamicArgs, modal: &bikeproc::ride::modal::ModalOptions) -> Res
     use bikeproc::ride::csv::{self, CsvSpeedSource, DecaySummary};
     let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default())?;
     let decay = csv::fit_decay(&ride, a.window, modal)?;
-    let speed = match (a.speed, decay.speed_mps) {
+    let speed = match (a.speed, decay.wheel_speed_mps) {
         // A given speed: uniform within half the display step, and the reading's own error.
         (Some(v), _) => Some((
             Measured::new(
@@ -769,7 +765,7 @@ fn csv_ride(a: &DynamicArgs, modal: &bikeproc::ride::modal::ModalOptions) -> Res
         }
         _ => None,
     };
-    let summary = DecaySummary::new(&ride, &decay, speed, model);
+    let summary = DecaySummary::new(&ride, decay, speed, model);
     emit(a.json, &summary, || summary.to_text())
 }
 
@@ -895,7 +891,7 @@ fn simulate(s: SimCommand) -> Result<()> {
     let cal = bikeproc::log::Log::cal_path(&c.out);
     write_atomic(&c.out, rec.angles_log.as_bytes())?;
     write_atomic(&cal, rec.cal_log.as_bytes())?;
-    println!("{}", serde_json::to_string_pretty(&rec.truth)?);
+    out(&(serde_json::to_string_pretty(&rec.truth)? + "\n"))?;
     eprintln!("wrote {} and {}", c.out.display(), cal.display());
     Ok(())
 }
@@ -959,9 +955,22 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 /// Prints JSON (`--json`) or the plain text.
 fn emit<T: serde::Serialize>(json: bool, value: &T, text: impl FnOnce() -> String) -> Result<()> {
     if json {
-        println!("{}", serde_json::to_string_pretty(value)?);
+        out(&(serde_json::to_string_pretty(value)? + "\n"))
     } else {
-        print!("{}", text());
+        out(&text())
     }
-    Ok(())
+}
+
+/// Writes to standard output; a reader that has gone (`bikeproc … | head`) ends the output
+/// quietly instead of a panic.
+fn out(text: &str) -> Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
 }

@@ -257,17 +257,13 @@ fn real_report(
     for s in &setups {
         let c = &s.combined;
         let each: Vec<String> = s
-            .periods_s
-            .iter()
-            .zip(&s.trials)
-            .zip(&c.outlier)
-            .map(|((p, name), &flag)| {
+            .each_trial()
+            .map(|(name, p, flagged)| {
                 let seg = segments[k];
                 k += 1;
                 format!(
-                    "{}{}: {:.6} ± {:.1e}, {:.2}–{:.2}",
-                    if flag { "*" } else { "" },
-                    name.strip_prefix(s.setup.as_str()).unwrap_or(name),
+                    "{}{name}: {:.6} ± {:.1e}, {:.2}–{:.2}",
+                    if flagged { "*" } else { "" },
                     p.value,
                     p.se,
                     seg.0,
@@ -364,7 +360,7 @@ fn uncontrolled_section(
             Some((a, b)),
             &crate::ride::modal::ModalOptions::default(),
         )?;
-        let Some(v) = d.speed_mps else {
+        let Some(v) = d.wheel_speed_mps else {
             anyhow::bail!("{}: no wheel-speed column", path.display());
         };
         let e = &d.weave;

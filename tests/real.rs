@@ -162,7 +162,7 @@ fn the_uncontrolled_rides_free_decays_give_weave_eigenvalues() {
     let mut weaves = Vec::new();
     for w in [(141.28, 142.71), (148.53, 149.94), (153.98, 155.50)] {
         let d = fit_decay(&ride, Some(w), &ModalOptions::default()).unwrap();
-        let v = d.speed_mps.unwrap();
+        let v = d.wheel_speed_mps.unwrap();
         let e = d.weave;
         println!(
             "{w:?}: {:.3} ± {:.3} + {:.3} ± {:.3}i at {:.3} ± {:.3} m/s, |γ/θ| {:.3}",
@@ -240,7 +240,7 @@ fn a_simulated_csv_ride_gives_the_simulators_weave() {
         );
         assert!((e.re - want.re).abs() < 3.0 * e.re_se, "seed {seed}");
         assert!((e.im - want.im).abs() < 3.0 * e.im_se, "seed {seed}");
-        let s = d.speed_mps.unwrap();
+        let s = d.wheel_speed_mps.unwrap();
         assert!((s.value - v).abs() < 3.0 * s.se + 1e-3, "seed {seed}");
         // The roll rate alone, as a rate gyro gives it (the roll's central difference, gyro
         // noise 0.005 rad/s), 1.5 s after the kick's first 0.8 s: the eigenvalue, no shape.

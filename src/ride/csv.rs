@@ -220,7 +220,7 @@ pub enum FittedFrom {
 }
 
 /// One free decay of a CSV ride, fitted.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct CsvDecay {
     /// The window fitted (s) and the samples in it.
     pub window_s: (f64, f64),
@@ -235,7 +235,7 @@ pub struct CsvDecay {
     pub vaf: [f64; 2],
     /// The rear wheel's speed over the window (m/s): its mean, with the larger of the standard
     /// error of that mean and the change over the window over √12 (a drift, uniform over it).
-    pub speed_mps: Option<Measured>,
+    pub wheel_speed_mps: Option<Measured>,
 }
 
 /// At least this many samples in a window.
@@ -263,14 +263,16 @@ pub fn fit_decay(
     let (a, b) = match window_s {
         Some(w) => w,
         None if last - first <= WHOLE_RECORD_MAX_S => (first, last),
-        None => return Err(err(
-            path,
-            format!(
+        None => {
+            return Err(err(
+                path,
+                format!(
                 "the record is {:.1} s long: give the free decay to fit with --window START:END \
                      (finding every kick of a long recording is not implemented yet)",
                 last - first
             ),
-        )),
+            ))
+        }
     };
     let idx: Vec<usize> = (0..ride.time_s.len())
         .filter(|&i| ride.time_s[i] >= a && ride.time_s[i] <= b)
@@ -286,7 +288,7 @@ pub fn fit_decay(
     }
     let pick = |x: &[f64]| -> Vec<f64> { idx.iter().map(|&i| x[i]).collect() };
     let t = pick(&ride.time_s);
-    let speed_mps = ride.wheel_speed_mps.as_ref().map(|w| {
+    let wheel_speed_mps = ride.wheel_speed_mps.as_ref().map(|w| {
         let v = pick(w);
         let n = v.len() as f64;
         let mean = v.iter().sum::<f64>() / n;
@@ -302,7 +304,7 @@ pub fn fit_decay(
         shape,
         real_modes,
         vaf,
-        speed_mps,
+        wheel_speed_mps,
     };
     match (&ride.roll_rad, &ride.steer_rad, &ride.roll_rate_rad_per_s) {
         (Some(roll), Some(steer), _) => {
@@ -406,16 +408,9 @@ pub struct DecaySummary {
     pub file: String,
     /// Which column gave which quantity.
     pub columns: Vec<(Quantity, String)>,
-    pub window_s: [f64; 2],
-    pub samples: usize,
-    pub fitted_from: FittedFrom,
-    pub weave: Eigenvalue,
-    /// From roll and steer only.
-    pub shape: Option<ModeShape>,
-    /// The real modes fitted beside the weave (1/s).
-    pub real_modes: Vec<crate::fit::Estimate>,
-    /// Variance accounted for, θ and γ.
-    pub vaf: [f64; 2],
+    #[serde(flatten)]
+    pub decay: CsvDecay,
+    /// The speed where the eigenvalue applies (m/s) and where it comes from.
     pub speed_mps: Option<Measured>,
     pub speed_source: Option<CsvSpeedSource>,
     /// The model's weave at that speed, when a bicycle was given.
@@ -425,20 +420,14 @@ pub struct DecaySummary {
 impl DecaySummary {
     pub fn new(
         ride: &CsvRide,
-        decay: &CsvDecay,
+        decay: CsvDecay,
         speed: Option<(Measured, CsvSpeedSource)>,
         model: Option<super::dynamic::ModelWeave>,
     ) -> DecaySummary {
         DecaySummary {
             file: ride.path.display().to_string(),
             columns: ride.columns.clone(),
-            window_s: [decay.window_s.0, decay.window_s.1],
-            samples: decay.samples,
-            fitted_from: decay.fitted_from,
-            weave: decay.weave,
-            shape: decay.shape,
-            real_modes: decay.real_modes.clone(),
-            vaf: decay.vaf,
+            decay,
             speed_mps: speed.map(|s| s.0),
             speed_source: speed.map(|s| s.1),
             model,
@@ -455,11 +444,12 @@ impl DecaySummary {
             .map(|(q, c)| format!("{}={c}", q.key()))
             .collect();
         let _ = writeln!(out, "{} ({})", self.file, cols.join(", "));
-        let w = &self.weave;
+        let d = &self.decay;
+        let w = &d.weave;
         let _ = writeln!(
             out,
             "window           {:.2} – {:.2} s ({} samples)",
-            self.window_s[0], self.window_s[1], self.samples
+            d.window_s.0, d.window_s.1, d.samples
         );
         let _ = writeln!(
             out,
@@ -470,7 +460,7 @@ impl DecaySummary {
             w.im.abs(),
             w.im_se
         );
-        match &self.shape {
+        match &d.shape {
             Some(s) => {
                 let _ = writeln!(
                     out,
@@ -480,18 +470,14 @@ impl DecaySummary {
                     s.phase_rad.value.to_degrees(),
                     s.phase_rad.se.to_degrees()
                 );
-                let _ = writeln!(
-                    out,
-                    "VAF              θ {:.3}, γ {:.3}",
-                    self.vaf[0], self.vaf[1]
-                );
+                let _ = writeln!(out, "VAF              θ {:.3}, γ {:.3}", d.vaf[0], d.vaf[1]);
             }
             None => {
                 let _ = writeln!(
                     out,
                     "mode shape       not measured (fitted from the roll rate alone)"
                 );
-                let _ = writeln!(out, "VAF              roll rate {:.3}", self.vaf[0]);
+                let _ = writeln!(out, "VAF              roll rate {:.3}", d.vaf[0]);
             }
         }
         match (&self.speed_mps, self.speed_source) {
