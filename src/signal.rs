@@ -278,6 +278,19 @@ impl CsvTable {
         Ok(out)
     }
 
+    /// Checks that the times `t` (s, one per row) advance from row to row; the first that does
+    /// not is named by its line.
+    pub fn advancing(&self, t: &[f64]) -> Result<(), SignalError> {
+        match t.windows(2).position(|w| w[1] <= w[0]) {
+            Some(i) => Err(self.error(
+                self.rows.get(i + 1).map_or(0, |r| r.0),
+                1,
+                format!("time {} s does not advance from {} s", t[i + 1], t[i]),
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// The sampling grid of the times `t` (s, one per row): the median step and each sample's
     /// grid index. Times must advance, and lie within a quarter step of the grid.
     pub fn sampling_grid(&self, t: &[f64]) -> Result<(f64, Vec<u64>), SignalError> {
@@ -289,16 +302,8 @@ impl CsvTable {
                 message: format!("only {} samples: too few for a signal", t.len()),
             });
         }
+        self.advancing(t)?;
         let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-        for (i, s) in steps.iter().enumerate() {
-            if *s <= 0.0 {
-                return Err(self.error(
-                    lines[i + 1],
-                    1,
-                    format!("time {} s does not advance from {} s", t[i + 1], t[i]),
-                ));
-            }
-        }
         steps.sort_by(f64::total_cmp);
         let dt = steps[steps.len() / 2];
         let mut index = Vec::with_capacity(t.len());

@@ -140,24 +140,24 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
             };
             r.rows_mut(p * j, p).copy_from(ri);
         }
-        subset
-            .chol
-            .l()
-            .solve_lower_triangular(&r)
-            .map_or(f64::INFINITY, |w| w.norm_squared())
+        subset.chi2_of(&r)
     }
 }
 
 impl Subset<'_, '_> {
     /// rᵀ Σ⁻¹ r; infinite where the model has no weave.
     pub fn chi2(&self, effects: &[Effect], params: &[f64]) -> f64 {
-        match self.campaign.residuals(effects, params, &self.rides) {
-            Some(r) => {
-                let w = self.chol.l().solve_lower_triangular(&r);
-                w.map_or(f64::INFINITY, |w| w.norm_squared())
-            }
-            None => f64::INFINITY,
-        }
+        self.campaign
+            .residuals(effects, params, &self.rides)
+            .map_or(f64::INFINITY, |r| self.chi2_of(&r))
+    }
+
+    /// rᵀ Σ⁻¹ r of the subset's residuals `r`; infinite when the solve fails.
+    fn chi2_of(&self, r: &DVector<f64>) -> f64 {
+        self.chol
+            .l()
+            .solve_lower_triangular(r)
+            .map_or(f64::INFINITY, |w| w.norm_squared())
     }
 
     pub fn len(&self) -> usize {

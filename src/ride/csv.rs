@@ -125,7 +125,7 @@ fn err(path: &Path, message: impl Into<String>) -> RideError {
 /// unnamed quantity without a recognised column is simply absent.
 pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError> {
     let file = std::fs::File::open(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
-    let table = CsvTable::read(file, path).map_err(|e| err(path, e.to_string()))?;
+    let table = CsvTable::read(file, path)?;
     let mut found: Vec<(Quantity, usize, f64, String)> = Vec::new();
     for q in Quantity::ALL {
         let pick = match given.0.iter().find(|(g, _)| *g == q) {
@@ -170,10 +170,7 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
         ));
     }
     let which: Vec<usize> = found.iter().map(|f| f.1).collect();
-    let values = table
-        .columns(&which)
-        .map_err(|e| err(path, e.to_string()))?;
-    let lines = table.lines();
+    let values = table.columns(&which)?;
     let mut ride = CsvRide {
         path: path.to_path_buf(),
         time_s: Vec::new(),
@@ -195,17 +192,7 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
             Quantity::WheelSpeed => ride.wheel_speed_mps = Some(v),
         }
     }
-    if let Some(i) = ride.time_s.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(err(
-            path,
-            format!(
-                "line {}: time {} s does not advance from {} s",
-                lines[i + 1],
-                ride.time_s[i + 1],
-                ride.time_s[i]
-            ),
-        ));
-    }
+    table.advancing(&ride.time_s)?;
     Ok(ride)
 }
 

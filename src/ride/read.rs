@@ -22,6 +22,9 @@ use std::path::{Path, PathBuf};
 pub enum RideError {
     #[error(transparent)]
     Log(#[from] LogError),
+    /// A CSV ride's table (its error names file, line and column).
+    #[error(transparent)]
+    Csv(#[from] crate::signal::SignalError),
     #[error("{path}: {message}")]
     Ride { path: PathBuf, message: String },
 }
