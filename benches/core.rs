@@ -188,11 +188,7 @@ fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
     let rides: Vec<Observation> = run_campaign(&manifest, &model, &modal, 2, &|_, _| {})
         .iter()
         .enumerate()
-        .filter_map(|(k, r)| {
-            r.as_ref()
-                .ok()
-                .map(|t| Observation::from_test(&k.to_string(), t))
-        })
+        .filter_map(|(k, r)| r.test().map(|t| Observation::from_test(&k.to_string(), t)))
         .collect();
     bencher.bench(|| {
         diagnose(

@@ -78,10 +78,10 @@ struct PeriodArgs {
 struct DynamicArgs {
     /// A ride's angles log (`ride_03.log`), a campaign manifest (`rides.toml`), or a CSV of
     /// time series from another instrument (`time_s`, `roll_rad`, `steer_deg`,
-    /// `rear_wheel_speed_m_per_s`, …; with --window).
+    /// `rear_wheel_speed_m_per_s`, …; --window picks one decay).
     file: PathBuf,
     /// A CSV ride: the free decay to fit, seconds `START:END` (without it a record of up to
-    /// 10 s is one free decay).
+    /// 10 s is one free decay; in a longer one every kick is found and each decay fitted).
     #[arg(long, value_parser = parse_range)]
     window: Option<(f64, f64)>,
     /// A CSV ride: columns by other names, `roll=ROLL_COL,steer=…,time=…,wheel_speed=…`
@@ -104,6 +104,10 @@ struct DynamicArgs {
     /// The bicycle (lab TOML or BicycleParameters file); campaigns default to their manifest's.
     #[arg(long)]
     bike: Option<PathBuf>,
+    /// A steer controller in the model (a TOML file with a `[controller]` table: gains on
+    /// roll, steer and their rates against speed); campaigns take their manifest's.
+    #[arg(long)]
+    controller: Option<PathBuf>,
     /// Bootstrap resamples for the check of the standard errors.
     #[arg(long, default_value_t = 400)]
     resamples: usize,
@@ -158,6 +162,9 @@ struct StabilityArgs {
     /// Move the handlebar's centre of gravity onto the steer axis (the lab's model, seed §6.2).
     #[arg(long)]
     cg_on_steer_axis: bool,
+    /// A steer controller closing the loop (a TOML file with a `[controller]` table).
+    #[arg(long)]
+    controller: Option<PathBuf>,
     #[arg(long)]
     json: bool,
 }
@@ -401,6 +408,7 @@ fn main() -> ExitCode {
                     || c.is::<inertia::manifest::ManifestError>()
                     || c.is::<bikeproc::model::ParamError>()
                     || c.is::<bikeproc::ride::RideError>()
+                    || c.is::<bikeproc::model::control::ControlError>()
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
@@ -625,13 +633,14 @@ fn stability(a: StabilityArgs) -> Result<()> {
         let b = p.nominal().with_handlebar_cg_on_steer_axis();
         p = uncertain::Parametrized::from_benchmark(&p.name, &b);
     }
+    let p = with_controller(p, a.controller.as_deref())?;
     let (lo, hi, step) = a.speeds;
     let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize)
         .map(|i| lo + i as f64 * step)
         .collect();
     let s = p.speeds(hi, step.min(0.01))?;
     let bands = p.bands(&speeds)?;
-    let canonical = model::Canonical::from_benchmark(&p.benchmark_at(p.inputs.values()));
+    let canonical = p.nominal_canonical();
     let report = model::report::StabilityReport::new(&p.name, &s, &bands, &canonical);
     emit(a.json, &report, || report.to_text())
 }
@@ -656,15 +665,13 @@ fn progress_bar(what: &str, done: usize, total: usize) {
 fn gap(a: GapArgs) -> Result<()> {
     use bikeproc::ride::dynamic::RideManifest;
     let manifest = RideManifest::load(&a.file)?;
-    let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
-    let model = bikeproc::model::uncertain::load(&bike)?;
+    let model = manifest.model(a.bike.as_deref())?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let d = bikeproc::gap::diagnose_campaign(&manifest, &model, threads, &progress_bar)?;
     emit(a.json, &d, || d.to_text())
 }
 
 fn dynamic(a: DynamicArgs) -> Result<()> {
-    use bikeproc::model::uncertain;
     use bikeproc::ride::dynamic::{self as dynamic, DynamicOptions, RideManifest};
     use bikeproc::ride::modal::ModalOptions;
     let modal = ModalOptions {
@@ -680,23 +687,31 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
     if a.file.extension().is_some_and(|e| e == "toml") {
         let manifest = RideManifest::load(&a.file)?;
         let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
-        let model = uncertain::load(&bike)?;
+        let model = manifest.model(Some(&bike))?;
         let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
         let results = dynamic::run_campaign(&manifest, &model, &modal, threads, &|done, total| {
             progress_bar("rides", done, total)
         });
+        /// A log ride's summary or a CSV ride's decay, as the JSON lists them.
+        #[derive(serde::Serialize)]
+        #[serde(untagged)]
+        enum RideOut {
+            Log(Box<dynamic::Summary>),
+            Csv(Box<bikeproc::ride::csv::DecaySummary>),
+        }
         let mut rides = Vec::new();
         let mut failures = Vec::new();
         for r in &results {
-            match r {
-                Ok(t) => rides.push(t.summary()),
-                Err(e) => failures.push(e.to_string()),
+            match &r.result {
+                Ok(dynamic::Analysed::Log(t)) => rides.push(RideOut::Log(Box::new(t.summary()))),
+                Ok(dynamic::Analysed::Csv(d)) => rides.push(RideOut::Csv(d.clone())),
+                Err(e) => failures.push(format!("{}: {e}", r.name)),
             }
         }
         #[derive(serde::Serialize)]
         struct Campaign<'a> {
             bike: String,
-            rides: &'a [dynamic::Summary],
+            rides: &'a [RideOut],
             failures: &'a [String],
         }
         let out = Campaign {
@@ -705,7 +720,13 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
             failures: &failures,
         };
         emit(a.json, &out, || {
-            let mut text: String = rides.iter().map(|r| r.to_text() + "\n").collect();
+            let mut text: String = rides
+                .iter()
+                .map(|r| match r {
+                    RideOut::Log(s) => s.to_text() + "\n",
+                    RideOut::Csv(d) => d.to_text() + "\n",
+                })
+                .collect();
             for f in &failures {
                 text += &format!("not analysed: {f}\n");
             }
@@ -720,7 +741,7 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
         .bike
         .clone()
         .unwrap_or_else(|| PathBuf::from("data/lab_bike.toml"));
-    let model = uncertain::load(&bike)?;
+    let model = load_model(&bike, a.controller.as_deref())?;
     let options = DynamicOptions {
         noted: a.speed.map(|v| bikeproc::ride::speed::NotedReading {
             speed_mps: v,
@@ -735,38 +756,83 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
     emit(a.json, &summary, || summary.to_text())
 }
 
-/// `bikeproc dynamic FILE.csv --window A:B`: one free decay of another instrument's ride.
+/// `bikeproc dynamic FILE.csv [--window A:B]`: the free decays of another instrument's ride
+/// (one with a window or a short record; every kick of a long recording without).
 fn csv_ride(a: &DynamicArgs, modal: &bikeproc::ride::modal::ModalOptions) -> Result<()> {
-    use bikeproc::ride::csv::{self, CsvSpeedSource, DecaySummary};
+    use bikeproc::ride::csv;
     let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default())?;
-    let decay = csv::fit_decay(&ride, a.window, modal)?;
-    let speed = match (a.speed, decay.wheel_speed_mps) {
-        // A given speed: uniform within half the display step, and the reading's own error.
-        (Some(v), _) => Some((
-            Measured::new(
-                v,
-                (a.speed_resolution / 12f64.sqrt()).hypot(a.speed_se_fraction * v),
-            ),
-            CsvSpeedSource::Given,
-        )),
-        (None, Some(v)) => Some((v, CsvSpeedSource::WheelSpeed)),
-        (None, None) => None,
+    let given = a.speed.map(|v| bikeproc::ride::speed::NotedReading {
+        speed_mps: v,
+        resolution_mps: a.speed_resolution,
+        se_fraction: a.speed_se_fraction,
+    });
+    let model = match &a.bike {
+        Some(bike) => Some(load_model(bike, a.controller.as_deref())?),
+        None => None,
     };
-    let model = match (&a.bike, speed) {
-        (Some(bike), Some((v, _))) => {
-            let model = bikeproc::model::uncertain::load(bike)?;
-            Some(bikeproc::ride::dynamic::model_weave_at(
-                &a.file,
-                &model,
-                v.value,
-                v.se,
-                &decay.weave,
-            )?)
+    let long = a.window.is_none()
+        && ride
+            .time_s
+            .last()
+            .zip(ride.time_s.first())
+            .is_some_and(|(l, f)| l - f > csv::WHOLE_RECORD_MAX_S);
+    let mut decays = csv::ride_decays(&ride, a.window, given, model.as_ref(), modal)?;
+    if !long {
+        if let Some(summary) = decays.pop().and_then(|k| k.decay) {
+            return emit(a.json, &summary, || summary.to_text());
         }
-        _ => None,
+    }
+    #[derive(serde::Serialize)]
+    struct Kicks<'a> {
+        file: String,
+        kicks: &'a [csv::KickDecay],
+    }
+    let out = Kicks {
+        file: a.file.display().to_string(),
+        kicks: &decays,
     };
-    let summary = DecaySummary::new(&ride, decay, speed, model);
-    emit(a.json, &summary, || summary.to_text())
+    emit(a.json, &out, || {
+        let mut text = format!("{}: {} kicks found\n", out.file, decays.len());
+        for (k, d) in decays.iter().enumerate() {
+            text += &format!(
+                "\nkick {} at {:.2} s (roll rate {:+.3} rad/s), free decay {:.2} – {:.2} s\n",
+                k + 1,
+                d.kick.at_s,
+                d.kick.peak_roll_rate_rad_per_s,
+                d.kick.window_s.0,
+                d.kick.window_s.1
+            );
+            match (&d.decay, &d.not_fitted) {
+                (Some(s), _) => text += &s.to_text(),
+                (None, Some(why)) => text += &format!("not fitted: {why}\n"),
+                (None, None) => {}
+            }
+        }
+        text
+    })
+}
+
+/// A bicycle file as a model, with the controller of `controller` (a TOML `[controller]`
+/// table) closing the loop when given.
+fn load_model(
+    bike: &Path,
+    controller: Option<&Path>,
+) -> Result<bikeproc::model::uncertain::Parametrized> {
+    with_controller(bikeproc::model::uncertain::load(bike)?, controller)
+}
+
+/// `model` with the steer controller of the file `controller` (a `[controller]` table) closing
+/// the loop, named in the model's name.
+fn with_controller(
+    mut model: bikeproc::model::uncertain::Parametrized,
+    controller: Option<&Path>,
+) -> Result<bikeproc::model::uncertain::Parametrized> {
+    if let Some(c) = controller {
+        let (control, description) = bikeproc::model::SteerControl::load(c)?;
+        model.name = format!("{} with the controller `{description}`", model.name);
+        model = model.with_control(control);
+    }
+    Ok(model)
 }
 
 /// The effects a blind campaign can withhold, by label.

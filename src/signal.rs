@@ -448,6 +448,17 @@ pub fn pick_sensor<'l>(
     }
 }
 
+/// The median of `x` (the mean of the two middle values for an even count); NaN when empty.
+pub fn median(x: &[f64]) -> f64 {
+    let mut v = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
 /// `angle` (rad) moved by whole turns into [−π, π).
 pub fn wrap_pi(angle: f64) -> f64 {
     (angle + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI

@@ -73,14 +73,15 @@ fn campaign_weave_within_2_5_se_of_truth() {
     let model = uncertain::load(&manifest.bike_path()).unwrap();
     let results = run_campaign(&manifest, &model, &ModalOptions::default(), 2, &|_, _| {});
     let mut inside = 0;
-    for (entry, r) in manifest.rides.iter().zip(&results) {
+    for (entry, ride) in manifest.rides.iter().zip(&results) {
         let name = entry.name();
+        assert_eq!(ride.name, name, "results in the manifest's order");
         let truth: RideTruth = serde_json::from_str(
             &std::fs::read_to_string(dir.join("truth").join(format!("{name}.json"))).unwrap(),
         )
         .unwrap();
-        let Ok(r) = r else {
-            println!("{name}: {}", r.as_ref().err().unwrap());
+        let Some(r) = ride.test() else {
+            println!("{name}: {:?}", ride.result.as_ref().err());
             continue;
         };
         let z = z_truth(r, &truth);

@@ -6,7 +6,7 @@
 
 use super::linear::{LinearBike, LinearTyres};
 use super::Observation;
-use crate::model::Benchmark;
+use crate::model::{Benchmark, SteerControl};
 use crate::ride::dynamic::SpeedSource;
 use nalgebra::Complex;
 
@@ -47,7 +47,8 @@ pub enum Effect {
     FrameCgHeight,
     /// The rear frame's centre of mass, x_B.
     FrameCgX,
-    /// The speedometer reads `k` times the true speed (rides whose speed is the noted reading).
+    /// The speedometer (or a treadmill's display, another instrument's wheel sensor) reads `k`
+    /// times the true speed (rides whose speed is a reading or such a column).
     SpeedScale,
     /// The sensors sample at `s` times the nominal rate: every rate read from the logs (the
     /// eigenvalue, the `Sync` speed) is the true one over `s`.
@@ -55,6 +56,12 @@ pub enum Effect {
     /// Lateral tyre compliance with a relaxation length, in place of rolling without lateral
     /// slip (two parameters; the camber stiffness held at [`CAMBER_PER_RAD`]).
     Tyres,
+    /// The steer motor delivers `a` times the torque its controller commands (campaigns whose
+    /// bicycle carries a controller only).
+    ActuatorGain,
+    /// Inertia `J` added about the steer axis: a steer motor's rotor and gears, reflected
+    /// through the gear ratio (campaigns whose bicycle carries a controller only).
+    SteerInertia,
 }
 
 /// The tyres' camber stiffness per unit load (1/rad): a typical bicycle tyre's (0.5–1 /rad in
@@ -92,7 +99,7 @@ const TRAIL_FACTOR: ParamSpec = ParamSpec {
 
 impl Effect {
     /// Every candidate, in a fixed order.
-    pub const ALL: [Effect; 15] = [
+    pub const ALL: [Effect; 17] = [
         Effect::SteerDamping,
         Effect::FrontMass,
         Effect::FrameMass,
@@ -108,7 +115,18 @@ impl Effect {
         Effect::SpeedScale,
         Effect::TimeScale,
         Effect::Tyres,
+        Effect::ActuatorGain,
+        Effect::SteerInertia,
     ];
+
+    /// The candidates for a bicycle with or without a controller: the steer motor's gain and
+    /// its inertia only with one.
+    pub fn library(controlled: bool) -> Vec<Effect> {
+        Effect::ALL
+            .into_iter()
+            .filter(|&e| controlled || !matches!(e, Effect::ActuatorGain | Effect::SteerInertia))
+            .collect()
+    }
 
     /// The name used in reports and JSON.
     pub fn name(self) -> &'static str {
@@ -128,6 +146,8 @@ impl Effect {
             Effect::SpeedScale => "speed_scale",
             Effect::TimeScale => "time_scale",
             Effect::Tyres => "tyres",
+            Effect::ActuatorGain => "actuator_gain",
+            Effect::SteerInertia => "steer_inertia",
         }
     }
 
@@ -149,6 +169,8 @@ impl Effect {
             Effect::SpeedScale => "a speedometer scale error",
             Effect::TimeScale => "a sensor clock error (time scale)",
             Effect::Tyres => "lateral tyre compliance with a relaxation length",
+            Effect::ActuatorGain => "the steer motor's torque off from the commanded one",
+            Effect::SteerInertia => "inertia added about the steer axis (a steer motor's rotor)",
         }
     }
 
@@ -213,6 +235,25 @@ impl Effect {
                 none: 1.0,
                 plausible: (0.97, 1.03),
             },
+            Effect::ActuatorGain => ParamSpec {
+                name: "a",
+                unit: "",
+                lo: 0.1,
+                hi: 3.0,
+                none: 1.0,
+                // A motor's torque constant, its driver's current loop and a gearbox's losses:
+                // within a third of the nominal.
+                plausible: (0.67, 1.5),
+            },
+            Effect::SteerInertia => ParamSpec {
+                name: "J",
+                unit: "kg·m²",
+                lo: 0.0,
+                hi: 1.0,
+                none: 0.0,
+                // A motor's rotor (~1e-4 kg·m²) through a 10–50:1 gearbox: up to ~0.25 kg·m².
+                plausible: (0.0, 0.3),
+            },
             Effect::Trail => TRAIL_FACTOR,
             Effect::FrameCgHeight | Effect::FrameCgX => LENGTH_FACTOR,
             _ => INERTIA_FACTOR,
@@ -228,6 +269,15 @@ fn add_mass(b: &mut Benchmark, front: bool, m: f64) {
     } else {
         b.m_b += m;
     }
+}
+
+/// Adds inertia `j` about the steer axis to the front frame: `J d dᵀ` with the axis'
+/// direction `d = (sin λ, 0, cos λ)` (x forward, z down; the axis tilted back by λ).
+fn add_steer_inertia(b: &mut Benchmark, j: f64) {
+    let (s, c) = b.lambda.sin_cos();
+    b.i_hxx += j * s * s;
+    b.i_hzz += j * c * c;
+    b.i_hxz += j * s * c;
 }
 
 /// The parameters of several effects, in order.
@@ -247,10 +297,16 @@ fn split<'p>(effects: &[Effect], params: &'p [f64]) -> Vec<(Effect, &'p [f64])> 
     out
 }
 
-/// The measured bicycle with `effects` at `params` (their parameters in order): its
-/// parameters changed, and its extra terms and states.
-pub fn linear_bike(base: &Benchmark, effects: &[Effect], params: &[f64]) -> LinearBike {
+/// The measured bicycle with its controller (if any) and `effects` at `params` (their
+/// parameters in order): its parameters changed, and its extra terms and states.
+pub fn linear_bike(
+    base: &Benchmark,
+    control: &SteerControl,
+    effects: &[Effect],
+    params: &[f64],
+) -> LinearBike {
     let mut b = *base;
+    let mut control = *control;
     let mut damping = 0.0;
     let mut tyres = None;
     for (e, ps) in split(effects, params) {
@@ -281,13 +337,15 @@ pub fn linear_bike(base: &Benchmark, effects: &[Effect], params: &[f64]) -> Line
             }
             Effect::FrameCgHeight => b.z_b *= p,
             Effect::FrameCgX => b.x_b *= p,
+            Effect::ActuatorGain => control.actuator_gain *= p,
+            Effect::SteerInertia => add_steer_inertia(&mut b, p),
             Effect::SpeedScale | Effect::TimeScale | Effect::Tyres => {}
         }
     }
     LinearBike {
         steer_damping_nms_per_rad: damping,
         tyres,
-        ..LinearBike::whipple(&b)
+        ..LinearBike::whipple(&b).with_control(control)
     }
 }
 
@@ -296,7 +354,11 @@ pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 
     let mut v = obs.speed_mps;
     for (e, ps) in split(effects, params) {
         if let (Effect::SpeedScale, Some(&k)) = (e, ps.first()) {
-            if obs.speed_source == SpeedSource::Noted {
+            // A reading or another instrument's wheel sensor: a scale (the wheel's radius).
+            if matches!(
+                obs.speed_source,
+                SpeedSource::Noted | SpeedSource::WheelSpeed
+            ) {
                 v = (obs.speed_mps - obs.speed_correction_mps) / k + obs.speed_correction_mps;
             }
         }

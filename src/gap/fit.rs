@@ -14,6 +14,8 @@ use nalgebra::{Complex, DMatrix, DVector};
 pub struct Campaign<'a> {
     pub obs: &'a [Observation],
     pub base: &'a Benchmark,
+    /// The bicycle's controller ([`crate::model::SteerControl::NONE`] without one).
+    pub control: crate::model::SteerControl,
     pub guesses: Vec<Complex<f64>>,
     /// The parts of each ride's residual: 2, the eigenvalue's real and imaginary parts; 4, and
     /// the mode shape's |γ/θ| and phase (rad).
@@ -38,7 +40,7 @@ impl<'a> Campaign<'a> {
         params: &[f64],
         rides: &[usize],
     ) -> Option<DVector<f64>> {
-        let bike = linear_bike(self.base, effects, params);
+        let bike = linear_bike(self.base, &self.control, effects, params);
         let p = self.parts;
         let mut r = DVector::zeros(p * rides.len());
         for (k, &i) in rides.iter().enumerate() {

@@ -58,6 +58,12 @@ impl LinearBike {
         }
     }
 
+    /// The same bicycle with a steer controller closing the loop ([`crate::model::control`]).
+    pub fn with_control(mut self, control: crate::model::SteerControl) -> LinearBike {
+        self.canonical.control = control;
+        self
+    }
+
     /// The state matrix at speed `v` (m/s): of `(φ, δ, φ̇, δ̇)` with rigid wheels, of
     /// `(ψ, φ, δ, ẏ, ψ̇, φ̇, δ̇, F_r, F_f)` with tyres (y itself is neutral and left out).
     /// `None` when a mass matrix is singular or v is not positive with tyres.
@@ -68,7 +74,8 @@ impl LinearBike {
         }
     }
 
-    /// The Whipple model's state matrix with the damper's −M⁻¹ D in the steer-rate column.
+    /// The Whipple model's state matrix (with its controller, if any) and the damper's −M⁻¹ D
+    /// in the steer-rate column.
     fn rigid_state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
         let c = &self.canonical;
         let mut a = c.state_matrix(v)?;
@@ -184,6 +191,13 @@ impl LinearBike {
             }
             a[(qd_state[row], 7)] = fr;
             a[(qd_state[row], 8)] = ff;
+            // A controller's steer torque k·(φ, δ, φ̇, δ̇) acts on δ (q index 3).
+            let control = &self.canonical.control;
+            if !control.is_none() {
+                for (k, s) in control.gains_at(v).iter().zip([1, 2, 5, 6]) {
+                    a[(qd_state[row], s)] += minv[(row, 3)] * k;
+                }
+            }
         }
         // Force lag: Ḟ = (v/σ)(N (C_α α + C_γ γ) − F).
         let rate = v / t.relaxation_length_m;

@@ -98,6 +98,44 @@ impl Observation {
     }
 }
 
+impl Observation {
+    /// A CSV ride's free decay ([`crate::ride::csv`]): its eigenvalue, its mode shape when it
+    /// was fitted from roll and steer (none from the roll rate alone), its speed from the
+    /// wheel-speed column or the reading given; `None` without a speed.
+    pub fn from_decay(ride: &str, d: &crate::ride::csv::DecaySummary) -> Option<Observation> {
+        let (speed, source) = (d.speed_mps?, d.speed_source?);
+        let w = &d.decay.weave;
+        let none = crate::fit::Estimate {
+            value: f64::NAN,
+            se: f64::NAN,
+        };
+        let (a, b) = d.decay.window_s;
+        Some(Observation {
+            ride: ride.to_string(),
+            speed_mps: speed.value,
+            speed_correction_mps: 0.0,
+            speed_se_mps: speed.se,
+            speed_source: source,
+            speed_sources: crate::ride::speed::SpeedSources {
+                at_s: 0.5 * (a + b),
+                noted: None,
+                sync: None,
+                kinematic: None,
+                window_accel_mps2: 0.0,
+                disagreements: Vec::new(),
+            },
+            weave: Complex::new(w.re, w.im),
+            re_se: w.re_se,
+            im_se: w.im_se,
+            shape_ratio: d.decay.shape.map_or(none, |s| s.ratio),
+            shape_phase_rad: d.decay.shape.map_or(none, |s| s.phase_rad),
+            window: None,
+            window_s: b - a,
+            window_accel_mps2: 0.0,
+        })
+    }
+}
+
 /// Errors of the diagnosis itself (the model cannot be evaluated).
 #[derive(Debug, thiserror::Error)]
 pub enum GapError {
@@ -419,9 +457,10 @@ fn next_rides(
             speed_mps: v,
             ..obs[i].clone()
         };
-        let bike = effects::linear_bike(campaign.base, &r.effects, &r.params);
-        let guess =
-            linear::LinearBike::whipple(campaign.base).weave_near(v, campaign.guesses[i])?;
+        let bike = effects::linear_bike(campaign.base, &campaign.control, &r.effects, &r.params);
+        let guess = linear::LinearBike::whipple(campaign.base)
+            .with_control(campaign.control)
+            .weave_near(v, campaign.guesses[i])?;
         let (w, shape) = effects::predict_weave(&bike, &r.effects, &r.params, &o, guess, p > 2)?;
         let mut out = vec![w.re, w.im];
         if let Some(s) = shape {
@@ -579,15 +618,7 @@ pub fn diagnose_campaign(
         threads,
         &|done, total| progress("rides", done, total),
     );
-    let mut rides = Vec::new();
-    let mut failed = Vec::new();
-    for (entry, r) in manifest.rides.iter().zip(&results) {
-        let name = entry.name();
-        match r {
-            Ok(t) => rides.push(Observation::from_test(&name, t)),
-            Err(e) => failed.push(format!("{name}: {e}")),
-        }
-    }
+    let (rides, failed) = observations(&results);
     diagnose(
         &rides,
         &failed,
@@ -598,6 +629,28 @@ pub fn diagnose_campaign(
         },
         &|done, total| progress("candidates", done, total),
     )
+}
+
+/// A campaign's analysed rides as observations, and the names and reasons of those that gave
+/// none.
+pub fn observations(
+    results: &[crate::ride::dynamic::CampaignRide],
+) -> (Vec<Observation>, Vec<String>) {
+    use crate::ride::dynamic::Analysed;
+    let mut rides = Vec::new();
+    let mut failed = Vec::new();
+    for r in results {
+        let name = &r.name;
+        match &r.result {
+            Ok(Analysed::Log(t)) => rides.push(Observation::from_test(name, t)),
+            Ok(Analysed::Csv(d)) => match Observation::from_decay(name, d) {
+                Some(o) => rides.push(o),
+                None => failed.push(format!("{name}: no speed")),
+            },
+            Err(e) => failed.push(format!("{name}: {e}")),
+        }
+    }
+    (rides, failed)
 }
 
 /// Diagnoses a campaign: `rides` are the rides that gave an eigenvalue, `failed` the names and
@@ -661,7 +714,7 @@ pub fn diagnose(
         .select_rows(model_idx.iter())
         .select_columns(model_idx.iter());
     let base = model.nominal();
-    let unextended = linear::LinearBike::whipple(&base);
+    let unextended = linear::LinearBike::whipple(&base).with_control(model.control);
     let mut exp_cov = DMatrix::zeros(parts * n, parts * n);
     for (i, o) in rides.iter().enumerate() {
         let standard_errors = [
@@ -712,6 +765,7 @@ pub fn diagnose(
     let campaign = Campaign {
         obs: rides,
         base: &base,
+        control: model.control,
         guesses: guesses.clone(),
         parts,
         cov: &exp_cov + &model_cov,
@@ -801,13 +855,13 @@ pub fn diagnose(
                 .enumerate()
                 .map(|(i, o)| {
                     let params = best.heldout_params.get(i)?;
-                    let bike = effects::linear_bike(&base, &best.effects, params);
+                    let bike = effects::linear_bike(&base, &model.control, &best.effects, params);
                     ride_vaf(&bike, &best.effects, params, o, guesses[i])
                 })
                 .collect(),
         );
         if let Some(r) = campaign.residuals(&best.effects, &best.params, &all) {
-            let bike = effects::linear_bike(&base, &best.effects, &best.params);
+            let bike = effects::linear_bike(&base, &model.control, &best.effects, &best.params);
             let clock = effects::clock(&best.effects, &best.params);
             d.residuals_after = d
                 .residuals
@@ -891,7 +945,7 @@ fn speed_bands(res: &[RideResidual]) -> Vec<BandResidual> {
 }
 
 /// The inverse-variance weighted mean of `(value, se)` pairs, with its standard error.
-fn weighted_mean(xs: impl Iterator<Item = (f64, f64)>) -> crate::fit::Estimate {
+pub fn weighted_mean(xs: impl Iterator<Item = (f64, f64)>) -> crate::fit::Estimate {
     let (mut sw, mut swx) = (0.0, 0.0);
     for (x, se) in xs {
         let w = 1.0 / (se * se);
@@ -996,7 +1050,8 @@ fn rank(
         .sum::<f64>();
     let parts = n * campaign.parts;
     let rms = |s: f64| (s / parts as f64).sqrt();
-    let total = 2 * Effect::ALL.len() - 1 + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2;
+    let library = Effect::library(!campaign.control.is_none());
+    let total = 2 * library.len() - 1 + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let evaluate = |effects: &[Effect]| -> Option<Ranked> {
         let effects = effects.to_vec();
@@ -1045,7 +1100,7 @@ fn rank(
             heldout_params,
         })
     };
-    let singles: Vec<Vec<Effect>> = Effect::ALL.iter().map(|&e| vec![e]).collect();
+    let singles: Vec<Vec<Effect>> = library.iter().map(|&e| vec![e]).collect();
     let over = |list: &[Vec<Effect>]| -> Vec<Ranked> {
         crate::parallel::map_ordered(
             list.len(),
@@ -1083,7 +1138,7 @@ fn rank(
         }
     };
     if let Some(&first) = pool.first() {
-        for &e in &Effect::ALL {
+        for &e in &library {
             add(first, e);
         }
     }
@@ -1245,6 +1300,13 @@ fn verdict(d: &Diagnosis) -> String {
             d.residuals.len()
         )
     };
+    let shape = if d.residuals.iter().any(|r| r.shape_ratio_z.is_finite()) {
+        part("mode shape |γ/θ|", "rad/rad", &|r| {
+            (r.shape_ratio, r.shape_ratio_se, r.shape_ratio_z)
+        })
+    } else {
+        "mode shape not measured (the rides give the eigenvalue alone)".to_string()
+    };
     let _ = write!(
         v,
         "{}; {}; {}. ",
@@ -1252,11 +1314,7 @@ fn verdict(d: &Diagnosis) -> String {
         part("weave damping rate (σ)", "1/s", &|r| (
             r.re, r.re_se, r.re_z
         )),
-        part("mode shape |γ/θ|", "rad/rad", &|r| (
-            r.shape_ratio,
-            r.shape_ratio_se,
-            r.shape_ratio_z
-        ))
+        shape
     );
     let _ = write!(
         v,
@@ -1307,11 +1365,10 @@ fn verdict(d: &Diagnosis) -> String {
         .zip(best.params.iter().zip(&best.params_se))
         .map(|((e, spec), (p, se))| {
             format!(
-                "{} {} = {p:.3} ± {se:.3}{}{}",
+                "{} {} = {}",
                 e.name(),
                 spec.name,
-                if spec.unit.is_empty() { "" } else { " " },
-                spec.unit
+                param_text(*p, *se, spec.unit)
             )
         })
         .collect();
@@ -1435,23 +1492,23 @@ impl Diagnosis {
             "z"
         );
         for r in &self.residuals {
+            let shape = if r.shape_ratio.is_finite() {
+                format!(
+                    "{:>+8.3} ± {:<7.3} {:>+6.1} {:>+6.1} ± {:<5.1} {:>+6.1}",
+                    r.shape_ratio,
+                    r.shape_ratio_se,
+                    r.shape_ratio_z,
+                    r.shape_phase_rad.to_degrees(),
+                    r.shape_phase_se_rad.to_degrees(),
+                    r.shape_phase_z
+                )
+            } else {
+                "      not measured".to_string()
+            };
             let _ = writeln!(
                 out,
-                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1} {:>+8.3} ± {:<7.3} {:>+6.1} {:>+6.1} ± {:<5.1} {:>+6.1}",
-                r.ride,
-                r.speed_mps,
-                r.re,
-                r.re_se,
-                r.re_z,
-                r.im,
-                r.im_se,
-                r.im_z,
-                r.shape_ratio,
-                r.shape_ratio_se,
-                r.shape_ratio_z,
-                r.shape_phase_rad.to_degrees(),
-                r.shape_phase_se_rad.to_degrees(),
-                r.shape_phase_z
+                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1} {shape}",
+                r.ride, r.speed_mps, r.re, r.re_se, r.re_z, r.im, r.im_se, r.im_z,
             );
         }
         for b in &self.bands {
@@ -1497,7 +1554,7 @@ impl Diagnosis {
                 .iter()
                 .zip(&r.params_se)
                 .zip(&r.units)
-                .map(|((p, se), u)| format!("{p:.3} ± {se:.3} {u}").trim_end().to_string())
+                .map(|((p, se), u)| param_text(*p, *se, u))
                 .collect();
             let _ = writeln!(
                 out,
@@ -1514,5 +1571,20 @@ impl Diagnosis {
         }
         let _ = writeln!(out, "Verdict: {}", self.verdict);
         out
+    }
+}
+
+/// A fitted parameter with its standard error and unit, `0.092 ± 0.061 kg·m²`; one the fit left
+/// at the edge of its search range (or could not identify) has no standard error, and says so.
+pub fn param_text(value: f64, se: f64, unit: &str) -> String {
+    let unit = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    };
+    if se.is_finite() {
+        format!("{value:.3} ± {se:.3}{unit}")
+    } else {
+        format!("{value:.3}{unit} (no standard error: at a bound or not identified)")
     }
 }

@@ -8,11 +8,13 @@
 //! matrix, eigenvalues named by mode (weave, capsize, castor), the characteristic speeds, and
 //! their standard errors propagated from the parameters'.
 
+pub mod control;
 pub mod lab;
 pub mod params;
 pub mod report;
 pub mod uncertain;
 
+pub use control::SteerControl;
 use nalgebra::{Complex, Matrix2, Matrix4};
 pub use params::{Benchmark, ParamError};
 
@@ -24,6 +26,9 @@ pub struct Canonical {
     pub k0: Matrix2<f64>,
     pub k2: Matrix2<f64>,
     pub g: f64,
+    /// A steer controller closing the loop ([`control`]; [`SteerControl::NONE`] for the
+    /// Whipple model itself).
+    pub control: SteerControl,
 }
 
 /// `I/r` with the two-mass-skate limit: zero inertia on a zero radius is zero (Kooijman et
@@ -101,11 +106,19 @@ impl Canonical {
                 i_alz / p.w * cl + mu * (s_a + i_tzz / p.w * cl),
             ),
             g: p.g,
+            control: SteerControl::NONE,
         }
     }
 
+    /// The same bicycle with `control` closing the loop.
+    pub fn with_control(self, control: SteerControl) -> Canonical {
+        Canonical { control, ..self }
+    }
+
     /// The state matrix of `x = (φ, δ, φ̇, δ̇)` at speed `v` (eq. 59 of the seed):
-    /// `[[0, I], [−M⁻¹(g K₀ + v² K₂), −M⁻¹ v C₁]]`. `None` when M is singular.
+    /// `[[0, I], [−M⁻¹(g K₀ + v² K₂), −M⁻¹ v C₁]]`, with a controller's steer torque
+    /// `T_δ = k(v)·x` added as `M⁻¹ (0, 1)ᵀ k(v)ᵀ` in the lower rows ([`control`]). `None` when
+    /// M is singular.
     pub fn state_matrix(&self, v: f64) -> Option<Matrix4<f64>> {
         let minv = self.m.try_inverse()?;
         let k = minv * (self.k0 * self.g + self.k2 * (v * v));
@@ -117,6 +130,14 @@ impl Canonical {
             for col in 0..2 {
                 a[(2 + r, col)] = -k[(r, col)];
                 a[(2 + r, 2 + col)] = -c[(r, col)];
+            }
+        }
+        if !self.control.is_none() {
+            let gains = self.control.gains_at(v);
+            for r in 0..2 {
+                for (col, k) in gains.iter().enumerate() {
+                    a[(2 + r, col)] += minv[(r, 1)] * k;
+                }
             }
         }
         Some(a)

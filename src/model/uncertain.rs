@@ -4,7 +4,7 @@
 
 use super::lab::lab_to_benchmark;
 use super::params::{Benchmark, ParamError};
-use super::{Canonical, Stability};
+use super::{Canonical, Stability, SteerControl};
 use crate::inertia::bike::LabBike;
 use crate::signal::wrap_near;
 use crate::uncertainty::{propagate, Inputs, Measured};
@@ -21,6 +21,9 @@ pub struct Parametrized {
     pub name: String,
     pub inputs: Inputs,
     build: Builder,
+    /// A known steer controller closing the loop ([`SteerControl::NONE`]: none); it has no
+    /// uncertainty of its own here.
+    pub control: SteerControl,
 }
 
 impl Parametrized {
@@ -38,6 +41,7 @@ impl Parametrized {
                 a.copy_from_slice(&x[..26]);
                 Benchmark::from_array(&a)
             }),
+            control: SteerControl::NONE,
         }
     }
 
@@ -80,7 +84,24 @@ impl Parametrized {
                 }
                 lab_to_benchmark(&b)
             }),
+            control: SteerControl::NONE,
         }
+    }
+
+    /// The same bicycle with `control` closing the loop.
+    pub fn with_control(mut self, control: SteerControl) -> Parametrized {
+        self.control = control;
+        self
+    }
+
+    /// The canonical matrices at given input values, with the controller.
+    pub fn canonical_at(&self, x: &[f64]) -> Canonical {
+        Canonical::from_benchmark(&self.benchmark_at(x)).with_control(self.control)
+    }
+
+    /// The canonical matrices at the nominal inputs, with the controller.
+    pub fn nominal_canonical(&self) -> Canonical {
+        self.canonical_at(self.inputs.values())
     }
 
     /// The benchmark parameters at given input values.
@@ -133,15 +154,12 @@ fn crossing_near(c: &Canonical, v0: f64) -> f64 {
 impl Parametrized {
     /// Stability in `[0, v_max]` and the standard errors of the weave and capsize speeds.
     pub fn speeds(&self, v_max: f64, step: f64) -> Result<SpeedsWithSe, ParamError> {
-        let nominal = Canonical::from_benchmark(&self.benchmark_at(self.inputs.values()));
+        let nominal = self.nominal_canonical();
         let stability = nominal.stability(v_max, step)?;
         let se_of = |v0: Option<f64>| -> Option<f64> {
             let v0 = v0?;
             let (_, cov) = propagate(&self.inputs, |x| {
-                vec![crossing_near(
-                    &Canonical::from_benchmark(&self.benchmark_at(x)),
-                    v0,
-                )]
+                vec![crossing_near(&self.canonical_at(x), v0)]
             });
             let var = cov[(0, 0)];
             var.is_finite().then(|| var.max(0.0).sqrt())
@@ -155,10 +173,10 @@ impl Parametrized {
 
     /// Named eigenvalues at `speeds` with the standard errors of their parts.
     pub fn bands(&self, speeds: &[f64]) -> Result<Bands, ParamError> {
-        let nominal = Canonical::from_benchmark(&self.benchmark_at(self.inputs.values()));
+        let nominal = self.nominal_canonical();
         let sweep = nominal.sweep(speeds)?;
         let (_, cov) = propagate(&self.inputs, |x| {
-            let c = Canonical::from_benchmark(&self.benchmark_at(x));
+            let c = self.canonical_at(x);
             let mut out = Vec::with_capacity(8 * speeds.len());
             for (i, &v) in speeds.iter().enumerate() {
                 let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
@@ -208,7 +226,7 @@ impl Parametrized {
     /// covariance of their parts propagated from the parameters. The phase of each perturbed
     /// shape is taken within ±π of the nominal one.
     pub fn weave_model(&self, speeds: &[f64]) -> Result<WeaveModel, ParamError> {
-        let nominal = Canonical::from_benchmark(&self.benchmark_at(self.inputs.values()));
+        let nominal = self.nominal_canonical();
         let sweep = nominal.sweep(speeds)?;
         let weaves: Vec<Complex<f64>> = sweep.eigenvalues.iter().map(|e| e[0]).collect();
         let shape_of = |c: &Canonical, v: f64, w: Complex<f64>| -> Complex<f64> {
@@ -223,7 +241,7 @@ impl Parametrized {
             .map(|(&v, &w)| shape_of(&nominal, v, w))
             .collect();
         let (_, cov) = propagate(&self.inputs, |x| {
-            let c = Canonical::from_benchmark(&self.benchmark_at(x));
+            let c = self.canonical_at(x);
             let mut out = Vec::with_capacity(WEAVE_PARTS * speeds.len());
             for (i, &v) in speeds.iter().enumerate() {
                 let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);

@@ -13,6 +13,8 @@
 
 use super::modal::{fit_modes, Eigenvalue, ModalFit, ModalOptions, ModeShape};
 use super::read::RideError;
+use super::speed::{NotedReading, SpeedSource};
+use crate::model::uncertain::Parametrized;
 use crate::signal::CsvTable;
 use crate::uncertainty::Measured;
 use std::path::{Path, PathBuf};
@@ -225,6 +227,14 @@ pub struct CsvDecay {
     pub wheel_speed_mps: Option<Measured>,
 }
 
+impl CsvDecay {
+    /// Whether the fit resolved an oscillation: ω's standard error below ω. A window that is
+    /// no free decay (the roll wandering under a hand) gives a fit whose ω could be zero.
+    pub fn resolves_weave(&self) -> bool {
+        self.weave.im_se < self.weave.im.abs()
+    }
+}
+
 /// At least this many samples in a window.
 const MIN_WINDOW_SAMPLES: usize = 40;
 
@@ -255,7 +265,7 @@ pub fn fit_decay(
                 path,
                 format!(
                 "the record is {:.1} s long: give the free decay to fit with --window START:END \
-                     (finding every kick of a long recording is not implemented yet)",
+                     (ride_decays finds every kick of a long recording)",
                 last - first
             ),
             ))
@@ -359,6 +369,276 @@ pub fn fit_decay(
     }
 }
 
+/// The speed where a decay applies: its wheel-speed column over the window when the file has
+/// one, else the reading `given` (uniform within half its display step, with its own error).
+pub fn decay_speed(
+    decay: &CsvDecay,
+    given: Option<NotedReading>,
+) -> Option<(Measured, SpeedSource)> {
+    match (decay.wheel_speed_mps, given) {
+        (Some(v), _) => Some((v, SpeedSource::WheelSpeed)),
+        (None, Some(r)) => Some((Measured::new(r.speed_mps, r.se_mps()), SpeedSource::Noted)),
+        (None, None) => None,
+    }
+}
+
+/// A kick found in a long recording, and the free decay after it.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct Kick {
+    /// The roll rate's peak (s): where the kick's push has ended.
+    pub at_s: f64,
+    pub peak_roll_rate_rad_per_s: f64,
+    /// The free decay: from the peak until a swing grows again (a hand, the harness, the next
+    /// kick) or [`DECAY_MAX_S`] after it.
+    pub window_s: (f64, f64),
+}
+
+/// A kick's peak roll rate is at least this many times the recording's background (the
+/// median |roll rate| while the wheel turns at over [`MOVING_MPS`], or over the whole record
+/// without a wheel-speed column): a riderless bicycle on a treadmill sways at the background
+/// level, a kick stands out by an order of magnitude.
+pub const KICK_OVER_BACKGROUND: f64 = 8.0;
+/// Two peaks closer than this (s) are one kick (the larger).
+pub const KICK_SEPARATION_S: f64 = 1.5;
+/// A kick's peak is more than this many times the largest swing of the second before its push.
+pub const KICK_OVER_SWING: f64 = 2.0;
+/// How long before its roll-rate peak a kick's motion may start (s): a hand's push lasts
+/// 0.1–0.5 s and may swing the bicycle one way before the largest swing back (the real
+/// recording's kicks at 141.3 and 154.0 s: a half-swing of 0.6 rad/s, then the peak 0.4 s on).
+const PUSH_S: f64 = 1.0;
+/// The longest free decay taken after a kick (s).
+pub const DECAY_MAX_S: f64 = 2.5;
+/// The shortest (s): less is not a decay to fit.
+pub const DECAY_MIN_S: f64 = 0.8;
+/// A half-swing larger than this times the one before it is a new disturbance: a stable free
+/// decay's swings shrink. (An unstable weave's grow from the start: give its window with
+/// `--window`.)
+const SWING_GROWTH: f64 = 1.0;
+/// Below this wheel speed (m/s) the bicycle is not riding.
+pub const MOVING_MPS: f64 = 0.5;
+
+/// The roll rate of a ride: its column, or the roll's central difference.
+fn roll_rate_series(ride: &CsvRide) -> Option<Vec<f64>> {
+    if let Some(r) = &ride.roll_rate_rad_per_s {
+        return Some(r.clone());
+    }
+    let roll = ride.roll_rad.as_ref()?;
+    let t = &ride.time_s;
+    let n = t.len();
+    Some(
+        (0..n)
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                if b > a && t[b] > t[a] {
+                    (roll[b] - roll[a]) / (t[b] - t[a])
+                } else {
+                    0.0
+                }
+            })
+            .collect(),
+    )
+}
+
+/// Every kick of a long recording: peaks of |roll rate| over [`KICK_OVER_BACKGROUND`] times
+/// the background, at least [`KICK_SEPARATION_S`] apart, each with its free decay (see
+/// [`Kick::window_s`]). Errors when the file has neither roll rate nor roll.
+pub fn find_kicks(ride: &CsvRide) -> Result<Vec<Kick>, RideError> {
+    let rate = roll_rate_series(ride).ok_or_else(|| {
+        err(
+            &ride.path,
+            "kicks are found in the roll rate or the roll angle: the file has neither",
+        )
+    })?;
+    let t = &ride.time_s;
+    let n = t.len();
+    let moving: Vec<f64> = match &ride.wheel_speed_mps {
+        Some(v) => (0..n)
+            .filter(|&i| v[i] > MOVING_MPS)
+            .map(|i| rate[i].abs())
+            .collect(),
+        None => rate.iter().map(|r| r.abs()).collect(),
+    };
+    if moving.len() < MIN_WINDOW_SAMPLES {
+        return Ok(Vec::new());
+    }
+    let background = crate::signal::median(&moving);
+    let threshold = KICK_OVER_BACKGROUND * background.max(f64::MIN_POSITIVE);
+    // Peaks over the threshold, the larger of two close ones kept.
+    let mut peaks: Vec<usize> = Vec::new();
+    for i in 1..n.saturating_sub(1) {
+        let a = rate[i].abs();
+        if a <= threshold || a < rate[i - 1].abs() || a < rate[i + 1].abs() {
+            continue;
+        }
+        match peaks.last_mut() {
+            Some(p) if t[i] - t[*p] < KICK_SEPARATION_S => {
+                if a > rate[*p].abs() {
+                    *p = i;
+                }
+            }
+            _ => peaks.push(i),
+        }
+    }
+    // The swings' amplitudes from the rate's moving mean over about 0.1 s (a sensor's spikes
+    // are no swing).
+    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
+    let half = ((0.05 / dt).round() as usize).max(1);
+    let smooth = |i: usize| -> f64 {
+        let (a, b) = (i.saturating_sub(half), (i + half + 1).min(n));
+        rate[a..b].iter().sum::<f64>() / (b - a) as f64
+    };
+    // A kick arrives on a bicycle that is not already swinging at its size: a peak no more
+    // than KICK_OVER_SWING times the largest swing of the second before the kick's motion
+    // began is part of a motion under way (a decay's late swings, the capsize's drift).
+    peaks.retain(|&p| {
+        let before = (0..p)
+            .rev()
+            .take_while(|&i| t[p] - t[i] <= 1.0 + PUSH_S)
+            .filter(|&i| t[p] - t[i] >= PUSH_S)
+            .map(|i| smooth(i).abs())
+            .fold(0.0f64, f64::max);
+        rate[p].abs() > KICK_OVER_SWING * before
+    });
+    let mut kicks = Vec::new();
+    for (k, &p) in peaks.iter().enumerate() {
+        let limit = peaks
+            .get(k + 1)
+            .map_or(t[n - 1], |&q| t[q])
+            .min(t[p] + DECAY_MAX_S);
+        // Half-swings after the peak: the decay ends where one grows. A swing changes sides
+        // when the rate passes a level beyond zero on the other side (the larger of twice the
+        // background and a tenth of the peak), so that noise about a crossing is no swing.
+        let level = (2.0 * background).max(0.1 * rate[p].abs());
+        let mut end = limit;
+        let mut side = rate[p].signum();
+        let (mut start, mut amplitude, mut previous) = (t[p], 0.0f64, f64::INFINITY);
+        for (i, &ti) in t.iter().enumerate().skip(p) {
+            if ti > limit {
+                break;
+            }
+            let r = smooth(i);
+            if r * side < -level {
+                if amplitude > SWING_GROWTH * previous {
+                    end = start;
+                    break;
+                }
+                previous = amplitude;
+                side = -side;
+                start = ti;
+                amplitude = 0.0;
+            }
+            amplitude = amplitude.max(r.abs());
+        }
+        if end == limit && amplitude > SWING_GROWTH * previous {
+            end = start;
+        }
+        if end - t[p] >= DECAY_MIN_S {
+            kicks.push(Kick {
+                at_s: t[p],
+                peak_roll_rate_rad_per_s: rate[p],
+                window_s: (t[p], end),
+            });
+        }
+    }
+    Ok(kicks)
+}
+
+/// One kick of a long recording and its decay, or why it was not fitted.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct KickDecay {
+    pub kick: Kick,
+    #[serde(flatten)]
+    pub decay: Option<DecaySummary>,
+    /// Why the kick gave no decay (`None` when it did).
+    pub not_fitted: Option<String>,
+}
+
+/// The free decays of `ride`: the one in `window_s`, the whole record when it is at most
+/// [`WHOLE_RECORD_MAX_S`] long, else one after every kick [`find_kicks`] finds (a kick whose
+/// window the wheel turns through at under [`MOVING_MPS`], or whose speed changes by more than
+/// a fifth, is listed as not fitted). `given` is the speed reading where there is no wheel-speed
+/// column; with `model`, each decay's model weave.
+pub fn ride_decays(
+    ride: &CsvRide,
+    window_s: Option<(f64, f64)>,
+    given: Option<NotedReading>,
+    model: Option<&Parametrized>,
+    options: &ModalOptions,
+) -> Result<Vec<KickDecay>, RideError> {
+    let (first, last) = match (ride.time_s.first(), ride.time_s.last()) {
+        (Some(&a), Some(&b)) => (a, b),
+        _ => return Err(err(&ride.path, "no samples")),
+    };
+    if window_s.is_some() || last - first <= WHOLE_RECORD_MAX_S {
+        let decay = fit_decay(ride, window_s, options)?;
+        let window = decay.window_s;
+        return Ok(vec![KickDecay {
+            kick: Kick {
+                at_s: window.0,
+                peak_roll_rate_rad_per_s: f64::NAN,
+                window_s: window,
+            },
+            decay: Some(DecaySummary::new(ride, decay, given, model)?),
+            not_fitted: None,
+        }]);
+    }
+    let kicks = find_kicks(ride)?;
+    if kicks.is_empty() {
+        return Err(err(
+            &ride.path,
+            format!(
+                "no kick found in {:.1} s: no roll-rate peak over {KICK_OVER_BACKGROUND} times the                  background with {DECAY_MIN_S} s of free decay after it (give one with --window START:END)",
+                last - first
+            ),
+        ));
+    }
+    Ok(kicks
+        .into_iter()
+        .map(|kick| {
+            let fitted = fit_decay(ride, Some(kick.window_s), options).and_then(|d| {
+                if let Some(w) = &ride.wheel_speed_mps {
+                    let (a, b) = kick.window_s;
+                    let v: Vec<f64> = (0..ride.time_s.len())
+                        .filter(|&i| ride.time_s[i] >= a && ride.time_s[i] <= b)
+                        .map(|i| w[i])
+                        .collect();
+                    let (lo, hi) = v
+                        .iter()
+                        .fold((f64::INFINITY, 0.0f64), |(l, h), &x| (l.min(x), h.max(x)));
+                    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+                    if mean < MOVING_MPS {
+                        return Err(err(
+                            &ride.path,
+                            format!("the wheel turns at {mean:.2} m/s: not riding"),
+                        ));
+                    }
+                    if hi - lo > 0.2 * mean {
+                        return Err(err(
+                            &ride.path,
+                            format!(
+                                "the speed changes from {lo:.2} to {hi:.2} m/s over the window"
+                            ),
+                        ));
+                    }
+                }
+                DecaySummary::new(ride, d, given, model)
+            });
+            match fitted {
+                Ok(d) => KickDecay {
+                    kick,
+                    decay: Some(d),
+                    not_fitted: None,
+                },
+                Err(e) => KickDecay {
+                    kick,
+                    decay: None,
+                    not_fitted: Some(e.to_string()),
+                },
+            }
+        })
+        .collect())
+}
+
 /// √((1 + ρ)/(1 − ρ)) for the residuals' lag-one autocorrelation ρ (1 when ρ ≤ 0; ρ capped at
 /// 0.95).
 fn ar1_inflation(resid: &[f64]) -> f64 {
@@ -379,16 +659,6 @@ fn ar1_inflation(resid: &[f64]) -> f64 {
     ((1.0 + rho) / (1.0 - rho)).sqrt()
 }
 
-/// Where a CSV decay's speed comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CsvSpeedSource {
-    /// The wheel-speed column over the window.
-    WheelSpeed,
-    /// Given on the command line (`--speed`).
-    Given,
-}
-
 /// A CSV decay as reported (text and JSON).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct DecaySummary {
@@ -399,26 +669,39 @@ pub struct DecaySummary {
     pub decay: CsvDecay,
     /// The speed where the eigenvalue applies (m/s) and where it comes from.
     pub speed_mps: Option<Measured>,
-    pub speed_source: Option<CsvSpeedSource>,
+    pub speed_source: Option<SpeedSource>,
     /// The model's weave at that speed, when a bicycle was given.
     pub model: Option<super::dynamic::ModelWeave>,
 }
 
 impl DecaySummary {
+    /// The decay of `ride` with its speed (the wheel-speed column, else `given`) and, with a
+    /// `model`, the model's weave there.
     pub fn new(
         ride: &CsvRide,
         decay: CsvDecay,
-        speed: Option<(Measured, CsvSpeedSource)>,
-        model: Option<super::dynamic::ModelWeave>,
-    ) -> DecaySummary {
-        DecaySummary {
+        given: Option<NotedReading>,
+        model: Option<&Parametrized>,
+    ) -> Result<DecaySummary, RideError> {
+        let speed = decay_speed(&decay, given);
+        let model = match (model, speed) {
+            (Some(m), Some((v, _))) => Some(super::dynamic::model_weave_at(
+                &ride.path,
+                m,
+                v.value,
+                v.se,
+                &decay.weave,
+            )?),
+            _ => None,
+        };
+        Ok(DecaySummary {
             file: ride.path.display().to_string(),
             columns: ride.columns.clone(),
             decay,
             speed_mps: speed.map(|s| s.0),
             speed_source: speed.map(|s| s.1),
             model,
-        }
+        })
     }
 
     /// The human-readable form.
@@ -447,6 +730,12 @@ impl DecaySummary {
             w.im.abs(),
             w.im_se
         );
+        if !d.resolves_weave() {
+            let _ = writeln!(
+                out,
+                "                 no weave resolved: ω's standard error exceeds ω (no free decay here?)"
+            );
+        }
         match &d.shape {
             Some(s) => {
                 let _ = writeln!(
@@ -475,8 +764,8 @@ impl DecaySummary {
                     v.value,
                     v.se,
                     match src {
-                        CsvSpeedSource::WheelSpeed => "the wheel-speed column over the window",
-                        CsvSpeedSource::Given => "given",
+                        SpeedSource::WheelSpeed => "the wheel-speed column over the window",
+                        _ => "the reading given",
                     }
                 );
             }

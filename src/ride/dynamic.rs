@@ -15,7 +15,7 @@ pub use super::speed::SpeedSource;
 use super::speed::{Geometry, NotedReading, SpeedSources};
 use crate::inertia::manifest::{from_toml, ManifestError};
 use crate::model::uncertain::Parametrized;
-use crate::model::Canonical;
+use crate::model::{control::ControlError, Canonical, SteerControl};
 use nalgebra::Complex;
 use std::path::{Path, PathBuf};
 
@@ -142,7 +142,7 @@ pub fn dynamic_test(
         sources,
     };
     let mut fit = fit;
-    let canonical = Canonical::from_benchmark(&nominal);
+    let canonical = Canonical::from_benchmark(&nominal).with_control(model.control);
     let coasting_bias = coasting_bias(
         &canonical,
         &fit,
@@ -570,7 +570,8 @@ pub fn model_weave_at(
     let (pre, pim) = bands.se[1][0];
     let re_se = (pre.powi(2) + (dv.re * v_se).powi(2)).sqrt();
     let im_se = (pim.powi(2) + (dv.im * v_se).powi(2)).sqrt();
-    let shape = Canonical::from_benchmark(&model.nominal())
+    let shape = model
+        .nominal_canonical()
         .mode_shape(v, lambda)
         .map(|x| x[1] / x[0])
         .unwrap_or(Complex::new(f64::NAN, f64::NAN));
@@ -588,7 +589,8 @@ pub fn model_weave_at(
 
 /// A campaign of rides (`rides.toml`, version 1): the bicycle and each ride's log with the
 /// speedometer's reading the lab noted at the release; optionally the speedometer's display
-/// step and its error per reading (defaults: 0.1 m/s and 1 %, [`NotedReading::lab`]).
+/// step and its error per reading (defaults: 0.1 m/s and 1 %, [`NotedReading::lab`]), and a
+/// steer controller the bicycle carries ([`crate::model::control`]).
 ///
 /// ```toml
 /// version = 1
@@ -599,6 +601,19 @@ pub fn model_weave_at(
 /// [[ride]]
 /// log = "ride_01.log"
 /// noted_speed_mps = 2.7
+///
+/// # Another instrument's ride (a CSV, [`super::csv`]): its columns by other names, the free
+/// # decay's window (s; without it a short record is one decay and a long one's kicks are
+/// # found), the reading (a treadmill's) where it has no wheel-speed column.
+/// [[ride]]
+/// log = "gain6_10kmh_kick1.csv"
+/// columns = "roll_rate=gyro_x,time=time"
+/// window_s = [0.0, 2.0]
+/// noted_speed_mps = 2.778
+///
+/// [controller]
+/// speeds_mps = [0.0, 4.7, 20.0]
+/// roll_rate_nms_per_rad = [28.2, 0.0, 0.0]
 /// ```
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -613,6 +628,12 @@ pub struct RideManifest {
     pub speedometer_se_fraction: f64,
     #[serde(rename = "ride")]
     pub rides: Vec<RideEntry>,
+    /// The bicycle's steer controller, if it carries one.
+    #[serde(default)]
+    pub controller: Option<crate::model::control::ControllerSpec>,
+    /// The controller, checked ([`SteerControl::NONE`] without one).
+    #[serde(skip)]
+    pub control: SteerControl,
     #[serde(skip)]
     pub dir: PathBuf,
 }
@@ -629,11 +650,25 @@ fn default_se_fraction() -> f64 {
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RideEntry {
+    /// The IMU log, or another instrument's CSV (by its extension).
     pub log: PathBuf,
     pub noted_speed_mps: f64,
+    /// A CSV ride: columns by other names (as `--columns`).
+    #[serde(default)]
+    pub columns: Option<String>,
+    /// A CSV ride: the free decay's window (s).
+    #[serde(default)]
+    pub window_s: Option<[f64; 2]>,
 }
 
 impl RideEntry {
+    /// Whether the ride is another instrument's CSV.
+    pub fn is_csv(&self) -> bool {
+        self.log
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+    }
+
     /// The ride's name: its log's file name without the extension (`ride_03`).
     pub fn name(&self) -> String {
         self.log
@@ -702,6 +737,35 @@ impl RideManifest {
             if !m.dir.join(&r.log).exists() {
                 return Err(err(&name, format!("the log {name} does not exist")));
             }
+            if let Some(c) = &r.columns {
+                if let Err(e) = c.parse::<super::csv::Columns>() {
+                    return Err(err(c, format!("{name}: columns: {e}")));
+                }
+            }
+            if let Some([a, b]) = r.window_s {
+                if !(a.is_finite() && b.is_finite() && b > a) {
+                    return Err(err(
+                        "window_s",
+                        format!("{name}: window_s = [{a}, {b}] is not a window"),
+                    ));
+                }
+            }
+            if !r.is_csv() && (r.columns.is_some() || r.window_s.is_some()) {
+                return Err(err(
+                    &name,
+                    format!("{name}: columns and window_s are for CSV rides"),
+                ));
+            }
+        }
+        if let Some(spec) = &m.controller {
+            m.control = SteerControl::from_spec(spec, path).map_err(|e| ManifestError {
+                path: path.to_path_buf(),
+                line: line_of("[controller]"),
+                message: match e {
+                    ControlError::Invalid { message, .. } => message,
+                    other => other.to_string(),
+                },
+            })?;
         }
         Ok(m)
     }
@@ -710,42 +774,140 @@ impl RideManifest {
     pub fn bike_path(&self) -> PathBuf {
         self.dir.join(&self.bike)
     }
+
+    /// The campaign's model: `bike` (the manifest's when `None`) with the manifest's
+    /// controller.
+    pub fn model(&self, bike: Option<&Path>) -> Result<Parametrized, crate::model::ParamError> {
+        let path = bike.map_or_else(|| self.bike_path(), Path::to_path_buf);
+        Ok(crate::model::uncertain::load(&path)?.with_control(self.control))
+    }
+}
+
+/// What a campaign's ride gave: a log's dynamic test, or one free decay of a CSV ride.
+#[derive(Debug, Clone)]
+pub enum Analysed {
+    Log(Box<DynamicTest>),
+    Csv(Box<super::csv::DecaySummary>),
+}
+
+/// One ride of a campaign, analysed: a CSV ride with several kicks gives one per kick, named
+/// `name#k`.
+#[derive(Debug)]
+pub struct CampaignRide {
+    pub name: String,
+    pub result: Result<Analysed, RideError>,
+}
+
+impl CampaignRide {
+    /// The log's dynamic test, when this is a log ride that gave one.
+    pub fn test(&self) -> Option<&DynamicTest> {
+        match &self.result {
+            Ok(Analysed::Log(t)) => Some(t),
+            _ => None,
+        }
+    }
 }
 
 /// Runs every ride of a campaign on `threads` threads (at least one), calling `progress` with
-/// the number done after each; results in the manifest's order.
+/// the number done after each; results in the manifest's order (a CSV ride's kicks in time
+/// order).
 pub fn run_campaign(
     manifest: &RideManifest,
     model: &Parametrized,
     modal: &ModalOptions,
     threads: usize,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Vec<Result<DynamicTest, RideError>> {
-    let run = |i: usize| {
+) -> Vec<CampaignRide> {
+    let run = |i: usize| -> Vec<CampaignRide> {
         let ride = &manifest.rides[i];
+        let noted = NotedReading {
+            speed_mps: ride.noted_speed_mps,
+            resolution_mps: manifest.speedometer_resolution_mps,
+            se_fraction: manifest.speedometer_se_fraction,
+        };
+        let path = manifest.dir.join(&ride.log);
+        let name = ride.name();
+        if ride.is_csv() {
+            return csv_campaign_ride(&path, &name, ride, noted, model, modal);
+        }
         let options = DynamicOptions {
-            noted: Some(NotedReading {
-                speed_mps: ride.noted_speed_mps,
-                resolution_mps: manifest.speedometer_resolution_mps,
-                se_fraction: manifest.speedometer_se_fraction,
-            }),
+            noted: Some(noted),
             prefer_sync: true,
             modal: *modal,
         };
-        dynamic_test(&manifest.dir.join(&ride.log), model, &options)
+        vec![CampaignRide {
+            name,
+            result: dynamic_test(&path, model, &options).map(|t| Analysed::Log(Box::new(t))),
+        }]
     };
     crate::parallel::map_ordered(manifest.rides.len(), threads, &run, progress)
         .into_iter()
         .enumerate()
-        .map(|(i, r)| {
+        .flat_map(|(i, r)| {
             r.unwrap_or_else(|| {
-                Err(ride_err(
-                    &manifest.rides[i].log,
-                    "the analysis thread stopped before this ride",
-                ))
+                vec![CampaignRide {
+                    name: manifest.rides[i].name(),
+                    result: Err(ride_err(
+                        &manifest.rides[i].log,
+                        "the analysis thread stopped before this ride",
+                    )),
+                }]
             })
         })
         .collect()
+}
+
+/// A campaign's CSV ride: its decay, or one per kick of a long recording.
+fn csv_campaign_ride(
+    path: &Path,
+    name: &str,
+    ride: &RideEntry,
+    noted: NotedReading,
+    model: &Parametrized,
+    modal: &ModalOptions,
+) -> Vec<CampaignRide> {
+    let columns = ride
+        .columns
+        .as_deref()
+        .map_or(Ok(Default::default()), str::parse::<super::csv::Columns>)
+        .map_err(|e| ride_err(path, format!("columns: {e}")));
+    let decays = columns
+        .and_then(|c| super::csv::read_csv_ride(path, &c))
+        .and_then(|csv| {
+            super::csv::ride_decays(
+                &csv,
+                ride.window_s.map(|[a, b]| (a, b)),
+                Some(noted),
+                Some(model),
+                modal,
+            )
+        });
+    match decays {
+        Err(e) => vec![CampaignRide {
+            name: name.to_string(),
+            result: Err(e),
+        }],
+        Ok(list) => {
+            let several = list.len() > 1;
+            list.into_iter()
+                .enumerate()
+                .map(|(k, d)| CampaignRide {
+                    name: if several {
+                        format!("{name}#{}", k + 1)
+                    } else {
+                        name.to_string()
+                    },
+                    result: match (d.decay, d.not_fitted) {
+                        (Some(s), _) => Ok(Analysed::Csv(Box::new(s))),
+                        (None, why) => Err(ride_err(
+                            path,
+                            format!("kick at {:.2} s: {}", d.kick.at_s, why.unwrap_or_default()),
+                        )),
+                    },
+                })
+                .collect()
+        }
+    }
 }
 
 /// What `bikeproc dynamic` prints for one ride (`--json`), in SI units.
@@ -818,6 +980,7 @@ impl Summary {
             SpeedSource::Noted => "the noted reading carried to it",
             SpeedSource::Sync => "the reed switch",
             SpeedSource::Kinematic => "the yaw rate against the steer",
+            SpeedSource::WheelSpeed => "the wheel-speed column",
         };
         out += &format!(
             "  speed            {:.3} ± {:.3} m/s at t = {:.2} s, from {source}\n",

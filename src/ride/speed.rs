@@ -109,6 +109,8 @@ pub enum SpeedSource {
     Sync,
     /// The frame's yaw rate against the steer (rolling without slip).
     Kinematic,
+    /// Another instrument's wheel-speed column over the window (a CSV ride).
+    WheelSpeed,
 }
 
 impl SpeedSource {
@@ -118,6 +120,7 @@ impl SpeedSource {
             SpeedSource::Noted => "noted",
             SpeedSource::Sync => "sync",
             SpeedSource::Kinematic => "kinematic",
+            SpeedSource::WheelSpeed => "wheel_speed",
         }
     }
 }
