@@ -597,9 +597,20 @@ fn controlled_section(
                     best.heldout_rms_after,
                     best.heldout_rms_before,
                     if d.explained {
-                        "it explains the gap"
+                        "it explains the gap".to_string()
+                    } else if best.heldout_rms_after > crate::gap::EXPLAINED_HELDOUT_RMS {
+                        format!(
+                            "**not explained**: no candidate brings the held-out residuals within \
+                             {} of their standard errors",
+                            crate::gap::EXPLAINED_HELDOUT_RMS
+                        )
                     } else {
-                        "**not explained**: no candidate brings the held-out residuals to the level of their errors"
+                        format!(
+                            "**not explained**: the held-out residuals come within {} of their \
+                             standard errors, but its fit to every segment fails its χ² test (p {})",
+                            crate::gap::EXPLAINED_HELDOUT_RMS,
+                            crate::gap::stats::format_p(d.best_fit_p_value)
+                        )
                     }
                 );
             }
