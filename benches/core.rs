@@ -131,6 +131,20 @@ fn sweep_10001_speeds(bencher: divan::Bencher) {
     bencher.bench(|| c.sweep(divan::black_box(&speeds)).expect("sweeps"));
 }
 
+/// `bikeproc stability --speeds 0:10:0.0001`'s work: a BicycleParameters bicycle's eigenvalues
+/// at 100,001 speeds with their standard errors (issue 14: under 2 s and 150 MB; the bands used
+/// to build the 800,008² covariance across speeds).
+#[divan::bench(sample_count = 5)]
+fn bands_100001_speeds(bencher: divan::Bencher) {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let p = bikeproc::model::uncertain::load(
+        &root.join("../shared/reference/bicycleparameters/BenchmarkBenchmark.txt"),
+    )
+    .expect("the benchmark bicycle");
+    let speeds: Vec<f64> = (0..=100_000).map(|i| i as f64 * 1e-4).collect();
+    bencher.bench(|| p.bands(divan::black_box(&speeds)).expect("bands"));
+}
+
 /// A 10 s coast of the nonlinear Whipple bicycle at 5 m/s after a roll kick, sampled at 100 Hz.
 #[divan::bench(sample_count = 20)]
 fn nonlinear_ride_10_s(bencher: divan::Bencher) {

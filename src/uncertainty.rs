@@ -78,9 +78,20 @@ impl Inputs {
 /// covariance `J Σ Jᵀ`. The derivative step for input `i` is a thousandth of its standard error
 /// (or 1e-7 of its value when it has none; inputs without uncertainty do not contribute).
 pub fn propagate<F: Fn(&[f64]) -> Vec<f64>>(inputs: &Inputs, f: F) -> (Vec<f64>, DMatrix<f64>) {
-    let x = inputs.values();
-    let y0 = f(x);
     let cov = inputs.covariance();
+    let (y0, jac) = jacobian(inputs.values(), &cov, f);
+    let out_cov = &jac * cov * jac.transpose();
+    (y0, out_cov)
+}
+
+/// The outputs of `f` at `x` and their Jacobian by central differences, the step for input `i`
+/// a thousandth of its standard error in `cov` (columns of inputs without one left zero).
+fn jacobian<F: Fn(&[f64]) -> Vec<f64>>(
+    x: &[f64],
+    cov: &DMatrix<f64>,
+    f: F,
+) -> (Vec<f64>, DMatrix<f64>) {
+    let y0 = f(x);
     let (n, m) = (x.len(), y0.len());
     let mut jac = DMatrix::zeros(m, n);
     let mut xp = x.to_vec();
@@ -99,8 +110,43 @@ pub fn propagate<F: Fn(&[f64]) -> Vec<f64>>(inputs: &Inputs, f: F) -> (Vec<f64>,
             jac[(k, i)] = (yp[k] - ym[k]) / (2.0 * h);
         }
     }
-    let out_cov = &jac * cov * jac.transpose();
-    (y0, out_cov)
+    (y0, jac)
+}
+
+/// The standard errors of many outputs, `√diag(J Σ Jᵀ)` of [`propagate`] with the same
+/// derivative steps, in memory proportional to the outputs rather than to their square:
+/// `f(x, items)` gives the outputs of the items in `items` (an item's outputs may depend on the
+/// inputs, not on the other items), taken `chunk` items at a time on up to `threads` threads.
+/// The result holds each item's outputs in order, as `f` lists them.
+///
+/// # Panics
+/// If `chunk` is zero.
+pub fn propagate_se<F>(
+    inputs: &Inputs,
+    items: usize,
+    chunk: usize,
+    threads: usize,
+    f: F,
+) -> Vec<f64>
+where
+    F: Fn(&[f64], std::ops::Range<usize>) -> Vec<f64> + Sync,
+{
+    assert!(chunk > 0, "propagate_se: a chunk holds at least one item");
+    let cov = inputs.covariance();
+    let x = inputs.values();
+    let chunks = items.div_ceil(chunk);
+    let per_chunk = |c: usize| -> Vec<f64> {
+        let range = c * chunk..((c + 1) * chunk).min(items);
+        let (_, jac) = jacobian(x, &cov, |x| f(x, range.clone()));
+        let js = &jac * &cov;
+        (0..jac.nrows())
+            .map(|k| js.row(k).dot(&jac.row(k)).max(0.0).sqrt())
+            .collect()
+    };
+    crate::parallel::map_ordered(chunks, threads, &per_chunk, &|_, _| {})
+        .into_iter()
+        .flat_map(|r| r.expect("propagate_se: a worker thread panicked"))
+        .collect()
 }
 
 /// The standard errors on the diagonal of a covariance.

@@ -220,3 +220,50 @@ fn stability_json_has_the_documented_fields() {
         (v["eigenvalues"][5]["weave"]["im"].as_f64().unwrap() - 4.46486771378823).abs() < 1e-12
     );
 }
+
+/// Issue 14 item 1: the bands' standard errors, now propagated a chunk of speeds at a time
+/// without the covariance across speeds, equal the diagonal of the full covariance `J Σ Jᵀ`
+/// (`uncertainty::propagate`, how they were computed before) on the default grid (1,001 speeds)
+/// to 1e-12 relative, for a BicycleParameters file and the lab's bicycle (its correlated
+/// inputs included).
+#[test]
+fn bands_equal_the_full_covariances_diagonal() {
+    let lab = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml");
+    for path in [reference("BenchmarkBenchmark.txt"), lab] {
+        let p = uncertain::load(&path).unwrap();
+        let speeds: Vec<f64> = (0..=1000).map(|i| i as f64 * 0.01).collect();
+        let bands = p.bands(&speeds).unwrap();
+        let (_, cov) = bikeproc::uncertainty::propagate(&p.inputs, |x| {
+            let c = p.canonical_at(x);
+            let mut out = Vec::new();
+            for (i, &v) in speeds.iter().enumerate() {
+                let ev = c.eigenvalues(v).unwrap();
+                for z in bikeproc::model::match_order(&bands.sweep.eigenvalues[i], &ev) {
+                    out.push(z.re);
+                    out.push(z.im);
+                }
+            }
+            out
+        });
+        let mut worst = 0.0f64;
+        for (i, row) in bands.se.iter().enumerate() {
+            for (k, &(re, im)) in row.iter().enumerate() {
+                let j = 8 * i + 2 * k;
+                for (got, want) in [
+                    (re, cov[(j, j)].max(0.0).sqrt()),
+                    (im, cov[(j + 1, j + 1)].max(0.0).sqrt()),
+                ] {
+                    let scale = want.abs().max(1e-300);
+                    worst = worst.max((got - want).abs() / scale);
+                    assert!(
+                        (got - want).abs() <= 1e-12 * scale,
+                        "{}: speed {} branch {k}: {got} vs {want}",
+                        path.display(),
+                        speeds[i]
+                    );
+                }
+            }
+        }
+        println!("{}: worst relative difference {worst:.1e}", path.display());
+    }
+}

@@ -254,7 +254,7 @@ pub struct Sweep {
 }
 
 /// Matches `next` to `prev` (all 24 orders; the closest in total distance).
-pub(crate) fn match_order(prev: &[Complex<f64>; 4], next: &[Complex<f64>; 4]) -> [Complex<f64>; 4] {
+pub fn match_order(prev: &[Complex<f64>; 4], next: &[Complex<f64>; 4]) -> [Complex<f64>; 4] {
     let mut best = *next;
     let mut best_d = f64::INFINITY;
     let idx = [0usize, 1, 2, 3];

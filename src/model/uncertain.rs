@@ -7,7 +7,7 @@ use super::params::{Benchmark, ParamError};
 use super::{Canonical, Stability, SteerControl};
 use crate::inertia::bike::LabBike;
 use crate::signal::wrap_near;
-use crate::uncertainty::{propagate, Inputs, Measured};
+use crate::uncertainty::{propagate, propagate_se, Inputs, Measured};
 use nalgebra::Complex;
 use std::path::Path;
 
@@ -140,6 +140,9 @@ pub struct Bands {
     pub se: Vec<[(f64, f64); 4]>,
 }
 
+/// Speeds per chunk of [`Parametrized::bands`]' propagation.
+const BANDS_CHUNK: usize = 512;
+
 /// The speed where `max_real` changes sign within ±0.02 m/s of `v0` (the perturbations of the
 /// propagation move it by far less), or `NaN`.
 fn crossing_near(c: &Canonical, v0: f64) -> f64 {
@@ -175,31 +178,32 @@ impl Parametrized {
     pub fn bands(&self, speeds: &[f64]) -> Result<Bands, ParamError> {
         let nominal = self.nominal_canonical();
         let sweep = nominal.sweep(speeds)?;
-        let (_, cov) = propagate(&self.inputs, |x| {
-            let c = self.canonical_at(x);
-            let mut out = Vec::with_capacity(8 * speeds.len());
-            for (i, &v) in speeds.iter().enumerate() {
-                let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
-                let m = super::match_order(&sweep.eigenvalues[i], &ev);
-                for z in m {
-                    out.push(z.re);
-                    out.push(z.im);
+        // Each speed's eigenvalues and their standard errors, BANDS_CHUNK speeds at a time:
+        // memory in proportion to the speeds (the covariance across speeds is not kept).
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
+        let flat = propagate_se(
+            &self.inputs,
+            speeds.len(),
+            BANDS_CHUNK,
+            threads,
+            |x, range| {
+                let c = self.canonical_at(x);
+                let mut out = Vec::with_capacity(8 * range.len());
+                for i in range {
+                    let ev = c
+                        .eigenvalues(speeds[i])
+                        .unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
+                    for z in super::match_order(&sweep.eigenvalues[i], &ev) {
+                        out.push(z.re);
+                        out.push(z.im);
+                    }
                 }
-            }
-            out
-        });
-        let se = (0..speeds.len())
-            .map(|i| {
-                let mut row = [(0.0, 0.0); 4];
-                for (k, r) in row.iter_mut().enumerate() {
-                    let j = 8 * i + 2 * k;
-                    *r = (
-                        cov[(j, j)].max(0.0).sqrt(),
-                        cov[(j + 1, j + 1)].max(0.0).sqrt(),
-                    );
-                }
-                row
-            })
+                out
+            },
+        );
+        let se = flat
+            .chunks_exact(8)
+            .map(|s| [(s[0], s[1]), (s[2], s[3]), (s[4], s[5]), (s[6], s[7])])
             .collect();
         Ok(Bands { sweep, se })
     }
