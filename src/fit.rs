@@ -826,6 +826,9 @@ pub struct OscillationSummary {
     pub fft_bin_hz: f64,
     /// Other significant spectral peaks, strongest first, Hz.
     pub secondary_peaks_hz: Vec<f64>,
+    /// Rows of the log whose receiver time was more than half a sample off the counter's
+    /// (placed by the counter); 0 for a CSV.
+    pub receiver_time_off_rows: usize,
 }
 
 impl Oscillation {
@@ -858,6 +861,7 @@ impl Oscillation {
             fft_peak_hz: self.main_peak.freq_hz,
             fft_bin_hz: 1.0 / signal.duration_s().max(f64::MIN_POSITIVE),
             secondary_peaks_hz: self.secondary_peaks.iter().map(|p| p.freq_hz).collect(),
+            receiver_time_off_rows: 0,
         }
     }
 }

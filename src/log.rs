@@ -23,6 +23,13 @@ const COUNTER_MODULUS: u64 = 65_536;
 /// taken when the time step agrees with it within this (and 2 % of a longer gap's drift).
 const RECEIVER_LATENCY_S: f64 = 0.1;
 
+/// The receiver's random stamping error beyond its latency (s): a few milliseconds of jitter,
+/// allowed seven times over, either way.
+const RECEIVER_JITTER_S: f64 = 0.02;
+
+/// The highest sample rate a header may state (Hz): inertial sensors log at up to a few kHz.
+const MAX_SAMPLE_RATE_HZ: f64 = 100_000.0;
+
 /// How an orientation file encodes each sensor's rotation, or `Calibrated` for a `_cal` file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -110,6 +117,11 @@ pub enum LogErrorKind {
         counter_samples: u64,
         time_samples: f64,
     },
+    /// A hole longer than [`crate::signal::MAX_GAP_S`], or holes that make the grid span beyond
+    /// [`crate::signal::grid_span_limit`]: not one recording.
+    GapTooLong {
+        gap_s: f64,
+    },
     QuaternionNorm(f64),
     NotRotation {
         orthonormality_error: f64,
@@ -136,7 +148,10 @@ impl fmt::Display for LogErrorKind {
             Empty => write!(f, "the file is empty"),
             NoColumnRow => write!(f, "no row of column names after the header"),
             MissingKey(k) => write!(f, "header line `// {k}: …` is missing"),
-            BadSampleRate(s) => write!(f, "sample rate `{s}`: expected a positive number of Hz"),
+            BadSampleRate(s) => write!(
+                f,
+                "sample rate `{s}`: expected a positive number of Hz, at most {MAX_SAMPLE_RATE_HZ}"
+            ),
             UnknownMode(s) => write!(
                 f,
                 "unknown output mode `{s}`: expected Euler, Quaternion, Matrix or Calibrated"
@@ -155,7 +170,9 @@ impl fmt::Display for LogErrorKind {
             BadCounter(t) => write!(f, "counter `{t}`: expected a whole number from 0 to 65535"),
             TimeBackwards { previous_s, now_s } => write!(
                 f,
-                "time goes backwards or stands still: {now_s} s after {previous_s} s"
+                "time goes backwards: {now_s} s after {previous_s} s, more than a receiver's late \
+                 delivery and jitter ({:.2} s) explain",
+                RECEIVER_LATENCY_S + RECEIVER_JITTER_S
             ),
             CounterBackwards { previous, now } => {
                 write!(f, "packet counter jumps backwards from {previous} to {now}")
@@ -165,6 +182,11 @@ impl fmt::Display for LogErrorKind {
                 f,
                 "counter and time disagree: the counter advances {counter_samples} samples, \
                  the time {time_samples:.2}"
+            ),
+            GapTooLong { gap_s } => write!(
+                f,
+                "{}",
+                crate::signal::gap_too_long_message(*gap_s)
             ),
             QuaternionNorm(n) => write!(f, "quaternion of norm {n}: expected a unit quaternion"),
             NotRotation { orthonormality_error, det } => write!(
@@ -253,6 +275,9 @@ pub struct GapReport {
     pub corrupt_rows: usize,
     /// Line of the first corrupt row.
     pub first_corrupt_line: Option<usize>,
+    /// Rows whose receiver time is more than half a sample off the time the counter gives
+    /// them (jitter, late delivery): placed by the counter all the same.
+    pub time_off_rows: usize,
 }
 
 /// A log file read onto the sensors' sample grid.
@@ -464,7 +489,7 @@ impl<'a> Parser<'a> {
             .replace(',', ".")
             .parse::<f64>()
             .ok()
-            .filter(|r| r.is_finite() && *r > 0.0)
+            .filter(|r| r.is_finite() && *r > 0.0 && *r <= MAX_SAMPLE_RATE_HZ)
             .ok_or_else(|| {
                 self.err(
                     header_line("Sample rate"),
@@ -604,6 +629,8 @@ impl<'a> Parser<'a> {
         let mut rows = 0usize;
         // Last accepted row (counter, time, grid position) and the last row seen at all.
         let mut prev: Option<(u64, f64, u64)> = None;
+        // The last row whose time agreed with the counter: (time, grid position).
+        let mut anchor = (0.0_f64, 0_u64);
         let mut values: Vec<f64> = vec![0.0; n_fields];
         for (no, line) in lines {
             if line.trim().is_empty() || line.starts_with("//") {
@@ -679,10 +706,14 @@ impl<'a> Parser<'a> {
             let Some(counter) = counter else { continue };
             let time = values[time_col];
             let grid = match prev {
-                None => 0,
+                None => {
+                    anchor = (time, 0);
+                    0
+                }
                 Some((pc, pt, pg)) => {
-                    // Equal stamps are a burst delivered at once (stamps to 0.01 s).
-                    if time < pt {
+                    // The counter is the clock; the receiver's stamps jitter and arrive late
+                    // in bursts, so a stamp may repeat or fall a little behind the previous one.
+                    if time < pt - RECEIVER_LATENCY_S - RECEIVER_JITTER_S {
                         return Err(self.err(
                             Some(no),
                             Some(field_col(line, separator, time_col)),
@@ -697,7 +728,25 @@ impl<'a> Parser<'a> {
                         .map_err(|k| {
                             self.err(Some(no), Some(field_col(line, separator, counter_col)), k)
                         })?;
-                    pg + step
+                    let grid = pg + step;
+                    // Off: more than half a sample from the time the counter gives it, counted
+                    // from the last row that was not off (so a slow drift is followed).
+                    let (at, ag) = anchor;
+                    if ((time - at) * sample_rate_hz - (grid - ag) as f64).abs() > 0.5 {
+                        gaps.time_off_rows += 1;
+                    } else {
+                        anchor = (time, grid);
+                    }
+                    if grid > crate::signal::grid_span_limit(grid_index.len()) {
+                        return Err(self.err(
+                            Some(no),
+                            Some(field_col(line, separator, time_col)),
+                            LogErrorKind::GapTooLong {
+                                gap_s: (grid - grid_index.len() as u64) as f64 / sample_rate_hz,
+                            },
+                        ));
+                    }
+                    grid
                 }
             };
             if let Some((_, _, pg)) = prev {
@@ -795,6 +844,9 @@ impl<'a> Parser<'a> {
         if d == 0 {
             return Err(LogErrorKind::CounterRepeats(now));
         }
+        if dt_s > crate::signal::MAX_GAP_S {
+            return Err(LogErrorKind::GapTooLong { gap_s: dt_s });
+        }
         let by_time = dt_s * rate_hz;
         // Longer gaps than one counter period: add whole periods to agree with the time.
         let wraps = ((by_time - d as f64) / COUNTER_MODULUS as f64)
@@ -802,7 +854,8 @@ impl<'a> Parser<'a> {
             .max(0.0) as u64;
         let step = d + wraps * COUNTER_MODULUS;
         // The receiver's clock jitters, drifts a little and stamps packets late in bursts.
-        let tolerance = 0.5 + 0.02 * by_time + RECEIVER_LATENCY_S * rate_hz;
+        let tolerance =
+            0.5 + 0.02 * by_time.abs() + (RECEIVER_LATENCY_S + RECEIVER_JITTER_S) * rate_hz;
         if (step as f64 - by_time).abs() <= tolerance {
             return Ok(step);
         }

@@ -449,13 +449,16 @@ fn period(a: PeriodArgs) -> Result<()> {
         min_freq_hz: None,
     };
     let measure = |file: &Path| -> Result<fit::OscillationSummary> {
-        let (sig, warnings) =
+        let loaded =
             signal::load_signal(file, &extract, a.sensor.as_deref(), &ReadOptions::default())?;
-        for w in &warnings {
-            eprintln!("warning: {}: {w}", file.display());
+        for w in &loaded.warnings {
+            eprintln!("warning: {w}");
         }
-        let osc = fit::analyse(&sig, &options).with_context(|| format!("{}", file.display()))?;
-        Ok(osc.summary(&sig))
+        let sig = &loaded.signal;
+        let osc = fit::analyse(sig, &options).with_context(|| format!("{}", file.display()))?;
+        let mut summary = osc.summary(sig);
+        summary.receiver_time_off_rows = loaded.time_off_rows;
+        Ok(summary)
     };
     if let [file] = a.files.as_slice() {
         if !file.is_dir() {

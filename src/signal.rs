@@ -310,6 +310,10 @@ impl CsvTable {
         for (i, &ti) in t.iter().enumerate() {
             let k = (ti - t[0]) / dt;
             let r = k.round();
+            let gap_s = i.checked_sub(1).map_or(0.0, |p| ti - t[p]);
+            if gap_s > MAX_GAP_S || r > grid_span_limit(i) as f64 {
+                return Err(self.error(lines[i], 1, gap_too_long_message(gap_s)));
+            }
             if (k - r).abs() > 0.25 {
                 return Err(self.error(
                     lines[i],
@@ -323,6 +327,29 @@ impl CsvTable {
     }
 }
 
+/// The longest hole a recording may hold (s): a link lost for longer than an hour has ended
+/// one recording, and the file holds two.
+pub const MAX_GAP_S: f64 = 3600.0;
+
+/// Grid samples of holes a recording may hold beyond ten times its own samples.
+pub const MAX_HOLE_SAMPLES: u64 = 4_000_000;
+
+/// The furthest grid position a recording of `kept` samples may reach: ten times its samples
+/// plus [`MAX_HOLE_SAMPLES`]. What the spectrum and the fits allocate stays proportional to the
+/// data (a row stamped at 1e12 s would otherwise ask for terabytes).
+pub fn grid_span_limit(kept: usize) -> u64 {
+    10 * kept as u64 + MAX_HOLE_SAMPLES
+}
+
+/// The message for a hole beyond [`MAX_GAP_S`] or [`grid_span_limit`].
+pub fn gap_too_long_message(gap_s: f64) -> String {
+    format!(
+        "a hole of {gap_s:.6e} s in the time: over {MAX_GAP_S} s, or over {MAX_HOLE_SAMPLES} \
+         samples beyond ten times the data before it: not one recording (split the file, or \
+         check the time column)"
+    )
+}
+
 /// Which signal to take from a log.
 #[derive(Debug, Clone, Default)]
 pub enum Extract {
@@ -334,30 +361,51 @@ pub enum Extract {
     Channel(String),
 }
 
+/// A signal as [`load_signal`] read it, with what the reader noticed.
+#[derive(Debug, Clone)]
+pub struct LoadedSignal {
+    pub signal: Signal,
+    /// The reader's warnings (gaps, corrupt rows).
+    pub warnings: Vec<String>,
+    /// Rows whose receiver time was more than half a sample off the counter's (jitter, late
+    /// delivery), placed by the counter: [`crate::log::GapReport::time_off_rows`], of the log
+    /// the signal came from.
+    pub time_off_rows: usize,
+}
+
 /// Opens a log or CSV file and extracts one scalar signal from it. `sensor` picks a sensor by id
-/// or label when the file has several. Returns the signal and the reader's warnings.
+/// or label when the file has several.
 pub fn load_signal(
     path: &Path,
     extract: &Extract,
     sensor: Option<&str>,
     options: &ReadOptions,
-) -> Result<(Signal, Vec<String>), SignalError> {
+) -> Result<LoadedSignal, SignalError> {
     let is_csv = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     if is_csv {
-        return Ok((Signal::from_csv(path)?, Vec::new()));
+        return Ok(LoadedSignal {
+            signal: Signal::from_csv(path)?,
+            warnings: Vec::new(),
+            time_off_rows: 0,
+        });
     }
+    let loaded = |signal: Signal, log: Log| LoadedSignal {
+        signal,
+        time_off_rows: log.gaps.time_off_rows,
+        warnings: log.warnings,
+    };
     match extract {
         Extract::DominantRotation => {
             let log = Log::open(path, options)?;
             let signal = dominant_rotation(&log, sensor)?;
-            Ok((signal, log.warnings))
+            Ok(loaded(signal, log))
         }
         Extract::Channel(name) => {
             let log = Log::open(path, options)?;
             if let Some(s) = channel(&log, name, sensor) {
-                return Ok((s, log.warnings));
+                return Ok(loaded(s, log));
             }
             if log.mode == OutputMode::Calibrated {
                 return Err(no_channel(&log, name));
@@ -375,7 +423,11 @@ pub fn load_signal(
             let s = channel(&cal_log, name, sensor).ok_or_else(|| no_channel(&cal_log, name))?;
             let mut w = log.warnings;
             w.extend(cal_log.warnings);
-            Ok((s, w))
+            Ok(LoadedSignal {
+                signal: s,
+                warnings: w,
+                time_off_rows: cal_log.gaps.time_off_rows,
+            })
         }
     }
 }

@@ -143,3 +143,29 @@ proptest! {
 thread_local! {
     static VALID: Vec<String> = valid_logs();
 }
+
+/// Issue 14: the inputs that aborted, overflowed or were refused for the receiver's jitter now
+/// get messages that say what is wrong (and exit 2, as every fixture above).
+#[test]
+fn far_times_and_absurd_rates_say_what_is_wrong() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/bad");
+    for (file, says) in [
+        ("far_time_stamp.log", "a hole of 1.000000e12 s"),
+        ("far_time_stamp.csv", "a hole of 1.000000e12 s"),
+        ("row_at_1e300.log", "a hole of 1.000000e300 s"),
+        ("sample_rate_1e300.log", "at most 100000"),
+        (
+            "time_backwards.log",
+            "time goes backwards: 0.2 s after 0.51 s",
+        ),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .arg("period")
+            .arg(dir.join(file))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{file}: {stderr}");
+        assert!(stderr.contains(says), "{file}: {stderr}");
+    }
+}

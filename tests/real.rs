@@ -36,9 +36,9 @@ fn every_robot_bicycle_recording_gives_a_period() {
     let mut trials = Vec::new();
     let mut refused = Vec::new();
     for f in &files {
-        let (sig, _) =
-            signal::load_signal(f, &Extract::DominantRotation, None, &ReadOptions::default())
-                .unwrap();
+        let sig = signal::load_signal(f, &Extract::DominantRotation, None, &ReadOptions::default())
+            .unwrap()
+            .signal;
         match fit::analyse(&sig, &FitOptions::default()) {
             Ok(osc) => {
                 let p = osc.fit.period_s();

@@ -238,12 +238,13 @@ pub fn measure_test(m: &Manifest, t: &Test, compound: bool) -> Result<TestFreque
     let mut first_fit = None;
     for log in &t.logs {
         let path = m.log_path(log);
-        let (sig, _warnings) = signal::load_signal(
+        let sig = signal::load_signal(
             &path,
             &extract,
             t.sensor.as_deref(),
             &ReadOptions::default(),
-        )?;
+        )?
+        .signal;
         let osc =
             fit::analyse(&sig, &FitOptions::default()).map_err(|source| InertiaError::Fit {
                 log: path.clone(),
