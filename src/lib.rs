@@ -24,10 +24,12 @@
 //! - `plot` (feature `plot`): SVG figures for the reports.
 
 pub mod fit;
+pub mod fuzzing;
 pub mod gap;
 pub mod inertia;
 pub mod log;
 pub mod model;
+pub mod output;
 pub mod parallel;
 #[cfg(feature = "plot")]
 pub mod plot;

@@ -1017,8 +1017,7 @@ fn simulate_ride(r: RideArgs) -> Result<()> {
 
 /// Writes through a temporary file and a rename: a reader never sees half a file.
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    bikeproc::report::write_atomic(path, bytes)
-        .with_context(|| format!("writing {}", path.display()))
+    Ok(bikeproc::output::write_atomic(path, bytes)?)
 }
 
 /// Prints JSON (`--json`) or the plain text.
@@ -1030,16 +1029,20 @@ fn emit<T: serde::Serialize>(json: bool, value: &T, text: impl FnOnce() -> Strin
     }
 }
 
-/// Writes to standard output; a reader that has gone (`bikeproc … | head`) ends the output
-/// quietly instead of a panic.
+/// Writes to standard output: a reader that has gone (`bikeproc … | head`) or a full disk is
+/// an error (exit 1) naming standard output, never a panic.
 fn out(text: &str) -> Result<()> {
     use std::io::Write as _;
     let mut stdout = std::io::stdout().lock();
-    match stdout
+    stdout
         .write_all(text.as_bytes())
         .and_then(|()| stdout.flush())
-    {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
-        _ => Ok(()),
-    }
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::BrokenPipe => {
+                anyhow::anyhow!(
+                    "standard output: its reader has gone (broken pipe); output cut short"
+                )
+            }
+            _ => anyhow::anyhow!("standard output: {e}"),
+        })
 }

@@ -3,29 +3,15 @@
 //! In: `data/` and the reference material (`../shared/reference`). Out: Markdown files with
 //! their numbers, and SVG figures (feature `plot`). Deterministic: the same inputs give
 //! byte-identical files; CI compares a regeneration with the checked-in reports. Every file is
-//! computed in memory first and written only when all of them are ready, each through a
-//! temporary file and a rename: a failure leaves the old reports as they were.
+//! computed in memory first and the folder replaced by the new set in one step only when all
+//! of them are ready ([`crate::output::replace_dir`]): a failure, an interruption or a
+//! concurrent run leaves the old reports or the new, never a mix.
 
 use crate::fit::{self, FitOptions, OscillationSummary};
 use crate::signal::Signal;
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// Writes through a temporary file in the same folder and a rename, so that no reader ever sees
-/// a half-written file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path)
-}
 
 /// Files of a report set, relative path → contents.
 pub type Files = Vec<(PathBuf, Vec<u8>)>;
@@ -52,7 +38,8 @@ pub fn build(data: &Path, reference: &Path, progress: &mut dyn FnMut(&str)) -> R
     Ok(files)
 }
 
-/// Regenerates every report under `out`; returns the files written.
+/// Regenerates every report under `out`, replacing the folder's set as a whole
+/// ([`crate::output::replace_dir`]: what else was in it goes); returns the files written.
 pub fn regenerate(
     out: &Path,
     data: &Path,
@@ -60,13 +47,8 @@ pub fn regenerate(
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<PathBuf>> {
     let files = build(data, reference, progress)?;
-    let mut written = Vec::new();
-    for (rel, bytes) in &files {
-        let path = out.join(rel);
-        write_atomic(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
-        written.push(path);
-    }
-    Ok(written)
+    crate::output::replace_dir(out, &files)?;
+    Ok(files.iter().map(|(rel, _)| out.join(rel)).collect())
 }
 
 /// A published period from `reference/README.md`: (file, what, period, standard error).

@@ -470,9 +470,12 @@ pub fn random_torsion_campaign(seed: u64) -> RandomCampaign {
 }
 
 /// Writes files under `root`, each through a temporary file and a rename.
-pub fn write_files(root: &std::path::Path, files: &Files) -> std::io::Result<()> {
+pub fn write_files(
+    root: &std::path::Path,
+    files: &Files,
+) -> Result<(), crate::output::OutputError> {
     for (rel, text) in files {
-        crate::report::write_atomic(&root.join(rel), text.as_bytes())?;
+        crate::output::write_atomic(&root.join(rel), text.as_bytes())?;
     }
     Ok(())
 }

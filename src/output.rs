@@ -1,0 +1,266 @@
+//! Safe file output, at the side of the pipeline: every file bikeproc writes goes through here.
+//!
+//! In: a path and its bytes, or a folder and its whole set of files. Out: the file or the folder
+//! in place, or an error naming the path; never a half-written file, never a file written
+//! through a symlink or over a device, never a mix of an old and a new set. A file is written
+//! to a uniquely named temporary file beside it (created exclusively, synced) and renamed over
+//! the old one; a folder's set is written whole into a fresh hidden folder beside it and
+//! exchanged with the old folder in one step (Linux `renameat2(RENAME_EXCHANGE)`; elsewhere
+//! two renames), so a reader, a concurrent run or an interruption sees the old set or the new.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Errors of writing output.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("{path}: not a regular file{what}: bikeproc writes only regular files and folders")]
+    NotRegular { path: PathBuf, what: &'static str },
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// A name no other writer uses: the process, the time and a per-process count.
+fn unique_suffix() -> String {
+    static COUNT: AtomicU64 = AtomicU64::new(0);
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    format!(
+        "{}-{nanos}-{}",
+        std::process::id(),
+        COUNT.fetch_add(1, Ordering::Relaxed)
+    )
+}
+
+/// Refuses a destination that exists and is a symlink or anything but `want_dir` (a folder)
+/// or a regular file.
+fn check_destination(path: &Path, want_dir: bool) -> Result<bool, OutputError> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => Err(OutputError::NotRegular {
+            path: path.to_path_buf(),
+            what: " (a symlink)",
+        }),
+        Ok(m) if want_dir && !m.is_dir() => Err(OutputError::NotRegular {
+            path: path.to_path_buf(),
+            what: " (not a folder)",
+        }),
+        Ok(m) if !want_dir && !m.is_file() => Err(OutputError::NotRegular {
+            path: path.to_path_buf(),
+            what: if m.is_dir() {
+                " (a folder)"
+            } else {
+                " (a device, pipe or socket)"
+            },
+        }),
+        Ok(_) => Ok(true),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+        Err(e) => Err(io(path)(e)),
+    }
+}
+
+/// Writes `bytes` to a new file at `path` (created exclusively) and syncs it.
+fn write_new(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+        .map_err(io(path))?;
+    f.write_all(bytes).map_err(io(path))?;
+    f.sync_all().map_err(io(path))
+}
+
+/// Writes `path` whole: through a uniquely named temporary file beside it and a rename. A
+/// symlink, a folder or a device at `path` is refused, not written through; the folder it
+/// goes in is created.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    check_destination(path, false)?;
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    if let Some(dir) = dir {
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", unique_suffix()));
+    let result = write_new(&tmp, bytes).and_then(|()| {
+        // Checked again: something may have appeared meanwhile.
+        check_destination(path, false)?;
+        std::fs::rename(&tmp, path).map_err(io(path))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Replaces the folder `dir` by exactly `files` (paths relative to it): all are written into a
+/// fresh hidden folder beside it, which is then exchanged with `dir` in one step and the old
+/// set removed. A symlink or a file at `dir` is refused. Leftovers of runs that were killed
+/// (hidden folders of processes that no longer exist) are removed first.
+pub fn replace_dir(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<(), OutputError> {
+    let exists = check_destination(dir, true)?;
+    let parent = match dir.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(p) => p.to_path_buf(),
+        None => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(io(&parent))?;
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    remove_leftovers(&parent, &name);
+    let staging = parent.join(format!(".{name}.new-{}", unique_suffix()));
+    std::fs::create_dir(&staging).map_err(io(&staging))?;
+    let result = (|| {
+        for (rel, bytes) in files {
+            let path = staging.join(rel);
+            if let Some(d) = path.parent() {
+                std::fs::create_dir_all(d).map_err(io(d))?;
+            }
+            write_new(&path, bytes)?;
+        }
+        if exists {
+            exchange(&staging, dir)?;
+        } else {
+            std::fs::rename(&staging, dir).map_err(io(dir))?;
+        }
+        Ok(())
+    })();
+    // After an exchange the staging name holds the old set; after a failure, the partial new.
+    let _ = std::fs::remove_dir_all(&staging);
+    result
+}
+
+/// Swaps two folders in one step.
+#[cfg(target_os = "linux")]
+fn exchange(a: &Path, b: &Path) -> Result<(), OutputError> {
+    use rustix::fs::{renameat_with, RenameFlags, CWD};
+    match renameat_with(CWD, a, CWD, b, RenameFlags::EXCHANGE) {
+        Ok(()) => Ok(()),
+        // A file system without the exchange: the two renames.
+        Err(rustix::io::Errno::INVAL) | Err(rustix::io::Errno::NOSYS) => exchange_by_renames(a, b),
+        Err(e) => Err(io(b)(e.into())),
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn exchange(a: &Path, b: &Path) -> Result<(), OutputError> {
+    exchange_by_renames(a, b)
+}
+
+/// `b` aside, `a` into its place, the old `b` to `a`'s name: a moment without `b`, never a mix.
+fn exchange_by_renames(a: &Path, b: &Path) -> Result<(), OutputError> {
+    let aside = b.with_file_name(format!(
+        ".{}.old-{}",
+        b.file_name().map_or("out".into(), |n| n.to_string_lossy()),
+        unique_suffix()
+    ));
+    std::fs::rename(b, &aside).map_err(io(b))?;
+    if let Err(e) = std::fs::rename(a, b) {
+        let _ = std::fs::rename(&aside, b);
+        return Err(io(b)(e));
+    }
+    std::fs::rename(&aside, a).map_err(io(a))
+}
+
+/// Removes `.NAME.new-PID-…` and `.NAME.old-PID-…` folders in `parent` whose process is gone
+/// (Linux: no `/proc/PID`; elsewhere nothing is removed).
+fn remove_leftovers(parent: &Path, name: &str) {
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file
+            .strip_prefix(&format!(".{name}.new-"))
+            .or_else(|| file.strip_prefix(&format!(".{name}.old-")))
+        else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        let gone = cfg!(target_os = "linux")
+            && pid != std::process::id()
+            && !Path::new(&format!("/proc/{pid}")).exists();
+        if gone {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("bikeproc_output_{name}_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn a_file_is_replaced_whole_and_no_temporary_is_left() {
+        let d = scratch("file");
+        let p = d.join("a.txt");
+        write_atomic(&p, b"old").unwrap();
+        write_atomic(&p, b"new").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"new");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_or_a_device_is_refused_not_written_through() {
+        let d = scratch("link");
+        let target = d.join("target.txt");
+        std::fs::write(&target, b"keep").unwrap();
+        let link = d.join("link.txt");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let e = write_atomic(&link, b"x").unwrap_err().to_string();
+        assert!(e.contains("a symlink"), "{e}");
+        assert_eq!(std::fs::read(&target).unwrap(), b"keep");
+        let e = write_atomic(Path::new("/dev/null"), b"x")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("device"), "{e}");
+        let e = replace_dir(&link, &[]).unwrap_err().to_string();
+        assert!(e.contains("a symlink"), "{e}");
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_folder_is_replaced_by_exactly_the_new_set() {
+        let d = scratch("dir");
+        let out = d.join("reports");
+        replace_dir(
+            &out,
+            &[
+                ("a.md".into(), b"1".to_vec()),
+                ("x/b.svg".into(), b"2".to_vec()),
+            ],
+        )
+        .unwrap();
+        replace_dir(&out, &[("a.md".into(), b"3".to_vec())]).unwrap();
+        assert_eq!(std::fs::read(out.join("a.md")).unwrap(), b"3");
+        assert!(!out.join("x").exists());
+        // Nothing beside it but the folder.
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+}
