@@ -22,8 +22,15 @@
 //! - [`parallel`]: work spread over threads, results in order.
 //! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
 //! - `plot` (feature `plot`): SVG figures for the reports.
+//! - [`output`]: every file written whole, a report folder replaced as a whole.
+//! - [`fuzzing`]: the readers of outside files as fuzz targets.
 
 pub mod fit;
+
+/// The most sweeps an iterative decomposition (SVD, symmetric eigen) may take: they converge
+/// in tens; a matrix that needs more holds something no data gives (NaN, 1e300), and is an
+/// error rather than a loop without end.
+pub const MAX_DECOMPOSITION_ITERATIONS: usize = 1_000;
 pub mod fuzzing;
 pub mod gap;
 pub mod inertia;

@@ -166,8 +166,16 @@ impl fmt::Display for LogErrorKind {
             FieldCount { expected, found } => {
                 write!(f, "{found} fields, expected {expected} (one per column)")
             }
-            BadNumber { column, text } => write!(f, "`{text}` in column {column}: expected a number"),
-            BadCounter(t) => write!(f, "counter `{t}`: expected a whole number from 0 to 65535"),
+            BadNumber { column, text } => write!(
+                f,
+                "`{}` in column {column}: expected a number",
+                excerpt(text)
+            ),
+            BadCounter(t) => write!(
+                f,
+                "counter `{}`: expected a whole number from 0 to 65535",
+                excerpt(t)
+            ),
             TimeBackwards { previous_s, now_s } => write!(
                 f,
                 "time goes backwards: {now_s} s after {previous_s} s, more than a receiver's late \
@@ -431,11 +439,21 @@ impl<'a> Parser<'a> {
         if text.trim().is_empty() {
             return Err(self.err(Some(1), None, LogErrorKind::Empty));
         }
+        // A byte-order mark (an editor on Windows), and old Mac line ends (CR alone).
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let cr_only;
+        let text = if text.contains('\r') && !text.contains('\n') {
+            cr_only = text.replace('\r', "\n");
+            cr_only.as_str()
+        } else {
+            text
+        };
 
+        // Spaces and tabs at a line's end are no field (a spreadsheet's export adds a tab).
         let mut lines = text
             .lines()
             .enumerate()
-            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+            .map(|(i, l)| (i + 1, l.trim_end_matches(['\r', '\t', ' '])));
         // Header.
         let mut metadata = Vec::new();
         let mut sensor_labels: Vec<(String, String)> = Vec::new();
@@ -869,6 +887,14 @@ impl<'a> Parser<'a> {
             counter_samples: step,
             time_samples: by_time,
         })
+    }
+}
+
+/// A field as an error message quotes it: at most 40 characters, the rest elided.
+fn excerpt(text: &str) -> String {
+    match text.char_indices().nth(40) {
+        Some((i, _)) => format!("{}… ({} bytes)", &text[..i], text.len()),
+        None => text.to_string(),
     }
 }
 

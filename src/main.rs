@@ -93,13 +93,13 @@ struct DynamicArgs {
     /// eigenvalue applies by the slowing the frame sensor measures. Without it the log's `Sync`
     /// pulses give the speed, or else the yaw rate against the steer (rolling kinematics).
     /// Campaigns use the readings of their manifest where a log has no `Sync`.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_speed, allow_hyphen_values = true)]
     speed: Option<f64>,
     /// The speedometer's display step (m/s): a reading is uniform within ± half of it.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = fraction_or_step(2.0))]
     speed_resolution: f64,
     /// The speedometer's random error per reading, as a fraction of the reading.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = fraction_or_step(0.5))]
     speed_se_fraction: f64,
     /// The bicycle (lab TOML or BicycleParameters file); campaigns default to their manifest's.
     #[arg(long)]
@@ -108,9 +108,9 @@ struct DynamicArgs {
     /// roll, steer and their rates against speed); campaigns take their manifest's.
     #[arg(long)]
     controller: Option<PathBuf>,
-    /// Bootstrap resamples for the check of the standard errors.
-    #[arg(long, default_value_t = 400)]
-    resamples: usize,
+    /// Bootstrap resamples for the check of the standard errors (20 to 100,000).
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(20..=100_000))]
+    resamples: u32,
     #[arg(long)]
     json: bool,
 }
@@ -206,14 +206,14 @@ enum SimCommand {
     /// The lab's ride campaign (seed §5.4) on the bicycle in DIR/lab_bike.toml, as data/ holds it.
     Rides {
         /// Folder to write into (it holds lab_bike.toml).
-        #[arg(long, default_value = "data")]
+        #[arg(long)]
         out: PathBuf,
     },
     /// Rides that went wrong (no kick, too short, sensors swapped, a sensor that did not
     /// move), as fixtures/rides/ holds them.
     RideFaults {
         /// Folder to write into.
-        #[arg(long, default_value = "fixtures/rides")]
+        #[arg(long)]
         out: PathBuf,
     },
     /// A blind campaign for `bikeproc gap`: 12 or 14 rides on the measured bicycle with one
@@ -236,8 +236,8 @@ enum SimCommand {
     },
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
     Campaign {
-        /// Folder to write into.
-        #[arg(long, default_value = "data")]
+        /// Folder to write into (`data` to regenerate the checked-in campaign).
+        #[arg(long)]
         out: PathBuf,
     },
 }
@@ -377,6 +377,30 @@ struct ReportArgs {
     data: PathBuf,
 }
 
+/// `--speed`: a riding speed (m/s).
+fn parse_speed(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    bikeproc::ride::speed::check_reading_mps(v)
+}
+
+/// A number from 0 to `max`.
+fn fraction_or_step(max: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let v: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{s}` is not a number"))?;
+        if v.is_finite() && (0.0..=max).contains(&v) {
+            Ok(v)
+        } else {
+            Err(format!("{v}: expected a number from 0 to {max}"))
+        }
+    }
+}
+
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s.split_once(':').ok_or("expected START:END in seconds")?;
     let a: f64 = a
@@ -394,6 +418,11 @@ fn parse_range(s: &str) -> Result<(f64, f64), String> {
     }
 }
 
+/// A campaign none of whose rides could be analysed: its input is at fault (exit 2).
+#[derive(Debug, thiserror::Error)]
+#[error("no ride of {} could be analysed (the reasons are listed above)", .0.display())]
+struct NoRideAnalysed(PathBuf);
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
@@ -409,6 +438,7 @@ fn main() -> ExitCode {
                     || c.is::<bikeproc::model::ParamError>()
                     || c.is::<bikeproc::ride::RideError>()
                     || c.is::<bikeproc::model::control::ControlError>()
+                    || c.is::<NoRideAnalysed>()
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
@@ -671,14 +701,18 @@ fn gap(a: GapArgs) -> Result<()> {
     let model = manifest.model(a.bike.as_deref())?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let d = bikeproc::gap::diagnose_campaign(&manifest, &model, threads, &progress_bar)?;
-    emit(a.json, &d, || d.to_text())
+    emit(a.json, &d, || d.to_text())?;
+    if d.rides_used == 0 {
+        return Err(NoRideAnalysed(a.file.clone()).into());
+    }
+    Ok(())
 }
 
 fn dynamic(a: DynamicArgs) -> Result<()> {
     use bikeproc::ride::dynamic::{self as dynamic, DynamicOptions, RideManifest};
     use bikeproc::ride::modal::ModalOptions;
     let modal = ModalOptions {
-        resamples: a.resamples,
+        resamples: a.resamples as usize,
         ..ModalOptions::default()
     };
     if a.file
@@ -736,7 +770,7 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
             text
         })?;
         if rides.is_empty() {
-            anyhow::bail!("no ride of {} could be analysed", a.file.display());
+            return Err(NoRideAnalysed(a.file.clone()).into());
         }
         return Ok(());
     }

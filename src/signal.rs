@@ -571,7 +571,16 @@ pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, Sign
         let d = ri - mean;
         cov += d * d.transpose();
     }
-    let eig = SymmetricEigen::new(cov);
+    let eig = cov
+        .iter()
+        .all(|x| x.is_finite())
+        .then(|| SymmetricEigen::try_new(cov, f64::EPSILON, crate::MAX_DECOMPOSITION_ITERATIONS))
+        .flatten()
+        .ok_or_else(|| SignalError::Invalid {
+            path: log.path.clone(),
+            line: log.column_row_line,
+            message: "the rotations' spread has no axis (not a number)".into(),
+        })?;
     let k = eig.eigenvalues.imax();
     let mut axis: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
     let axis_global = rest * axis;

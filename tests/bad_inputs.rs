@@ -169,3 +169,36 @@ fn far_times_and_absurd_rates_say_what_is_wrong() {
         assert!(stderr.contains(says), "{file}: {stderr}");
     }
 }
+
+/// Issue 14: habits of editors and spreadsheets are no error. A byte-order mark, old Mac line
+/// ends (CR alone) and a tab at every line's end give the same samples as the clean file, in
+/// every mode and locale; a 5 MB field is quoted in 40 characters, not echoed.
+#[test]
+fn editor_habits_read_as_the_clean_file() {
+    let opts = ReadOptions::default();
+    for text in valid_logs() {
+        let clean = Log::parse(text.as_bytes(), Path::new("clean.log"), &opts).unwrap();
+        let variants = [
+            format!("\u{feff}{text}"),
+            text.replace('\n', "\r"),
+            text.replace('\n', "\t\n"),
+            text.replace('\n', "\r\n"),
+        ];
+        for (k, v) in variants.iter().enumerate() {
+            let log = Log::parse(v.as_bytes(), Path::new("habit.log"), &opts)
+                .unwrap_or_else(|e| panic!("variant {k}: {e}"));
+            assert_eq!(log.grid_index, clean.grid_index, "variant {k}");
+            assert_eq!(log.data, clean.data, "variant {k}");
+        }
+    }
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/bad/bad_number.log"),
+    )
+    .unwrap();
+    let huge = text.replace("abc", &"x".repeat(5_000_000));
+    let e = Log::parse(huge.as_bytes(), Path::new("huge.log"), &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("(5000000 bytes)"), "{}", &e[..e.len().min(300)]);
+    assert!(e.len() < 300, "{} bytes of message", e.len());
+}

@@ -338,7 +338,7 @@ fn the_campaign_in_data_is_explained_by_its_own_effects() {
 fn manifest_of(name: &str, logs: &[PathBuf]) -> RideManifest {
     let dir = scratch(name);
     let mut text = format!(
-        "version = 1\nbike = \"{}\"\n",
+        "version = 1\nbike = \"{}\"\nallow_outside_folder = true\n",
         root().join("data/lab_bike.toml").display()
     );
     for (k, log) in logs.iter().enumerate() {

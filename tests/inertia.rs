@@ -165,6 +165,16 @@ fn bad_manifests_name_the_key_or_file_and_exit_2() {
         ("wrong_unit", "mass_g"),
         ("axis_not_unit", "axis"),
         ("missing_log", "frame_1a.log"),
+        // Issue 14: a NaN axis hung the tensor's SVD; absurd standard errors were taken.
+        ("axis_nan", "has length NaN"),
+        (
+            "axis_se_absurd",
+            "`axis_angle_se_deg = 1e300`: a standard error from 0 to 45",
+        ),
+        ("distance_se_nan", "`distance_se_m = NaN`"),
+        ("mass_se_negative", "`mass_se_kg = -0.02`"),
+        ("duplicate_test", "test \"1\" twice"),
+        ("log_outside", "lies outside the manifest's folder"),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
             .arg("inertia")

@@ -99,6 +99,17 @@ impl LabBike {
                 bike.version
             )));
         }
+        if let Ok(value) = text.parse::<toml::Table>() {
+            check_numbers(&value, "").map_err(|(key, message)| {
+                let line = text
+                    .find(&format!("{} =", key.rsplit('.').next().unwrap_or(&key)))
+                    .map_or(0, |i| 1 + text[..i].matches('\n').count());
+                InertiaError::Invalid {
+                    path: path.with_extension(format!("toml:{line}")),
+                    message: format!("`{key}`: {message}"),
+                }
+            })?;
+        }
         Ok(bike)
     }
 
@@ -215,17 +226,50 @@ impl LabBike {
     }
 }
 
+/// Every number of a bicycle file finite, and every standard error (a key with `_se`) from 0
+/// to 1000 (SI units: no bicycle quantity is that uncertain). The offending key, dotted.
+fn check_numbers(table: &toml::Table, prefix: &str) -> Result<(), (String, String)> {
+    for (k, v) in table {
+        let key = format!("{prefix}{k}");
+        match v {
+            toml::Value::Table(t) => check_numbers(t, &format!("{key}."))?,
+            toml::Value::Float(x) => {
+                if !x.is_finite() {
+                    return Err((key, format!("{x} is not a number")));
+                }
+                if k.contains("_se") && !(0.0..=1000.0).contains(x) {
+                    return Err((key, format!("{x}: a standard error from 0 to 1000")));
+                }
+            }
+            toml::Value::Integer(x) if k.contains("_se") && !(0..=1000).contains(x) => {
+                return Err((key, format!("{x}: a standard error from 0 to 1000")));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Physical validity of a full tensor: positive definite and the triangle inequalities of its
 /// principal moments (each at most the sum of the other two). Names the entries at fault.
 pub fn validity(b: &Body) -> Option<String> {
     let t = nalgebra::Matrix3::new(
         b.ixx_kgm2, 0.0, b.ixz_kgm2, 0.0, b.iyy_kgm2, 0.0, b.ixz_kgm2, 0.0, b.izz_kgm2,
     );
-    let mut p: Vec<f64> = nalgebra::SymmetricEigen::new(t)
-        .eigenvalues
+    let eig = t
         .iter()
-        .copied()
-        .collect();
+        .all(|x| x.is_finite())
+        .then(|| {
+            nalgebra::SymmetricEigen::try_new(t, f64::EPSILON, crate::MAX_DECOMPOSITION_ITERATIONS)
+        })
+        .flatten();
+    let Some(eig) = eig else {
+        return Some(format!(
+            "I_xx, I_yy, I_zz, I_xz = {}, {}, {}, {}: not a tensor (a moment is not a number)",
+            b.ixx_kgm2, b.iyy_kgm2, b.izz_kgm2, b.ixz_kgm2
+        ));
+    };
+    let mut p: Vec<f64> = eig.eigenvalues.iter().copied().collect();
     p.sort_by(f64::total_cmp);
     if p[0] <= 0.0 {
         return Some(format!("not positive definite (principal moments {:.4}, {:.4}, {:.4} kg·m²): I_xx, I_zz and I_xz = {:.4} are inconsistent", p[0], p[1], p[2], b.ixz_kgm2));

@@ -111,6 +111,10 @@ pub struct Manifest {
     pub tests: Vec<Test>,
     /// Free text: who, when, what was odd.
     pub notes: Option<String>,
+    /// The tests' logs may lie outside the manifest's folder (refused unless set: a manifest
+    /// from elsewhere cannot make bikeproc read any file on the machine).
+    #[serde(default)]
+    pub allow_outside_folder: bool,
     /// Where the manifest was read from (set by [`Manifest::load`]).
     #[serde(skip)]
     pub dir: PathBuf,
@@ -167,6 +171,31 @@ pub fn from_toml<T: serde::de::DeserializeOwned>(
             message: message.replace('\n', " "),
         }
     })
+}
+
+/// A number as a person reads it: plain, or in exponent form when very large or small.
+pub fn number_text(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// Whether the relative path `rel` stays inside the folder it is relative to: not absolute,
+/// and no `..` that climbs above it.
+pub fn within_folder(rel: &Path) -> bool {
+    use std::path::Component;
+    let mut depth = 0usize;
+    for c in rel.components() {
+        match c {
+            Component::Normal(_) => depth += 1,
+            Component::CurDir => {}
+            Component::ParentDir if depth > 0 => depth -= 1,
+            _ => return false,
+        }
+    }
+    true
 }
 
 impl Manifest {
@@ -241,6 +270,37 @@ impl Manifest {
                     )),
                 }
             };
+        for (key, v, max) in [
+            ("mass_se_kg", self.mass_se_kg, 10.0),
+            ("distance_se_m", self.distance_se_m, 1.0),
+            ("axis_angle_se_deg", self.axis_angle_se_deg, 45.0),
+        ] {
+            if let Some(x) = v {
+                if !(x.is_finite() && (0.0..=max).contains(&x)) {
+                    return Err(err(
+                        key,
+                        None,
+                        format!(
+                            "`{key} = {}`: a standard error from 0 to {max}",
+                            number_text(x)
+                        ),
+                    ));
+                }
+            }
+        }
+        let mut names = std::collections::BTreeSet::new();
+        for t in &self.tests {
+            if !names.insert(t.name.as_str()) {
+                return Err(ManifestError {
+                    path: file.to_path_buf(),
+                    line: text
+                        .match_indices(&format!("name = \"{}\"", t.name))
+                        .nth(1)
+                        .map(|(i, _)| 1 + text[..i].matches('\n').count()),
+                    message: format!("test \"{}\" twice: each test has its own name", t.name),
+                });
+            }
+        }
         let non_negative = |key: &str, v: Option<f64>, test: &str| -> Result<(), ManifestError> {
             match v {
                 Some(x) if !(x.is_finite() && x >= 0.0) => Err(err(
@@ -313,7 +373,7 @@ impl Manifest {
                         )
                     })?;
                     let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-                    if (len - 1.0).abs() > 1e-3 {
+                    if !axis.iter().all(|x| x.is_finite()) || (len - 1.0).abs() > 1e-3 {
                         return Err(err("axis", n, format!("test \"{}\": `axis` {axis:?} has length {len:.4}; expected a unit vector (within 0.001)", t.name)));
                     }
                     if axis[1].abs() > 1e-3 {
@@ -348,6 +408,20 @@ impl Manifest {
                     non_negative("weights_distance_m", t.weights_distance_m, &t.name)?;
                 }
                 Kind::BarCalibration => {}
+            }
+            if !self.allow_outside_folder {
+                if let Some(log) = t.logs.iter().find(|l| !within_folder(l)) {
+                    return Err(err(
+                        &log.display().to_string(),
+                        n,
+                        format!(
+                            "test \"{}\": log {} lies outside the manifest's folder (set \
+                             `allow_outside_folder = true` if that is meant)",
+                            t.name,
+                            log.display()
+                        ),
+                    ));
+                }
             }
         }
         Ok(())

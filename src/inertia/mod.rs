@@ -127,7 +127,18 @@ pub fn solve_tensor(
     if rows.len() < ncol {
         return None;
     }
-    let x = a.svd(true, true).solve(&b, 1e-12).ok()?;
+    if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
+        return None;
+    }
+    let x = a
+        .try_svd(
+            true,
+            true,
+            f64::EPSILON,
+            crate::MAX_DECOMPOSITION_ITERATIONS,
+        )?
+        .solve(&b, 1e-12)
+        .ok()?;
     Some(if handlebar_constraint {
         [x[0], -x[1], x[1]]
     } else {
@@ -151,7 +162,22 @@ pub fn design_condition(axes: &[[f64; 3]], handlebar_constraint: bool) -> f64 {
             }
         }
     }
-    let sv = a.singular_values();
+    let Some(sv) = a
+        .iter()
+        .all(|x| x.is_finite())
+        .then(|| {
+            a.try_svd(
+                false,
+                false,
+                f64::EPSILON,
+                crate::MAX_DECOMPOSITION_ITERATIONS,
+            )
+        })
+        .flatten()
+        .map(|s| s.singular_values)
+    else {
+        return f64::INFINITY;
+    };
     let (mx, mn) = sv
         .iter()
         .fold((0.0f64, f64::INFINITY), |(a, b), &s| (a.max(s), b.min(s)));

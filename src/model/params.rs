@@ -119,6 +119,7 @@ impl Benchmark {
     pub fn parse_text(text: &str, path: &Path) -> Result<Benchmark, ParamError> {
         let mut values = [f64::NAN; 26];
         let mut se = [0.0; 26];
+        let mut first_line = [0usize; 26];
         for (i, raw) in text.lines().enumerate() {
             let line = raw.trim();
             if line.is_empty() || line.starts_with('#') {
@@ -140,6 +141,13 @@ impl Benchmark {
             let Some(k) = Benchmark::NAMES.iter().position(|n| *n == name) else {
                 continue;
             };
+            if first_line[k] > 0 {
+                return Err(err(format!(
+                    "`{name}` is given twice (first on line {}): which is meant?",
+                    first_line[k]
+                )));
+            }
+            first_line[k] = i + 1;
             let num = |t: &str| t.parse::<f64>().ok().filter(|x| x.is_finite());
             values[k] = num(v)
                 .ok_or_else(|| err(format!("`{name} = {}`: expected a number", rest.trim())))?;
@@ -249,6 +257,14 @@ impl Benchmark {
                 message,
             })
         };
+        for ((name, v), se) in Benchmark::NAMES.iter().zip(self.to_array()).zip(self.se) {
+            if !(se.is_finite() && se >= 0.0 && se <= 10.0 * v.abs() + 1.0) {
+                return bad(format!(
+                    "{name} = {v} ± {se}: a standard error from 0 to ten times the value plus one \
+                     (SI units)"
+                ));
+            }
+        }
         if !is_positive(self.w) {
             return bad(format!("wheelbase w = {} m: expected positive", self.w));
         }

@@ -631,6 +631,10 @@ pub struct RideManifest {
     /// The bicycle's steer controller, if it carries one.
     #[serde(default)]
     pub controller: Option<crate::model::control::ControllerSpec>,
+    /// The rides' files may lie outside the manifest's folder (refused unless set: a
+    /// manifest from elsewhere cannot make bikeproc read any file on the machine).
+    #[serde(default)]
+    pub allow_outside_folder: bool,
     /// The controller, checked ([`SteerControl::NONE`] without one).
     #[serde(skip)]
     pub control: SteerControl,
@@ -725,12 +729,15 @@ impl RideManifest {
         }
         for r in &m.rides {
             let name = r.log.display().to_string();
-            if !(r.noted_speed_mps.is_finite() && r.noted_speed_mps > 0.0) {
+            if let Err(e) = super::speed::check_reading_mps(r.noted_speed_mps) {
+                return Err(err(&name, format!("{name}: noted_speed_mps: {e}")));
+            }
+            if !m.allow_outside_folder && !crate::inertia::manifest::within_folder(&r.log) {
                 return Err(err(
                     &name,
                     format!(
-                        "{name}: noted_speed_mps = {} is not a speed",
-                        r.noted_speed_mps
+                        "the log {name} lies outside the manifest's folder (set \
+                         `allow_outside_folder = true` if that is meant)"
                     ),
                 ));
             }

@@ -42,6 +42,21 @@ pub const FLOOR_SLOPE_CHANGE_RAD: f64 = 5e-4;
 
 const GRAVITY_MPS2: f64 = 9.81;
 
+/// The fastest speed reading bikeproc accepts (m/s): 30 m/s is 108 km/h, beyond any riderless
+/// bicycle's test.
+pub const MAX_READING_MPS: f64 = 30.0;
+
+/// Checks a speedometer reading: a number above zero and at most [`MAX_READING_MPS`].
+pub fn check_reading_mps(v: f64) -> Result<f64, String> {
+    if v.is_finite() && v > 0.0 && v <= MAX_READING_MPS {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} m/s is not a riding speed (expected above 0 and at most {MAX_READING_MPS} m/s)"
+        ))
+    }
+}
+
 /// The speedometer's reading as noted by the lab, with what limits it.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct NotedReading {

@@ -1,0 +1,204 @@
+//! Issue 14 items 5–6: what a lab feeds bikeproc by mistake gets a clear error and the README's
+//! exit code (2 for input, 1 for anything else), never an abort, a hang, a panic or a quiet
+//! wrong answer. One test per row of the issue's table that is not a reader fixture
+//! (`tests/bad_inputs.rs`, `tests/inertia.rs`).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn bikeproc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap()
+}
+
+/// Exit code `code`, no panic, and `says` in the one-line message.
+fn refused(out: &Output, code: i32, says: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(code), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains(says), "expected `{says}` in: {err}");
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("bikeproc_robust_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+const BENCHMARK: &str = "../shared/reference/bicycleparameters/BenchmarkBenchmark.txt";
+
+#[test]
+fn unbounded_work_is_refused_before_it_starts() {
+    refused(
+        &bikeproc(&["stability", "--bike", BENCHMARK, "--speeds", "0:10:1e-9"]),
+        2,
+        "at most a million speeds",
+    );
+}
+
+#[test]
+fn speeds_and_resamples_are_checked_before_any_work() {
+    for (speed, says) in [
+        ("-1", "not a riding speed"),
+        ("nan", "not a riding speed"),
+        ("1000", "not a riding speed"),
+    ] {
+        refused(
+            &bikeproc(&["dynamic", "data/ride_03.log", "--speed", speed]),
+            2,
+            says,
+        );
+    }
+    refused(
+        &bikeproc(&["dynamic", "data/ride_03.log", "--resamples", "0"]),
+        2,
+        "20..=100000",
+    );
+}
+
+#[test]
+fn a_key_twice_in_a_bicycle_file_is_refused() {
+    let d = scratch("dup");
+    let text = std::fs::read_to_string(root().join(BENCHMARK)).unwrap();
+    let path = d.join("TwiceBenchmark.txt");
+    std::fs::write(&path, format!("{text}mB = 3.0+/-0.1\n")).unwrap();
+    refused(
+        &bikeproc(&["stability", "--bike", path.to_str().unwrap()]),
+        2,
+        "`mB` is given twice",
+    );
+    std::fs::write(
+        &path,
+        text.replacen("mB = ", "mB = 85.0+/-1e300\n# was: mB = ", 1),
+    )
+    .unwrap();
+    refused(
+        &bikeproc(&["stability", "--bike", path.to_str().unwrap()]),
+        2,
+        "a standard error from 0",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn a_lab_bicycle_with_a_negative_standard_error_is_refused() {
+    let d = scratch("labse");
+    let text = std::fs::read_to_string(root().join("data/lab_bike.toml")).unwrap();
+    let i = text.find("ixx_se_kgm2 = ").expect("an I_xx standard error");
+    let end = i + text[i..].find('\n').unwrap();
+    let bad = format!("{}ixx_se_kgm2 = -1.0{}", &text[..i], &text[end..]);
+    let path = d.join("lab_bike.toml");
+    std::fs::write(&path, bad).unwrap();
+    refused(
+        &bikeproc(&["stability", "--bike", path.to_str().unwrap()]),
+        2,
+        "a standard error from 0 to 1000",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A campaign whose every ride fails, and one whose speed is not a bicycle's or whose logs lie
+/// outside its folder: exit 2 from `dynamic` and `gap`.
+#[test]
+fn campaigns_that_cannot_be_analysed_exit_2() {
+    let d = scratch("campaign");
+    std::fs::copy(root().join("data/lab_bike.toml"), d.join("lab_bike.toml")).unwrap();
+    // Two "rides" that are pendulum logs: no ride in them.
+    let logs: Vec<PathBuf> = std::fs::read_dir(root().join("data/frame_torsion"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().ends_with("a.log"))
+        .take(2)
+        .collect();
+    let mut manifest = String::from("version = 1\nbike = \"lab_bike.toml\"\n");
+    for (k, l) in logs.iter().enumerate() {
+        std::fs::copy(l, d.join(format!("ride_{k}.log"))).unwrap();
+        let cal = l.to_string_lossy().replace(".log", "_cal.log");
+        if Path::new(&cal).exists() {
+            std::fs::copy(&cal, d.join(format!("ride_{k}_cal.log"))).unwrap();
+        }
+        manifest += &format!("[[ride]]\nlog = \"ride_{k}.log\"\nnoted_speed_mps = 4.0\n");
+    }
+    let path = d.join("rides.toml");
+    std::fs::write(&path, &manifest).unwrap();
+    let p = path.to_str().unwrap();
+    refused(&bikeproc(&["dynamic", p]), 2, "no ride of");
+    refused(&bikeproc(&["gap", p]), 2, "no ride of");
+    std::fs::write(&path, manifest.replace("4.0", "1000.0")).unwrap();
+    refused(&bikeproc(&["dynamic", p]), 2, "not a riding speed");
+    std::fs::write(
+        &path,
+        manifest.replace("\"ride_0.log\"", "\"../../../../../../../etc/hostname\""),
+    )
+    .unwrap();
+    refused(
+        &bikeproc(&["dynamic", p]),
+        2,
+        "lies outside the manifest's folder",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn simulate_never_writes_into_data_without_out() {
+    for what in ["campaign", "rides", "ride-faults"] {
+        refused(&bikeproc(&["simulate", what]), 2, "--out");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn an_out_that_is_a_symlink_or_a_device_is_refused() {
+    let d = scratch("symlink");
+    let target = d.join("target.log");
+    std::fs::write(&target, "keep").unwrap();
+    let link = d.join("link.log");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    refused(
+        &bikeproc(&["simulate", "torsion", "--out", link.to_str().unwrap()]),
+        1,
+        "a symlink",
+    );
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
+    refused(
+        &bikeproc(&["simulate", "torsion", "--out", "/dev/null"]),
+        1,
+        "a device",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// Standard output closed early (`… | head -1`) or full (`> /dev/full`): a message, exit 1.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_closed_or_full_stdout_is_an_error_not_a_panic() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+        .args(["stability", "--json", "--bike", BENCHMARK])
+        .current_dir(root())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    refused(&out, 1, "broken pipe");
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+        .args(["stability", "--json", "--bike", BENCHMARK])
+        .current_dir(root())
+        .stdout(full)
+        .output()
+        .unwrap();
+    refused(&out, 1, "No space left on device");
+}
