@@ -308,6 +308,9 @@ pub struct Log {
     pub grid_index: Vec<u64>,
     pub sensors: Vec<Sensor>,
     pub gaps: GapReport,
+    /// The packet counter of the first sample kept: the two files of a pair, written from the
+    /// same packets, start at the same one.
+    pub first_counter: u64,
     /// Things the reader tolerated and the user should know.
     pub warnings: Vec<String>,
 }
@@ -647,6 +650,7 @@ impl<'a> Parser<'a> {
         let mut rows = 0usize;
         // Last accepted row (counter, time, grid position) and the last row seen at all.
         let mut prev: Option<(u64, f64, u64)> = None;
+        let mut first_counter = 0;
         // The last row whose time agreed with the counter: (time, grid position).
         let mut anchor = (0.0_f64, 0_u64);
         let mut values: Vec<f64> = vec![0.0; n_fields];
@@ -726,6 +730,7 @@ impl<'a> Parser<'a> {
             let grid = match prev {
                 None => {
                     anchor = (time, 0);
+                    first_counter = counter;
                     0
                 }
                 Some((pc, pt, pg)) => {
@@ -852,6 +857,7 @@ impl<'a> Parser<'a> {
             grid_index,
             sensors,
             gaps,
+            first_counter,
             warnings,
         })
     }

@@ -202,3 +202,51 @@ fn a_closed_or_full_stdout_is_an_error_not_a_panic() {
         .unwrap();
     refused(&out, 1, "No space left on device");
 }
+
+/// A ride log of 1 s, a `_cal` file of another ride or of half the ride, and one sensor's data
+/// written for both: each refused with its real cause, not a misleading one ("the frame sensor
+/// did not move", "too short … caught").
+#[test]
+fn a_rides_pair_that_is_not_one_recording_is_named_so() {
+    let d = scratch("pairs");
+    let angles = std::fs::read_to_string(root().join("data/ride_03.log")).unwrap();
+    let cal = std::fs::read_to_string(root().join("data/ride_03_cal.log")).unwrap();
+    let other_cal = std::fs::read_to_string(root().join("data/ride_05_cal.log")).unwrap();
+    let head = |t: &str, n: usize| t.lines().take(n).collect::<Vec<_>>().join("\n") + "\n";
+    let n_cal = cal.lines().count();
+    let mut same = String::new();
+    for l in angles.lines() {
+        let mut f: Vec<&str> = l.split('\t').collect();
+        if f.len() == 8 && f[0].starts_with(|c: char| c.is_ascii_digit()) {
+            let frame: Vec<&str> = f[2..5].to_vec();
+            f.splice(5..8, frame);
+        }
+        same += &(f.join("\t") + "\n");
+    }
+    for (name, a, c, says) in [
+        (
+            "short",
+            head(&angles, 110),
+            head(&cal, 110),
+            "the log holds 1.04 s",
+        ),
+        ("mixed", angles.clone(), other_cal, "not the same recording"),
+        (
+            "half",
+            angles.clone(),
+            head(&cal, n_cal / 2),
+            "not the same recording",
+        ),
+        ("same", same, cal.clone(), "give the same orientations"),
+    ] {
+        std::fs::write(d.join(format!("{name}.log")), a).unwrap();
+        std::fs::write(d.join(format!("{name}_cal.log")), c).unwrap();
+        let log = d.join(format!("{name}.log"));
+        refused(
+            &bikeproc(&["dynamic", log.to_str().unwrap(), "--speed", "4"]),
+            2,
+            says,
+        );
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -86,6 +86,39 @@ fn err(path: &Path, message: impl Into<String>) -> RideError {
     }
 }
 
+/// The shortest ride log (s): standstill, push, release, kick and a free motion of at least a
+/// second take more.
+const MIN_RIDE_S: f64 = 3.0;
+
+/// The two files of a ride are one recording: written from the same packets, they start at the
+/// same counter and span the same time (within a second); and a ride lasts at least
+/// [`MIN_RIDE_S`].
+fn check_pair(angles: &Path, log: &Log, cal: &Log) -> Result<(), RideError> {
+    let span_s = |l: &Log| l.grid_len() as f64 / l.sample_rate_hz;
+    let (a, c) = (span_s(log), span_s(cal));
+    if a < MIN_RIDE_S {
+        return Err(err(
+            angles,
+            format!(
+                "the log holds {a:.2} s: a ride (standstill, push, release, kick, free motion) \
+                 takes at least {MIN_RIDE_S} s"
+            ),
+        ));
+    }
+    if cal.first_counter != log.first_counter || (a - c).abs() > 1.0 {
+        return Err(err(
+            angles,
+            format!(
+                "its _cal file is not the same recording: the angles start at packet {} and span \
+                 {a:.2} s, the _cal file starts at packet {} and spans {c:.2} s (the two files of a \
+                 ride are written from the same packets)",
+                log.first_counter, cal.first_counter
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Reads a ride's log pair and extracts θ and γ; `steer_axis_tilt_rad` is λ of the bicycle.
 /// The first `standstill_s` seconds must be the bicycle standing still and upright.
 pub fn read_ride(
@@ -100,6 +133,7 @@ pub fn read_ride(
         return Err(err(angles, format!("the accelerations ({}) are needed to find how the sensors sit, and that file does not exist", cal_path.display())));
     }
     let cal = Log::open(&cal_path, &opts)?;
+    check_pair(angles, &log, &cal)?;
     let find = |key: &str| {
         log.sensor(key).ok_or_else(|| {
             err(
@@ -116,6 +150,22 @@ pub fn read_ride(
         })
     };
     let (frame, bar) = (find("frame")?, find("handlebar")?);
+    let same = frame.orientation.len() == bar.orientation.len()
+        && frame
+            .orientation
+            .iter()
+            .zip(&bar.orientation)
+            .all(|(a, b)| a.angle_to(b) < 1e-9);
+    if same {
+        return Err(err(
+            angles,
+            format!(
+                "the frame ({}) and handlebar ({}) sensors give the same orientations sample for \
+                 sample: one sensor's data written twice, not two sensors",
+                frame.id, bar.id
+            ),
+        ));
+    }
     let vectors = |id: &str, what: &str| -> Result<Vec<Vector3<f64>>, RideError> {
         let col = |axis: &str| {
             cal.column_index(&format!("{id}_{what}_{axis}"))
