@@ -1,12 +1,12 @@
 //! Every malformed input in `fixtures/bad/` gets one line naming the file and the line, exit
 //! code 2, and never a panic; random bytes and random edits of valid logs never panic the reader.
 
-use bikeproc::log::{Log, OutputMode, ReadOptions};
-use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
-use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
+use bikeproc::log::{Log, ReadOptions};
 use proptest::prelude::*;
 use std::path::Path;
 use std::process::Command;
+
+mod common;
 
 #[test]
 fn every_bad_fixture_is_one_line_with_file_and_line_and_exit_2() {
@@ -44,59 +44,12 @@ fn every_bad_fixture_is_one_line_with_file_and_line_and_exit_2() {
     }
 }
 
-/// Small valid logs in every mode and both locales, orientation and calibrated.
+/// Valid logs in every mode and both locales, orientation and calibrated.
 fn valid_logs() -> Vec<String> {
-    let pend = Pendulum::Torsion(Torsion {
-        inertia_kgm2: 1.0,
-        stiffness_nm_per_rad: 20.0,
-        damping_ratio: 0.01,
-        coulomb_nm: 0.0,
-        swing: None,
-    });
-    let release = Release {
-        rest_s: 0.5,
-        ramp_s: 0.3,
-        hold_s: 0.2,
-        amplitude_deg: 10.0,
-        duration_s: 4.0,
-    };
-    let mut out = Vec::new();
-    for (k, mode) in [
-        OutputMode::Euler,
-        OutputMode::Quaternion,
-        OutputMode::Matrix,
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        let mut rng = bikeproc::sim::rng::Rng::new(k as u64);
-        let placement = Placement {
-            body_rest: rng.rotation(),
-            axis_heading_rad: 0.0,
-            sensor_offset_m: nalgebra::Vector3::new(0.2, 0.0, 0.0),
-        };
-        let locale = if k == 1 { Locale::Spanish } else { Locale::Tab };
-        let mut spec = FileSpec::single_sensor(
-            mode,
-            locale,
-            Precision::Sensor,
-            ("00300417", "frame"),
-            65_500,
-        );
-        spec.declare_decimal = k == 1;
-        let rec = bikeproc::sim::simulate_pendulum(
-            &pend,
-            &release,
-            &placement,
-            &SensorModel::typical(&mut rng),
-            &LinkModel::default(),
-            &spec,
-            k as u64,
-        );
-        out.push(rec.angles_log);
-        out.push(rec.cal_log);
-    }
-    out
+    common::torsion_logs(true)
+        .into_iter()
+        .flat_map(|r| [r.angles_log, r.cal_log])
+        .collect()
 }
 
 fn exercise(bytes: &[u8]) {

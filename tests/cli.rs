@@ -2,23 +2,18 @@
 //! its JSON, and `bikeproc simulate` giving byte-identical files for the same seed.
 
 use bikeproc::report::{published_periods, within_reference_bar};
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use common::root;
+use std::path::Path;
+
+mod common;
 
 fn bikeproc(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-        .args(args)
-        .output()
-        .expect("runs");
+    let out = common::run(args);
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
 #[test]

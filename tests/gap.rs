@@ -7,11 +7,10 @@ use bikeproc::inertia::bike::LabBike;
 use bikeproc::model::uncertain;
 use bikeproc::ride::dynamic::RideManifest;
 use bikeproc::sim::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Withheld};
+use common::root;
 use std::path::PathBuf;
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+mod common;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bikeproc_gap_{}_{name}", std::process::id()));
@@ -436,17 +435,7 @@ fn the_diagnosis_tyres_are_the_simulators() {
 /// `bikeproc gap --json` carries the keys the lab's scripts read.
 #[test]
 fn gap_json_has_the_documented_keys() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-        .args(["gap", "--json"])
-        .arg(root().join("data/rides.toml"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = common::run_json(["gap", "--json", "data/rides.toml"]);
     assert!(v["significant"].is_boolean());
     assert!(v["verdict"].is_string());
     let first = &v["ranking"][0];

@@ -2,8 +2,10 @@
 //! campaign in data/, and its standard errors against known truths.
 
 use bikeproc::inertia::{self, bike::LabBike, calibrate_bar, compound, torsion};
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+mod common;
 
 fn data(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(p)
@@ -15,20 +17,7 @@ fn rel(a: f64, b: f64) -> f64 {
 
 #[test]
 fn bar_calibration_reproduces_eqs_64_to_67_and_its_file() {
-    let out = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-        .args([
-            "calibrate-bar",
-            data("bar_calibration").to_str().unwrap(),
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = common::run_json(["calibrate-bar", "data/bar_calibration", "--json"]);
     let k = v["stiffness_nm_per_rad"].as_f64().unwrap();
     let k_se = v["stiffness_se_nm_per_rad"].as_f64().unwrap();
     assert!(rel(k, 34.33) < 0.003, "k = {k}");
@@ -176,11 +165,7 @@ fn bad_manifests_name_the_key_or_file_and_exit_2() {
         ("duplicate_test", "test \"1\" twice"),
         ("log_outside", "lies outside the manifest's folder"),
     ] {
-        let out = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-            .arg("inertia")
-            .arg(dir.join(case))
-            .output()
-            .unwrap();
+        let out = common::run([OsStr::new("inertia"), dir.join(case).as_os_str()]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{case}: {err}");
         assert!(

@@ -9,7 +9,10 @@ use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
 use bikeproc::sim::rng::Rng;
 use bikeproc::sim::simulate_pendulum;
 use bikeproc::uncertainty::Measured;
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
+
+mod common;
 
 fn robot_bicycle() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/reference/signals/robot_bicycle")
@@ -517,17 +520,11 @@ fn a_bad_controller_table_is_named() {
 fn gap_on_a_controlled_campaign_names_where_and_which() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let gap = |manifest: &Path| -> serde_json::Value {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-            .args(["gap", "--json"])
-            .arg(manifest)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice(&out.stdout).unwrap()
+        common::run_json([
+            OsStr::new("gap"),
+            OsStr::new("--json"),
+            manifest.as_os_str(),
+        ])
     };
     let names = |d: &serde_json::Value| -> Vec<String> {
         d["ranking"]
@@ -589,34 +586,31 @@ fn gap_on_a_controlled_campaign_names_where_and_which() {
 fn stability_with_a_controller_from_the_command_line() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let bike = root.join("../shared/reference/bicycleparameters/Balanceassistv1Benchmark.txt");
-    let run = |controller: Option<&Path>| {
-        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"));
-        c.args(["stability", "--json", "--bike"]).arg(&bike);
+    let args = |controller: Option<&Path>| {
+        let mut a = vec![
+            OsStr::new("stability"),
+            OsStr::new("--json"),
+            OsStr::new("--bike"),
+        ];
+        a.push(bike.as_os_str());
         if let Some(f) = controller {
-            c.arg("--controller").arg(f);
+            a.extend([OsStr::new("--controller"), f.as_os_str()]);
         }
-        c.output().unwrap()
+        a.into_iter().map(OsStr::to_owned).collect::<Vec<_>>()
     };
-    let weave = |out: &std::process::Output| -> (String, f64) {
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let weave = |d: serde_json::Value| -> (String, f64) {
         (
             d["bike"].as_str().unwrap().to_string(),
             d["weave_speed_mps"].as_f64().unwrap(),
         )
     };
-    let (name, closed) = weave(&run(Some(
-        &root.join("fixtures/real/balanceassist_gain6.toml"),
-    )));
-    let (_, open) = weave(&run(None));
+    let gain6 = root.join("fixtures/real/balanceassist_gain6.toml");
+    let (name, closed) = weave(common::run_json(args(Some(&gain6))));
+    let (_, open) = weave(common::run_json(args(None)));
     println!("{name}: weave speed {closed:.3} m/s (open loop {open:.3})");
     assert!(name.contains("balance assist, G = 6"), "{name}");
     assert!(closed < 1.0 && open > 3.0, "{closed} {open}");
-    let out = run(Some(&root.join("README.md")));
+    let out = common::run(args(Some(&root.join("README.md"))));
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("README.md:"));
 }

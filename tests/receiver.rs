@@ -3,68 +3,11 @@
 
 use bikeproc::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{channel, dominant_rotation, Signal};
-use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
-use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
 use bikeproc::sim::rng::Rng;
 use proptest::prelude::*;
 use std::path::Path;
 
-/// Jitter-free logs (the receiver stamping exactly on the sensor's clock, dropped packets as the
-/// link drops them) in every output mode and both locales: (name, angles log, calibrated log).
-fn clean_logs() -> Vec<(String, String, String)> {
-    let pend = Pendulum::Torsion(Torsion {
-        inertia_kgm2: 1.0,
-        stiffness_nm_per_rad: 20.0,
-        damping_ratio: 0.01,
-        coulomb_nm: 0.0,
-        swing: None,
-    });
-    let release = Release {
-        rest_s: 0.5,
-        ramp_s: 0.3,
-        hold_s: 0.2,
-        amplitude_deg: 10.0,
-        duration_s: 5.0,
-    };
-    let mut out = Vec::new();
-    for (k, mode) in [
-        OutputMode::Euler,
-        OutputMode::Quaternion,
-        OutputMode::Matrix,
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        for locale in [Locale::Tab, Locale::Spanish] {
-            let mut rng = Rng::new(10 + k as u64);
-            let placement = Placement {
-                body_rest: rng.rotation(),
-                axis_heading_rad: 0.0,
-                sensor_offset_m: nalgebra::Vector3::new(0.2, 0.0, 0.0),
-            };
-            let mut spec = FileSpec::single_sensor(
-                mode,
-                locale,
-                Precision::Sensor,
-                ("00300417", "frame"),
-                65_300,
-            );
-            spec.jitter_s = 0.0;
-            spec.late_bursts_per_minute = 0.0;
-            let rec = bikeproc::sim::simulate_pendulum(
-                &pend,
-                &release,
-                &placement,
-                &SensorModel::typical(&mut rng),
-                &LinkModel::default(),
-                &spec,
-                k as u64,
-            );
-            out.push((format!("{mode:?}, {locale:?}"), rec.angles_log, rec.cal_log));
-        }
-    }
-    out
-}
+mod common;
 
 /// `log` with its receiver's time column restamped: Gaussian jitter of `jitter_s`, and bursts
 /// (on average `bursts_per_s`) in which 2–10 packets are held and delivered at once, all
@@ -156,7 +99,7 @@ proptest! {
         seed in 0u64..1_000_000,
     ) {
         let opts = ReadOptions::default();
-        for (name, angles, cal) in clean_logs() {
+        for common::TorsionLogs { name, angles_log: angles, cal_log: cal } in common::torsion_logs(false) {
             for (kind, text) in [("angles", &angles), ("cal", &cal)] {
                 let clean = Log::parse(text.as_bytes(), Path::new("clean.log"), &opts)
                     .unwrap_or_else(|e| panic!("{name} {kind}: {e}"));
@@ -181,7 +124,7 @@ proptest! {
 /// explains.
 #[test]
 fn contradictions_are_still_errors() {
-    let (_, angles, _) = clean_logs().remove(0);
+    let angles = common::torsion_logs(false).remove(0).angles_log;
     let lines: Vec<&str> = angles.lines().collect();
     let head = lines.iter().position(|l| l.starts_with("Counter")).unwrap();
     let edit = |row: usize, new_time: f64| -> String {

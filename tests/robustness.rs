@@ -3,19 +3,14 @@
 //! wrong answer. One test per row of the table that is not a reader fixture
 //! (`tests/bad_inputs.rs`, `tests/inertia.rs`).
 
+use common::root;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+mod common;
 
 fn bikeproc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .unwrap()
+    common::run(args)
 }
 
 /// Exit code `code`, no panic, and `says` in the one-line message.
