@@ -220,3 +220,38 @@ fn unusable_rides_are_named() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// Issue 14: a speed measured from the ride that is no riding speed is no measurement. The
+/// kinematic speed (the yaw rate over the steer, scaled by the wheelbase) of `ride_03` with the
+/// lab's bicycle is near its speedometer's 4 m/s; told the wheelbase is ten times longer, it
+/// would say about 40 m/s, beyond [`MAX_READING_MPS`]: the source is left out, not reported
+/// (the speed is then the speedometer's alone, or none).
+#[test]
+fn a_kinematic_speed_beyond_any_ride_is_left_out() {
+    use bikeproc::ride::speed::MAX_READING_MPS;
+    let path = root().join("data/ride_03.log");
+    let (model, _) = bikes();
+    let ride = dynamic_test(&path, &model, &DynamicOptions::default()).unwrap();
+    let k = ride.speed.sources.kinematic.expect("a kinematic speed");
+    assert!((2.0..8.0).contains(&k.speed_mps), "{} m/s", k.speed_mps);
+    let mut long = model.nominal();
+    long.w *= 10.0;
+    assert!(10.0 * k.speed_mps > MAX_READING_MPS);
+    let long = uncertain::Parametrized::from_benchmark("wheelbase × 10", &long);
+    // The ride has no `Sync` pulses: without a reading there is then no speed at all.
+    let e = dynamic_test(&path, &long, &DynamicOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no speed"), "{e}");
+    let noted = DynamicOptions {
+        noted: Some(bikeproc::ride::speed::NotedReading::lab(4.1)),
+        ..DynamicOptions::default()
+    };
+    let ride = dynamic_test(&path, &long, &noted).unwrap();
+    assert!(
+        ride.speed.sources.kinematic.is_none(),
+        "{:?}",
+        ride.speed.sources.kinematic
+    );
+    assert_eq!(ride.speed.sources.named().len(), 1);
+}

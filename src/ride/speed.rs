@@ -197,12 +197,17 @@ impl SpeedSources {
             }),
             (None, _) => None,
         };
-        let sync = sync_speed(&s.log, fit.start_s, fit.end_s, at_s).map(|v| SpeedEstimate {
-            speed_mps: v.speed_mps,
-            se_mps: v.speed_se_mps,
-        });
+        // A measured speed that is no riding speed (a wheel pulse train or a fit gone wrong)
+        // is no measurement: the source is left out, as when it is missing.
+        let sync = sync_speed(&s.log, fit.start_s, fit.end_s, at_s)
+            .map(|v| SpeedEstimate {
+                speed_mps: v.speed_mps,
+                se_mps: v.speed_se_mps,
+            })
+            .filter(|e| check_reading_mps(e.speed_mps).is_ok());
         let window_accel_mps2 = slow.map_or(0.0, |x| x.window_accel_mps2);
-        let kinematic = kinematic_speed(s, fit, geometry, window_accel_mps2);
+        let kinematic = kinematic_speed(s, fit, geometry, window_accel_mps2)
+            .filter(|e| check_reading_mps(e.speed_mps).is_ok());
         let mut out = SpeedSources {
             at_s,
             noted,
