@@ -228,3 +228,32 @@ fn gap_campaign_16_rides(bencher: divan::Bencher) {
     let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
     bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, 2, &|_, _, _| {}));
 }
+
+/// Issue 15: `bikeproc measured` on one bicycle (Rigid: the table-top geometry, handlebar and
+/// fork measured apart), from its file's bytes to the benchmark parameters with standard errors.
+#[divan::bench]
+fn measured_rigid_parameters(bencher: divan::Bencher) {
+    use bikeproc::inertia::measured::{MeasuredBicycle, MeasuredFile};
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/reference/bicycleparameters/RigidMeasured.txt");
+    let bytes = std::fs::read(&path).expect("RigidMeasured.txt");
+    bencher.bench(|| {
+        let file = MeasuredFile::parse(&bytes, &path).expect("parses");
+        MeasuredBicycle::from_file(&file).expect("converts")
+    });
+}
+
+/// Issue 15: the same and its stable range, weave and capsize speeds with standard errors
+/// (0–10 m/s in steps of 0.01 m/s): what `bikeproc measured` prints.
+#[divan::bench(sample_count = 20)]
+fn measured_rigid_with_stability(bencher: divan::Bencher) {
+    use bikeproc::inertia::measured::MeasuredBicycle;
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/reference/bicycleparameters/RigidMeasured.txt");
+    bencher.bench(|| {
+        MeasuredBicycle::load(&path)
+            .expect("converts")
+            .report(10.0, 0.01)
+            .expect("a stability")
+    });
+}

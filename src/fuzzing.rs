@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub type Target = fn(&[u8]);
 
 /// The fuzz targets by name: the folder names under `fuzz/seeds/` and `fuzz/fuzz_targets/`.
-pub const TARGETS: [(&str, Target); 7] = [
+pub const TARGETS: [(&str, Target); 8] = [
     ("log_file", log_file),
     ("csv_signal", csv_signal),
     ("bicycle_text", bicycle_text),
@@ -21,6 +21,7 @@ pub const TARGETS: [(&str, Target); 7] = [
     ("pendulum_manifest", pendulum_manifest),
     ("ride_manifest", ride_manifest),
     ("csv_ride", csv_ride),
+    ("measured_file", measured_file),
 ];
 
 /// Writes `bytes` to `name` in this process's fuzzing folder and gives its path.
@@ -99,5 +100,17 @@ pub fn csv_ride(bytes: &[u8]) {
     };
     if let Ok(ride) = read_csv_ride(&path, &Columns::default()) {
         let _ = ride_decays(&ride, None, None, None, &Default::default());
+    }
+}
+
+/// A BicycleParameters `*Measured.txt`: read, converted to benchmark parameters, and the
+/// bicycle's stability found.
+pub fn measured_file(bytes: &[u8]) {
+    use crate::inertia::measured::{MeasuredBicycle, MeasuredFile};
+    let Ok(file) = MeasuredFile::parse(bytes, Path::new("FuzzMeasured.txt")) else {
+        return;
+    };
+    if let Ok(b) = MeasuredBicycle::from_file(&file) {
+        let _ = b.report(10.0, 0.1);
     }
 }

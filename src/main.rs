@@ -33,6 +33,9 @@ enum Command {
     /// Moments and inertia tensors from a folder of torsion or compound-pendulum tests, or
     /// refresh the inertias of a bicycle file (--bike).
     Inertia(InertiaArgs),
+    /// Benchmark parameters with standard errors from a BicycleParameters `*Measured.txt` (raw
+    /// masses, distances, pendulum angles and periods), and the bicycle's stable speed range.
+    Measured(MeasuredArgs),
     /// Stability of a bicycle against speed: stable range, weave and capsize speeds with standard
     /// errors, eigenvalues (linearized Whipple model, Meijaard et al. 2007).
     Stability(StabilityArgs),
@@ -133,6 +136,19 @@ struct CalibrateArgs {
     dir: PathBuf,
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Args)]
+struct MeasuredArgs {
+    /// A BicycleParameters `NameMeasured.txt`.
+    file: PathBuf,
+    /// Print JSON: `{"name", "parameters": {"IBxx": {"value", "se"}, …}, …}`.
+    #[arg(long)]
+    json: bool,
+    /// Also write the parameters in BicycleParameters' `*Benchmark.txt` format (which
+    /// `bikeproc stability --bike` reads).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -435,6 +451,7 @@ fn main() -> ExitCode {
                     || c.is::<fit::FitError>()
                     || c.is::<inertia::InertiaError>()
                     || c.is::<inertia::manifest::ManifestError>()
+                    || c.is::<inertia::measured::MeasuredError>()
                     || c.is::<bikeproc::model::ParamError>()
                     || c.is::<bikeproc::ride::RideError>()
                     || c.is::<bikeproc::model::control::ControlError>()
@@ -450,6 +467,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Period(a) => period(a),
         Command::CalibrateBar(a) => calibrate_bar(a),
         Command::Inertia(a) => inertia_cmd(a),
+        Command::Measured(a) => measured(a),
         Command::Stability(a) => stability(a),
         Command::Dynamic(a) => dynamic(a),
         Command::Gap(a) => gap(a),
@@ -657,6 +675,17 @@ fn inertia_cmd(a: InertiaArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+fn measured(a: MeasuredArgs) -> Result<()> {
+    use bikeproc::inertia::measured::MeasuredBicycle;
+    let bike = MeasuredBicycle::load(&a.file)?;
+    let report = bike.report(10.0, 0.01)?;
+    if let Some(out) = &a.out {
+        write_atomic(out, bike.to_benchmark_text().as_bytes())?;
+        eprintln!("wrote {}", out.display());
+    }
+    emit(a.json, &report, || inertia::text::measured_text(&report))
 }
 
 fn stability(a: StabilityArgs) -> Result<()> {

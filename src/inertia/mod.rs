@@ -7,9 +7,13 @@
 //! [`CompoundResult`] (eqs. 76–78, 83). Standard errors come from the frequency fits, the
 //! masses, distances and axis angles written in the manifest, and the calibration, propagated
 //! together ([`crate::uncertainty::propagate`]).
+//!
+//! [`measured`] takes another lab's raw measurements (BicycleParameters' `*Measured.txt`) to
+//! benchmark parameters on the same pendulum equations.
 
 pub mod bike;
 pub mod manifest;
+pub mod measured;
 pub mod text;
 
 use crate::fit::{self, FitError, FitOptions};

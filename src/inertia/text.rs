@@ -153,3 +153,60 @@ pub fn compound_json(r: &CompoundResult) -> Value {
     }
     v
 }
+
+/// `bikeproc measured`: the parameters with their units and standard errors, then the stable
+/// speed range.
+pub fn measured_text(r: &super::measured::MeasuredReport) -> String {
+    use super::measured::unit;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{}: benchmark parameters (Meijaard et al. 2007) from the raw measurements in {}",
+        r.name,
+        r.source.display()
+    );
+    for (name, m) in &r.parameters {
+        let _ = writeln!(
+            s,
+            "  {name:<5} = {:>12.6} ± {:<10.6} {}",
+            m.value,
+            m.se,
+            unit(name)
+        );
+    }
+    let speed = |v: Option<f64>, se: Option<f64>| match (v, se) {
+        (Some(v), Some(se)) => format!("{v:.3} ± {se:.3} m/s"),
+        (Some(v), None) => format!("{v:.3} m/s (no standard error)"),
+        (None, _) => format!("none up to {} m/s", r.max_speed_mps),
+    };
+    let ranges: Vec<String> = r
+        .stable_ranges_mps
+        .iter()
+        .map(|(lo, hi)| match hi {
+            Some(h) => format!("{lo:.3} – {h:.3} m/s"),
+            None => format!("above {lo:.3} m/s (up to {} searched)", r.max_speed_mps),
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "stable (linearized Whipple model): {}",
+        if ranges.is_empty() {
+            format!("nowhere from 0 to {} m/s", r.max_speed_mps)
+        } else {
+            ranges.join(", ")
+        }
+    );
+    if r.parameters.contains_key("mD") {
+        let _ = writeln!(
+            s,
+            "(the flywheel D is not in the model: the Whipple bicycle has four bodies)"
+        );
+    }
+    let _ = writeln!(
+        s,
+        "weave speed {}, capsize speed {} (standard errors from the measurements)",
+        speed(r.weave_speed_mps, r.weave_speed_se_mps),
+        speed(r.capsize_speed_mps, r.capsize_speed_se_mps)
+    );
+    s
+}

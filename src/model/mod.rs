@@ -370,6 +370,55 @@ pub(crate) fn bisect(mut a: f64, mut b: f64, f: impl Fn(f64) -> f64) -> f64 {
     0.5 * (a + b)
 }
 
+/// The root of `f` between `a` and `b` (where it changes sign) to 1e-13 by regula falsi with
+/// the Illinois modification (Dowell & Jarratt 1971): superlinear where `f` is smooth, and the
+/// bracket always holds the root. Falls back to the bracket's middle when an interpolated point
+/// leaves it.
+pub(crate) fn illinois(a: f64, b: f64, f: impl Fn(f64) -> f64) -> f64 {
+    let (mut a, mut b) = (a, b);
+    let (mut fa, mut fb) = (f(a), f(b));
+    if fa == 0.0 {
+        return a;
+    }
+    if fb == 0.0 {
+        return b;
+    }
+    let mut kept = 0i8;
+    for _ in 0..200 {
+        if (b - a).abs() < 1e-13 {
+            break;
+        }
+        let mut c = (a * fb - b * fa) / (fb - fa);
+        if !(c > a.min(b) && c < a.max(b)) {
+            c = 0.5 * (a + b);
+        }
+        let fc = f(c);
+        if fc == 0.0 || !fc.is_finite() {
+            return c;
+        }
+        if (fc > 0.0) == (fb > 0.0) {
+            b = c;
+            fb = fc;
+            if kept == -1 {
+                fa *= 0.5;
+            }
+            kept = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if kept == 1 {
+                fb *= 0.5;
+            }
+            kept = 1;
+        }
+        // Close enough when the last step moved the bracket by less than the tolerance.
+        if (b - a).abs() < 1e-13 {
+            break;
+        }
+    }
+    0.5 * (a + b)
+}
+
 impl Canonical {
     /// The stable ranges and characteristic speeds in `[0, v_max]`, scanning at `step` and
     /// refining every change by bisection to 1e-13 m/s.
@@ -459,6 +508,36 @@ impl Canonical {
 
 #[cfg(test)]
 mod tests {
+
+    /// Illinois regula falsi finds √2 and a weave-like crossing (a smooth function crossing zero
+    /// with a curvature) to 1e-13, in far fewer evaluations than bisection's 40.
+    #[test]
+    fn illinois_converges_fast_to_the_root() {
+        use std::cell::Cell;
+        for (f, lo, hi, root) in [
+            (
+                Box::new(|v: f64| v * v - 2.0) as Box<dyn Fn(f64) -> f64>,
+                1.0,
+                2.0,
+                2f64.sqrt(),
+            ),
+            (
+                Box::new(|v: f64| (1.0 - v / 4.3).tanh() + 0.2 * (1.0 - v / 4.3).powi(2)),
+                4.28,
+                4.32,
+                4.3,
+            ),
+        ] {
+            let calls = Cell::new(0);
+            let x = illinois(lo, hi, |v| {
+                calls.set(calls.get() + 1);
+                f(v)
+            });
+            assert!((x - root).abs() < 1e-13, "{x} vs {root}");
+            assert!(calls.get() <= 14, "{} evaluations", calls.get());
+        }
+    }
+
     use super::*;
 
     #[test]

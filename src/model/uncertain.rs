@@ -12,7 +12,7 @@ use nalgebra::Complex;
 use std::path::Path;
 
 /// Inputs → benchmark parameters.
-type Builder = Box<dyn Fn(&[f64]) -> Benchmark + Send + Sync>;
+pub type Builder = Box<dyn Fn(&[f64]) -> Benchmark + Send + Sync>;
 
 /// A bicycle whose benchmark parameters are a function of measured inputs: the
 /// uncertainties are propagated from those inputs (with their correlations through the
@@ -41,6 +41,17 @@ impl Parametrized {
                 a.copy_from_slice(&x[..26]);
                 Benchmark::from_array(&a)
             }),
+            control: SteerControl::NONE,
+        }
+    }
+
+    /// A bicycle whose benchmark parameters `build` computes from `inputs` (measurements with
+    /// their covariance).
+    pub fn from_inputs(name: &str, inputs: Inputs, build: Builder) -> Parametrized {
+        Parametrized {
+            name: name.into(),
+            inputs,
+            build,
             control: SteerControl::NONE,
         }
     }
@@ -151,7 +162,7 @@ fn crossing_near(c: &Canonical, v0: f64) -> f64 {
     if !(fa.is_finite() && fb.is_finite()) || (fa < 0.0) == (fb < 0.0) {
         return f64::NAN;
     }
-    super::bisect(a, b, |v| c.max_real(v))
+    super::illinois(a, b, |v| c.max_real(v))
 }
 
 impl Parametrized {
