@@ -15,8 +15,14 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(
     name = "bikeproc",
-    version,
-    about = "Bicycle-dynamics lab: IMU logs → inertias, eigenvalues, sim-to-real gap"
+    version = concat!(env!("CARGO_PKG_VERSION"), " (", env!("BIKEPROC_BUILD"), ")"),
+    about = "Bicycle-dynamics lab: IMU logs → inertias, eigenvalues, sim-to-real gap",
+    after_help = concat!(
+        "The lab's workflow: calibrate-bar → inertia → stability → dynamic → gap (see the README's tour). ",
+        "Every number comes with its standard error; SI units.\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or cannot be analysed (the message names the ",
+        "file, line and what); 1 anything else."
+    )
 )]
 struct Cli {
     #[command(subcommand)]
@@ -26,29 +32,122 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Measure the free oscillation in one log or CSV: frequency, damping, standard errors.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc period data/frame_torsion/frame_torsion_1a.log\n",
+        "  bikeproc period data/frame_torsion/        (the trials of each set-up combined)\n",
+        "  bikeproc period ride_cal.log --channel Gyr_Z --segment 2.5:40\n\n",
+        "JSON (--json): {\"period_s\", \"period_se_s\", \"freq_hz\", \"natural_freq_hz\", ",
+        "\"damping_ratio\", …, \"segment_s\", \"receiver_time_off_rows\"}, one object per file ",
+        "(trials of a set-up: their mean, scatter and flagged trials).\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or gives no period (named on stderr); 1 ",
+        "anything else."
+    ))]
     Period(PeriodArgs),
     /// Calibrate the torsion bar with the steel rod (and the empty fixture); writes
     /// DIR/calibration.toml for the other commands.
+    #[command(after_help = concat!(
+        "Example:\n",
+        "  bikeproc calibrate-bar data/bar_calibration\n\n",
+        "The folder's manifest.toml names the rod's mass (kg), diameter and length (m) and its ",
+        "logs. Writes DIR/calibration.toml (stiffness N·m/rad, fixture inertia kg·m², their ",
+        "standard errors and correlation).\n\n",
+        "JSON (--json): {\"stiffness_nm_per_rad\", \"stiffness_se_nm_per_rad\", ",
+        "\"rod_inertia_kgm2\", \"fixture_inertia_kgm2\", \"freq_hz\", …}.\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or cannot be analysed; 1 anything else."
+    ))]
     CalibrateBar(CalibrateArgs),
     /// Moments and inertia tensors from a folder of torsion or compound-pendulum tests, or
     /// refresh the inertias of a bicycle file (--bike).
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc inertia data/frame_torsion\n",
+        "  bikeproc inertia data/frame_torsion --orientations 1,2,4\n",
+        "  bikeproc inertia data/rear_wheel_compound\n",
+        "  bikeproc inertia --bike data/lab_bike.toml     (rewrites its inertias from its test folders)\n\n",
+        "The folder's manifest.toml says torsion or compound, the body's mass (kg), the axes and ",
+        "distances (m) and the logs; the bar's calibration comes from bar_calibration/ beside it.\n\n",
+        "JSON (--json): {\"body\", \"ixx\", \"ixx_se\", \"ixz\", \"izz\", …, ",
+        "\"orientations\", \"tensor\"} for torsion tests, {\"body\", \"ixx\", ",
+        "\"iyy\", \"izz\", their _se, \"mass_kg\", \"tests\"} for compound ones (kg·m²).\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or cannot be analysed; 1 anything else."
+    ))]
     Inertia(InertiaArgs),
     /// Benchmark parameters with standard errors from a BicycleParameters `*Measured.txt` (raw
     /// masses, distances, pendulum angles and periods), and the bicycle's stable speed range.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc measured ../shared/reference/bicycleparameters/RigidMeasured.txt\n",
+        "  bikeproc measured BrowserMeasured.txt --out BrowserBenchmark.txt\n",
+        "  bikeproc stability --bike BrowserBenchmark.txt\n\n",
+        "JSON (--json): {\"name\", \"parameters\": {\"IBxx\": {\"value\", \"se\"}, …}, ",
+        "\"stable_ranges_mps\", \"weave_speed_mps\", \"weave_speed_se_mps\", ",
+        "\"capsize_speed_mps\", \"capsize_speed_se_mps\"} (SI units: m, kg, kg·m², rad).\n\n",
+        "Exit codes: 0 done; 2 a measurement is missing or malformed (named with its line); 1 ",
+        "anything else."
+    ))]
     Measured(MeasuredArgs),
     /// Stability of a bicycle against speed: stable range, weave and capsize speeds with standard
     /// errors, eigenvalues (linearized Whipple model, Meijaard et al. 2007).
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc stability --bike data/lab_bike.toml\n",
+        "  bikeproc stability --bike ../shared/reference/bicycleparameters/BenchmarkBenchmark.txt --speeds 0:10:0.1\n",
+        "  bikeproc stability --bike data/lab_bike.toml --cg-on-steer-axis\n\n",
+        "JSON (--json): {\"bike\", \"weave_speed_mps\", \"weave_speed_se_mps\", ",
+        "\"capsize_speed_mps\", \"capsize_speed_se_mps\", \"stable_ranges_mps\", ",
+        "\"eigenvalues\": [{\"speed_mps\", \"weave\": {\"re\", \"im\", \"re_se\", \"im_se\"}, ",
+        "\"capsize\", \"castor\", \"weave_steer_over_roll\", \"weave_steer_phase_deg\"}, …]} ",
+        "(eigenvalues in 1/s).\n\n",
+        "Exit codes: 0 done; 2 the bicycle file is malformed or gives no dynamics; 1 anything else."
+    ))]
     Stability(StabilityArgs),
     /// Experimental weave eigenvalue of a ride (its angles log, `_cal` beside it) or of every
     /// ride of a campaign (rides.toml), against the model at the ride's speed.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc dynamic data/ride_03.log --speed 3.9    (the speedometer's reading at the release, m/s)\n",
+        "  bikeproc dynamic data/rides.toml                 (every ride of the campaign)\n",
+        "  bikeproc dynamic ride.csv --window 141.3:143.8 --bike Balanceassistv1Benchmark.txt\n\n",
+        "Without --bike a ride is compared with the lab_bike.toml beside its log, a campaign ",
+        "with its manifest's bicycle.\n\n",
+        "JSON (--json): {\"file\", \"speed_mps\", \"speed_se_mps\", \"speed_source\", ",
+        "\"weave\": {\"re\", \"im\", \"re_se\", \"im_se\"}, \"mode_shape\", ",
+        "\"model_weave\", …} (1/s); a campaign {\"rides\": [...], \"failures\": [...]}.\n\n",
+        "Exit codes: 0 done; 2 a ride cannot be analysed (the reason named) or an input is ",
+        "malformed; 1 anything else."
+    ))]
     Dynamic(DynamicArgs),
     /// The sim-to-real gap of a campaign (rides.toml): where the rides part from the model,
     /// which unmodelled effect explains it, how far it shrinks on rides left out.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc gap data/rides.toml\n",
+        "  bikeproc gap fixtures/real/balanceassist_gain6.toml\n\n",
+        "JSON (--json): {\"significant\", \"explained\", \"chi2\", \"dof\", \"p_value\", ",
+        "\"residuals\", \"ranking\": [{\"effect\", \"params\", \"params_se\", ",
+        "\"heldout_rms_before\", \"heldout_rms_after\", \"plausible\"}, …], \"verdict\"}.\n\n",
+        "Exit codes: 0 done; 2 the manifest is malformed or no ride could be analysed; 1 ",
+        "anything else."
+    ))]
     Gap(GapArgs),
     /// Write simulated logs from physics.
-    #[command(subcommand)]
+    #[command(subcommand, after_help = concat!(
+        "Examples:\n",
+        "  bikeproc simulate torsion --out /tmp/rod.log\n",
+        "  bikeproc simulate ride --bike data/lab_bike.toml --speed 4.5 --out /tmp/ride.log\n",
+        "  bikeproc simulate blind --effect steer_damping --out /tmp/blind\n\n",
+        "Exit codes: 0 done; 2 an input is malformed; 1 anything else (e.g. --out cannot be written)."
+    ))]
     Simulate(SimCommand),
     /// Regenerate every report in reports/ from data/ and the reference signals.
+    #[command(after_help = concat!(
+        "Example:\n",
+        "  bikeproc report                       (from the checkout: data/ and ../shared/reference)\n",
+        "  bikeproc report --out /tmp/reports\n\n",
+        "The new set replaces the folder as a whole (an interrupted run leaves the old one).\n\n",
+        "Exit codes: 0 done; 2 an input is malformed; 1 anything else (e.g. ../shared/reference missing)."
+    ))]
     Report(ReportArgs),
 }
 
@@ -72,7 +171,7 @@ struct PeriodArgs {
     /// Fit this time range instead of finding the free decay, seconds `START:END`.
     #[arg(long, value_parser = parse_range)]
     segment: Option<(f64, f64)>,
-    /// Print JSON.
+    /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     json: bool,
 }
@@ -114,6 +213,7 @@ struct DynamicArgs {
     /// Bootstrap resamples for the check of the standard errors (20 to 100,000).
     #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(20..=100_000))]
     resamples: u32,
+    /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     json: bool,
 }
@@ -125,6 +225,7 @@ struct GapArgs {
     /// The bicycle (lab TOML or BicycleParameters file); defaults to the manifest's.
     #[arg(long)]
     bike: Option<PathBuf>,
+    /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     json: bool,
 }
@@ -134,6 +235,7 @@ struct CalibrateArgs {
     /// The bar-calibration folder (its manifest.toml and logs).
     #[arg(default_value = "data/bar_calibration")]
     dir: PathBuf,
+    /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     json: bool,
 }
@@ -143,6 +245,7 @@ struct MeasuredArgs {
     /// A BicycleParameters `NameMeasured.txt`.
     file: PathBuf,
     /// Print JSON: `{"name", "parameters": {"IBxx": {"value", "se"}, …}, …}`.
+    /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     json: bool,
     /// Also write the parameters in BicycleParameters' `*Benchmark.txt` format (which
@@ -162,6 +265,7 @@ struct InertiaArgs {
     /// Refresh the inertias of this bicycle file from the test folders it names.
     #[arg(long, conflicts_with = "dir")]
     bike: Option<PathBuf>,
+    /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     json: bool,
 }
@@ -181,6 +285,7 @@ struct StabilityArgs {
     /// A steer controller closing the loop (a TOML file with a `[controller]` table).
     #[arg(long)]
     controller: Option<PathBuf>,
+    /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     json: bool,
 }
@@ -213,13 +318,25 @@ enum TrendArg {
 #[derive(Subcommand)]
 enum SimCommand {
     /// A body on the torsion bar (defaults: the lab's calibration rod, eqs. 65–67).
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate torsion --out /tmp/rod.log\n  bikeproc simulate torsion --inertia-kgm2 0.2 --locale spanish --out /tmp/wheel.log\n\nThe truth (the simulated body's parameters) is printed as JSON; the log pair is NAME.log and NAME_cal.log."
+    )]
     Torsion(TorsionArgs),
     /// A body hung as a compound pendulum (defaults: the lab's frame, eq. 79).
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate compound --out /tmp/frame.log\n  bikeproc simulate compound --mass-kg 2.0 --pivot-to-cg-m 0.3 --out /tmp/fork.log\n\nThe truth (the simulated body's parameters) is printed as JSON; the log pair is NAME.log and NAME_cal.log."
+    )]
     Compound(CompoundArgs),
     /// A ride (seed §5.4): standstill, push, release, kick at the saddle, catch; the nonlinear
     /// Whipple bicycle with the chosen effects, recorded by a frame and a handlebar sensor.
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate ride --bike data/lab_bike.toml --speed 4.5 --out /tmp/ride.log\n  bikeproc simulate ride --bike data/lab_bike.toml --speed 5 --effects none --sync --seed 7 --out /tmp/ride.log\n\nThe truth goes to truth/NAME.json beside the log (no analysis reads it)."
+    )]
     Ride(RideArgs),
     /// The lab's ride campaign (seed §5.4) on the bicycle in DIR/lab_bike.toml, as data/ holds it.
+    #[command(
+        after_help = "Example:\n  bikeproc simulate rides --out /tmp/campaign     (the folder must hold lab_bike.toml)"
+    )]
     Rides {
         /// Folder to write into (it holds lab_bike.toml).
         #[arg(long)]
@@ -227,6 +344,7 @@ enum SimCommand {
     },
     /// Rides that went wrong (no kick, too short, sensors swapped, a sensor that did not
     /// move), as fixtures/rides/ holds them.
+    #[command(after_help = "Example:\n  bikeproc simulate ride-faults --out /tmp/faults")]
     RideFaults {
         /// Folder to write into.
         #[arg(long)]
@@ -234,6 +352,9 @@ enum SimCommand {
     },
     /// A blind campaign for `bikeproc gap`: 12 or 14 rides on the measured bicycle with one
     /// effect withheld, its truth sealed in OUT/truth.json.
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate blind --effect steer_damping --out /tmp/blind\n  bikeproc simulate blind --effect tyres --design noted --seed 3 --out /tmp/blind\n  bikeproc gap /tmp/blind/rides.toml"
+    )]
     Blind {
         /// The effect to withhold.
         #[arg(long, value_parser = withheld_effects())]
@@ -242,15 +363,18 @@ enum SimCommand {
         /// speedometer's reading at the release rounded to 0.1 m/s, no reed switch.
         #[arg(long, default_value = "sync", value_parser = ["sync", "noted"])]
         design: String,
+        /// Seed of the random numbers: the same seed, the same campaign.
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// The measured bicycle (copied beside the rides as bike.toml).
         #[arg(long, default_value = "data/lab_bike.toml")]
         bike: PathBuf,
+        /// Folder to write into.
         #[arg(long)]
         out: PathBuf,
     },
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
+    #[command(after_help = "Example:\n  bikeproc simulate campaign --out /tmp/campaign")]
     Campaign {
         /// Folder to write into (`data` to regenerate the checked-in campaign).
         #[arg(long)]
@@ -266,9 +390,15 @@ struct RideArgs {
     /// Speed at release (m/s).
     #[arg(long)]
     speed: f64,
-    /// `none`, `realistic`, or a TOML file of effects (see `bikeproc::sim::ride::Effects`).
+    /// The effects beyond the Whipple model: `none`; `realistic` (steer damping 0.3 N·m·s/rad,
+    /// rolling resistance 0.004, drag area 0.08 m², the sensors' and speedometer's masses, a
+    /// speedometer reading 3 % high, compliant tyres); or a TOML file of them, any left out
+    /// off: steer_viscous_nms_per_rad, steer_coulomb_nm, steer_spring_nm_per_rad,
+    /// rolling_resistance_coeff, drag_area_m2, speedometer_scale, clock_scale,
+    /// [[extra_masses]] (mass_kg, body, x_m, z_m), [tyres].
     #[arg(long, default_value = "realistic")]
     effects: String,
+    /// Seed of the random numbers (kick, noise, link): the same seed, the same files.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Output `NAME.log` (its `NAME_cal.log` beside it).
@@ -280,29 +410,38 @@ struct RideArgs {
     /// Wire the reed switch: the `Sync` column and the wheel circumference.
     #[arg(long)]
     sync: bool,
+    /// The sensors' orientation output: Euler angles, quaternion or rotation matrix.
     #[arg(long, value_enum, default_value_t = ModeArg::Euler)]
     mode: ModeArg,
+    /// The acquisition PC's locale: tab-separated, or Spanish (`;` and decimal commas).
     #[arg(long, value_enum, default_value_t = LocaleArg::Tab)]
     locale: LocaleArg,
 }
 
 #[derive(Args)]
 struct TorsionArgs {
+    /// The body's inertia about the bar's axis (kg·m²).
     #[arg(long, default_value_t = 1.8906)]
     inertia_kgm2: f64,
+    /// The bar's torsional stiffness (N·m/rad).
     #[arg(long, default_value_t = 34.33)]
     stiffness_nm_per_rad: f64,
+    /// Viscous damping ratio ζ (dimensionless).
     #[arg(long, default_value_t = 0.004)]
     damping_ratio: f64,
+    /// Dry (Coulomb) friction torque in the bearing (N·m).
     #[arg(long, default_value_t = 0.0)]
     coulomb_nm: f64,
     /// Frequency of the Cardan joint's swing mode (Hz); no swing mode when absent.
     #[arg(long)]
     swing_freq_hz: Option<f64>,
+    /// How strongly the swing mode couples into the torsion (dimensionless, 0–1).
     #[arg(long, default_value_t = 0.03)]
     swing_coupling: f64,
+    /// The swing mode's damping ratio (dimensionless).
     #[arg(long, default_value_t = 0.02)]
     swing_damping_ratio: f64,
+    /// The swing mode's initial amplitude (degrees).
     #[arg(long, default_value_t = 1.0)]
     swing_amplitude_deg: f64,
     #[command(flatten)]
@@ -311,15 +450,19 @@ struct TorsionArgs {
 
 #[derive(Args)]
 struct CompoundArgs {
+    /// The body's mass (kg).
     #[arg(long, default_value_t = 5.48)]
     mass_kg: f64,
+    /// Distance from the pivot to the centre of gravity (m).
     #[arg(long, default_value_t = 0.37)]
     pivot_to_cg_m: f64,
     /// Inertia about the pivot (kg·m²); eq. 79's frame: 0.8796 + 5.48·0.37².
     #[arg(long, default_value_t = 1.62982)]
     inertia_about_pivot_kgm2: f64,
+    /// Viscous damping ratio ζ (dimensionless).
     #[arg(long, default_value_t = 0.003)]
     damping_ratio: f64,
+    /// Dry (Coulomb) friction torque in the pivot (N·m).
     #[arg(long, default_value_t = 0.0)]
     coulomb_nm: f64,
     #[command(flatten)]
@@ -331,20 +474,29 @@ struct SimCommon {
     /// Output: `NAME.log` (its `NAME_cal.log` is written beside it).
     #[arg(long)]
     out: PathBuf,
+    /// The release angle (degrees).
     #[arg(long, default_value_t = 8.0)]
     amplitude_deg: f64,
+    /// Rest before the hand turns the body (s).
     #[arg(long, default_value_t = 3.0)]
     rest_s: f64,
+    /// Time the hand takes to turn the body to the release angle (s).
     #[arg(long, default_value_t = 1.0)]
     ramp_s: f64,
+    /// Time the body is held there before the release (s).
     #[arg(long, default_value_t = 1.0)]
     hold_s: f64,
+    /// Length of the recording (s).
     #[arg(long, default_value_t = 60.0)]
     duration_s: f64,
+    /// The sensor's orientation output: Euler angles, quaternion or rotation matrix.
     #[arg(long, value_enum, default_value_t = ModeArg::Euler)]
     mode: ModeArg,
+    /// The acquisition PC's locale: tab-separated with decimal points, or Spanish (`;` and
+    /// decimal commas).
     #[arg(long, value_enum, default_value_t = LocaleArg::Tab)]
     locale: LocaleArg,
+    /// Digits written: as the sensor's software writes them, or full precision.
     #[arg(long, value_enum, default_value_t = PrecisionArg::Sensor)]
     precision: PrecisionArg,
     /// White noise of the orientation output (deg, per axis).
@@ -353,10 +505,13 @@ struct SimCommon {
     /// A perfect link: no dropped packets, no corrupt rows, no clock jitter.
     #[arg(long)]
     perfect_link: bool,
+    /// The sensor's id in the log's header.
     #[arg(long, default_value = "00300417")]
     sensor_id: String,
+    /// The sensor's label in the log's header.
     #[arg(long, default_value = "torsion bar")]
     label: String,
+    /// Seed of the random numbers (noise, dropped packets): the same seed, the same file.
     #[arg(long, default_value_t = 1)]
     seed: u64,
 }
@@ -803,10 +958,10 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let bike = a
-        .bike
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("data/lab_bike.toml"));
+    let bike = match &a.bike {
+        Some(b) => b.clone(),
+        None => bike_beside(&a.file)?,
+    };
     let model = load_model(&bike, a.controller.as_deref())?;
     let options = DynamicOptions {
         noted: a.speed.map(|v| bikeproc::ride::speed::NotedReading {
@@ -820,6 +975,33 @@ fn dynamic(a: DynamicArgs) -> Result<()> {
     let test = dynamic::dynamic_test(&a.file, &model, &options)?;
     let summary = test.summary();
     emit(a.json, &summary, || summary.to_text())
+}
+
+/// The bicycle of a ride given without `--bike`: the `lab_bike.toml` beside its log, or the
+/// bicycle of the campaign manifest (`rides.toml`) beside it.
+fn bike_beside(ride: &Path) -> Result<PathBuf> {
+    let dir = ride.parent().unwrap_or(Path::new(""));
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let lab = dir.join("lab_bike.toml");
+    if lab.is_file() {
+        return Ok(lab);
+    }
+    let manifest = dir.join("rides.toml");
+    if manifest.is_file() {
+        return Ok(bikeproc::ride::dynamic::RideManifest::load(&manifest)?.bike_path());
+    }
+    Err(bikeproc::model::ParamError::Invalid {
+        path: ride.to_path_buf(),
+        message: format!(
+            "no bicycle to compare with: give --bike (there is no lab_bike.toml or rides.toml in {})",
+            dir.display()
+        ),
+    }
+    .into())
 }
 
 /// `bikeproc dynamic FILE.csv [--window A:B]`: the free decays of another instrument's ride

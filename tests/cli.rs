@@ -194,3 +194,56 @@ fn the_cardan_swing_shows_as_a_secondary_peak() {
         osc.secondary_peaks
     );
 }
+
+/// Issue 16: every subcommand's help shows an example of it, and the exit codes; `--version`
+/// names the build.
+#[test]
+fn every_subcommand_help_has_an_example_and_the_exit_codes() {
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["period"],
+        vec!["calibrate-bar"],
+        vec!["inertia"],
+        vec!["measured"],
+        vec!["stability"],
+        vec!["dynamic"],
+        vec!["gap"],
+        vec!["simulate"],
+        vec!["simulate", "torsion"],
+        vec!["simulate", "compound"],
+        vec!["simulate", "ride"],
+        vec!["simulate", "rides"],
+        vec!["simulate", "ride-faults"],
+        vec!["simulate", "blind"],
+        vec!["simulate", "campaign"],
+        vec!["report"],
+    ];
+    for c in commands {
+        let mut args = c.clone();
+        args.push("--help");
+        let (code, out, err) = bikeproc(&args);
+        assert_eq!(code, 0, "{c:?}: {err}");
+        let example = out
+            .split_once("Example")
+            .map(|(_, rest)| rest)
+            .unwrap_or_else(|| panic!("{c:?}: no example in\n{out}"));
+        assert!(
+            example.contains(&format!("bikeproc {}", c.join(" "))),
+            "{c:?}: the example does not run it:\n{example}"
+        );
+        if c.len() == 1 {
+            assert!(out.contains("Exit codes: 0"), "{c:?}: no exit codes");
+        }
+        if out.contains("--json") {
+            assert!(
+                out.contains("JSON (--json): {"),
+                "{c:?}: --json without its shape"
+            );
+        }
+    }
+    let (code, out, _) = bikeproc(&["--version"]);
+    assert_eq!(code, 0);
+    assert!(
+        out.starts_with("bikeproc ") && out.contains("commit"),
+        "{out}"
+    );
+}

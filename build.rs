@@ -1,0 +1,24 @@
+//! Names the build for `bikeproc --version`: the git commit it was built from, or `unknown
+//! commit` outside a git checkout.
+
+use std::process::Command;
+
+fn main() {
+    let describe = Command::new("git")
+        .args(["describe", "--always", "--abbrev=12"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|s| format!("commit {}", s.trim()))
+        .unwrap_or_else(|| "unknown commit".into());
+    println!("cargo:rustc-env=BIKEPROC_BUILD={describe}");
+    // Rebuilt when the checkout moves to another commit.
+    println!("cargo:rerun-if-changed=.git/HEAD");
+    println!("cargo:rerun-if-changed=.git/packed-refs");
+    if let Ok(head) = std::fs::read_to_string(".git/HEAD") {
+        if let Some(r) = head.trim().strip_prefix("ref: ") {
+            println!("cargo:rerun-if-changed=.git/{r}");
+        }
+    }
+}
