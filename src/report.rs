@@ -599,7 +599,7 @@ fn controlled_section(
                 );
             }
             None => {
-                let _ = writeln!(verdicts, "{}", d.verdict);
+                let _ = writeln!(verdicts, "{}", verdict_list(&d.verdict));
             }
         }
     }
@@ -1311,7 +1311,7 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
          candidates stay tied, the verdict names the two speeds where their predictions differ most. **Explained** only when the best candidate brings the held-out RMS to\n\
          at most 2 (and lower than before) and its fit to every ride passes the χ² test at 1 %.\n\n",
     );
-    let _ = writeln!(md, "## Verdict\n\n{}\n", d.verdict);
+    let _ = writeln!(md, "## Verdict\n\n{}\n", verdict_list(&d.verdict));
     if !d.conclusive {
         files.push(("gap.md".into(), md.into_bytes()));
         return Ok(());
@@ -1729,4 +1729,13 @@ fn bicycleparameters_report(
     );
     files.push(("bicycleparameters.md".into(), md.into_bytes()));
     Ok(converted)
+}
+
+/// A gap verdict (lines `Where: …`, `Which: …`, `How far: …`) as a Markdown list.
+fn verdict_list(verdict: &str) -> String {
+    verdict
+        .lines()
+        .map(|l| format!("- {l}"))
+        .collect::<Vec<_>>()
+        .join("\n")
 }

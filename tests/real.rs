@@ -540,7 +540,7 @@ fn gap_on_a_controlled_campaign_names_where_and_which() {
     let verdict = d["verdict"].as_str().unwrap();
     println!("{verdict}");
     assert!(
-        verdict.starts_with("Weave frequency lower than the model's by"),
+        verdict.starts_with("Where: weave frequency lower than the model's by"),
         "{verdict}"
     );
     assert!(names(&d).iter().any(|n| n == "actuator_gain"));

@@ -7,7 +7,9 @@ mod common;
 /// The tour's section of the README: from its heading to the next one.
 fn tour() -> String {
     let readme = std::fs::read_to_string(common::root().join("README.md")).unwrap();
-    let start = readme.find("## A five-minute tour").expect("the tour's heading");
+    let start = readme
+        .find("## A five-minute tour")
+        .expect("the tour's heading");
     let rest = &readme[start + 3..];
     rest[..rest.find("\n## ").unwrap_or(rest.len())].to_string()
 }
@@ -40,9 +42,17 @@ fn the_readme_tour_runs_as_written() {
             c.join(" "),
             String::from_utf8_lossy(&out.stderr)
         );
-        assert!(stdout.lines().count() >= 3, "bikeproc {}: {stdout}", c.join(" "));
+        assert!(
+            stdout.lines().count() >= 3,
+            "bikeproc {}: {stdout}",
+            c.join(" ")
+        );
         for bad in ["NaN", " inf", "-inf"] {
-            assert!(!stdout.contains(bad), "bikeproc {}: `{bad}` in\n{stdout}", c.join(" "));
+            assert!(
+                !stdout.contains(bad),
+                "bikeproc {}: `{bad}` in\n{stdout}",
+                c.join(" ")
+            );
         }
     }
     let figures: Vec<&str> = tour

@@ -72,7 +72,7 @@ pub const CAMBER_PER_RAD: f64 = 0.7;
 /// pendulum misread) plausibly by up to half.
 const INERTIA_FACTOR: ParamSpec = ParamSpec {
     name: "factor",
-    unit: "",
+    unit: "× measured",
     lo: 0.4,
     hi: 1.8,
     none: 1.0,
@@ -83,7 +83,7 @@ const INERTIA_FACTOR: ParamSpec = ParamSpec {
 /// tests): plausibly within 15 %.
 const LENGTH_FACTOR: ParamSpec = ParamSpec {
     name: "factor",
-    unit: "",
+    unit: "× measured",
     lo: 0.5,
     hi: 1.6,
     none: 1.0,
@@ -221,7 +221,7 @@ impl Effect {
             },
             Effect::SpeedScale => ParamSpec {
                 name: "k",
-                unit: "",
+                unit: "× nominal",
                 lo: 0.8,
                 hi: 1.25,
                 none: 1.0,
@@ -229,7 +229,7 @@ impl Effect {
             },
             Effect::TimeScale => ParamSpec {
                 name: "s",
-                unit: "",
+                unit: "× nominal",
                 lo: 0.9,
                 hi: 1.1,
                 none: 1.0,
@@ -237,7 +237,7 @@ impl Effect {
             },
             Effect::ActuatorGain => ParamSpec {
                 name: "a",
-                unit: "",
+                unit: "× nominal",
                 lo: 0.1,
                 hi: 3.0,
                 none: 1.0,

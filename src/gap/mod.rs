@@ -1268,7 +1268,7 @@ fn where_left(d: &Diagnosis) -> String {
         .iter()
         .max_by(|a, b| (a.re_z.hypot(a.im_z)).total_cmp(&b.re_z.hypot(b.im_z)));
     let mut out = format!(
-        "What is left lies most in {worst_part} (RMS {worst_rms:.1} standard errors; σ {:.1}, ω {:.1}, |γ/θ| {:.1}, phase {:.1})",
+        "Left: what is left lies most in {worst_part} (RMS {worst_rms:.1} standard errors; σ {:.1}, ω {:.1}, |γ/θ| {:.1}, phase {:.1})",
         parts[0].1, parts[1].1, parts[2].1, parts[3].1
     );
     if let Some(r) = worst_ride {
@@ -1307,10 +1307,10 @@ fn verdict(d: &Diagnosis) -> String {
     } else {
         "mode shape not measured (the rides give the eigenvalue alone)".to_string()
     };
-    let _ = write!(
+    let _ = writeln!(
         v,
-        "{}; {}; {}. ",
-        part("Weave frequency", "rad/s", &|r| (r.im, r.im_se, r.im_z)),
+        "Where: {}; {}; {}.",
+        part("weave frequency", "rad/s", &|r| (r.im, r.im_se, r.im_z)),
         part("weave damping rate (σ)", "1/s", &|r| (
             r.re, r.re_se, r.re_z
         )),
@@ -1318,7 +1318,7 @@ fn verdict(d: &Diagnosis) -> String {
     );
     let _ = write!(
         v,
-        "Campaign χ² = {:.1} for {} degrees of freedom ({}; {} of each ride, the measured parameters' uncertainty included)",
+        "Test: campaign χ² = {:.1} for {} degrees of freedom ({}; {} of each ride, the measured parameters' uncertainty included)",
         d.chi2,
         d.dof,
         stats::p_is(d.p_value),
@@ -1349,10 +1349,10 @@ fn verdict(d: &Diagnosis) -> String {
         return v;
     }
     v.push_str(
-        "a significant gap, which the measured parameters' own uncertainty cannot explain. ",
+        "a significant gap, which the measured parameters' own uncertainty cannot explain.\n",
     );
     let Some(best) = d.ranking.first() else {
-        v.push_str("No candidate could be fitted.");
+        v.push_str("Which: no candidate could be fitted.");
         return v;
     };
     let named: Vec<(Effect, effects::ParamSpec)> = best
@@ -1376,7 +1376,7 @@ fn verdict(d: &Diagnosis) -> String {
     if !d.explained {
         let _ = write!(
             v,
-            "No candidate of the library explains it: the closest, {} ({}), leaves the rides left out at an RMS of {:.2} standard errors (from {:.2}; an explanation brings it to about 1, at most {EXPLAINED_HELDOUT_RMS}), and its fit to every ride gives χ² = {:.1} ({}). ",
+            "Which: no candidate of the library explains it; the closest is {} ({}).\nHow far: it leaves the rides left out at an RMS of {:.2} standard errors (from {:.2}; an explanation brings it to about 1, at most {EXPLAINED_HELDOUT_RMS}), and its fit to every ride gives χ² = {:.1} ({}).\n",
             best.effect,
             params.join(", "),
             best.heldout_rms_after,
@@ -1391,15 +1391,15 @@ fn verdict(d: &Diagnosis) -> String {
     if d.tied.len() > 1 {
         let _ = write!(
             v,
-            "The rides left out cannot tell apart: {} (none is worse than the best by {TIE_SE} standard deviations of the held-out χ² difference its predictions' separation allows); the best of them, ",
+            "Which: the rides left out cannot tell apart {} (none is worse than the best by {TIE_SE} standard deviations of the held-out χ² difference its predictions' separation allows); the best of them is ",
             d.tied.join(", ")
         );
     } else {
-        v.push_str("Best explanation: ");
+        v.push_str("Which: the best explanation is ");
     }
     let _ = write!(
         v,
-        "{} ({}), {}: held-out RMS normalized residual {:.2} → {:.2} ({:.0} % smaller).",
+        "{} ({}), {}.\nHow far: held-out RMS normalized residual {:.2} → {:.2} standard errors ({:.0} % smaller).",
         best.effect,
         params.join(", "),
         if best.plausible {
@@ -1456,7 +1456,7 @@ fn next_rides_text(d: &Diagnosis) -> String {
         ),
     };
     format!(
-        " The rides that best tell the tied candidates apart are at {}; {how_many}.",
+        "\nNext: the rides that best tell the tied candidates apart are at {}; {how_many}.",
         rides.join(" and at ")
     )
 }
@@ -1540,7 +1540,7 @@ impl Diagnosis {
         }
         let _ = writeln!(
             out,
-            "Which: candidates fitted on {} by held-out RMS normalized residual",
+            "Which: candidates fitted on {} by held-out RMS normalized residual (in standard errors;\n  pairs of effects are listed only where they beat the best single one on the rides left out)",
             decided_on(self.parts_per_ride)
         );
         let _ = writeln!(
@@ -1569,7 +1569,10 @@ impl Diagnosis {
         for f in &self.rides_failed {
             let _ = writeln!(out, "  not analysed: {f}");
         }
-        let _ = writeln!(out, "Verdict: {}", self.verdict);
+        let _ = writeln!(out, "Verdict:");
+        for line in self.verdict.lines() {
+            let _ = writeln!(out, "  {line}");
+        }
         out
     }
 }
