@@ -969,6 +969,8 @@ mod tests {
         assert_eq!(setup_name("rod_3"), "rod");
         assert_eq!(setup_name("frame-x-2"), "frame-x");
         assert_eq!(setup_name("fork"), "fork");
+        assert_eq!(setup_name("frame_torsion_1a"), "frame_torsion_1");
+        assert_eq!(setup_name("wheel_100hz"), "wheel_100hz");
         let m = |v| crate::uncertainty::Measured::new(v, 1e-6);
         let g = group_trials(&[
             ("b1".into(), m(1.0)),
@@ -1087,8 +1089,14 @@ impl SetupPeriods {
     }
 }
 
-/// A trial's set-up: its name less a trailing trial number (and a `_` or `-` before it).
+/// A trial's set-up: its name less a trailing trial number (and a `_` or `-` before it), or
+/// less a trial letter after the set-up's number (`frame_torsion_1a`, `…_1b`: set-up
+/// `frame_torsion_1`).
 pub fn setup_name(trial: &str) -> &str {
+    let b = trial.as_bytes();
+    if b.len() >= 2 && b[b.len() - 1].is_ascii_lowercase() && b[b.len() - 2].is_ascii_digit() {
+        return &trial[..trial.len() - 1];
+    }
     trial
         .trim_end_matches(|c: char| c.is_ascii_digit())
         .trim_end_matches(['_', '-'])

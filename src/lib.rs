@@ -45,4 +45,5 @@ pub mod ride;
 pub mod signal;
 pub mod sim;
 pub mod spectral;
+pub mod stats;
 pub mod uncertainty;

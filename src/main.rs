@@ -747,7 +747,7 @@ fn setups_text(setups: &[fit::SetupPeriods]) -> String {
     let _ = writeln!(
         out,
         "{:<28} {:>22} {:>24} {:>9}  trials (damped period T, s; * flagged, left out)",
-        "set-up", "mean T s", "", "scatter"
+        "set-up", "mean T (s)", "", "scatter"
     );
     for s in setups {
         let c = &s.combined;

@@ -30,7 +30,7 @@
 pub mod effects;
 pub mod fit;
 pub mod linear;
-pub mod stats;
+pub use crate::stats;
 
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
 use crate::ride::dynamic::{DynamicTest, SpeedSource};

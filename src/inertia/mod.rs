@@ -623,6 +623,12 @@ pub struct TensorXz {
     pub principal_axis_deg: f64,
     /// χ² of the orientations' moments about the fitted tensor (0 when exactly determined).
     pub chi2: f64,
+    /// Its degrees of freedom: the orientations less the tensor's unknowns (3, or 2 with
+    /// `I_xz = −I_zz`).
+    pub chi2_dof: usize,
+    /// The probability of a χ² at least this large were the moments' errors all there is
+    /// (`None` without degrees of freedom).
+    pub chi2_p_value: Option<f64>,
     pub warnings: Vec<String>,
 }
 
@@ -854,6 +860,7 @@ fn tensor_from(
             w * (pred - orientations[i].inertia_about_cg).powi(2)
         })
         .sum();
+    let dof = chosen.len().saturating_sub(if constraint { 2 } else { 3 });
     let eig = SymmetricEigen::new(Matrix2::new(t[0], t[1], t[1], t[2]));
     let k = eig.eigenvalues.imax();
     let v = eig.eigenvectors.column(k);
@@ -906,6 +913,8 @@ fn tensor_from(
         principal_kgm2: [p_big, p_small],
         principal_axis_deg: v[1].atan2(v[0]).to_degrees(),
         chi2,
+        chi2_dof: dof,
+        chi2_p_value: (dof > 0).then(|| crate::stats::chi2_sf(chi2, dof)),
         warnings,
     })
 }

@@ -57,8 +57,21 @@ fn tensor_text(s: &mut String, t: &TensorXz) {
     );
     let _ = writeln!(
         s,
-        "    principal {:.4}, {:.4} kg·m², first axis at {:.1}° from x; condition number {:.1}; χ² {:.2}",
-        t.principal_kgm2[0], t.principal_kgm2[1], t.principal_axis_deg, t.condition_number, t.chi2
+        "    principal {:.4}, {:.4} kg·m², first axis at {:.1}° from x; condition number {:.1}; {}",
+        t.principal_kgm2[0],
+        t.principal_kgm2[1],
+        t.principal_axis_deg,
+        t.condition_number,
+        match t.chi2_p_value {
+            Some(p) => format!(
+                "χ² {:.2} on {} degree{} of freedom ({})",
+                t.chi2,
+                t.chi2_dof,
+                if t.chi2_dof == 1 { "" } else { "s" },
+                crate::stats::p_is(p)
+            ),
+            None => "exactly determined (no χ² test)".into(),
+        }
     );
     for w in &t.warnings {
         let _ = writeln!(s, "    warning: {w}");
@@ -79,7 +92,12 @@ pub fn torsion_text(r: &TorsionResult) -> String {
     let _ = writeln!(
         s,
         "  {:<6} {:>20} {:>18} {:>18} {:>18} {:>8}",
-        "test", "f (Hz)", "with weights", "without weights", "about the CG", "spread"
+        "test", "f (Hz)", "with weights", "without weights", "about the CG", "repeats"
+    );
+    let _ = writeln!(
+        s,
+        "  {:<6} {:>20} {:>18} {:>18} {:>18} {:>8}",
+        "", "", "(kg·m²)", "(kg·m²)", "(kg·m²)", "spread"
     );
     for o in &r.orientations {
         let flagged = o.repeats.iter().filter(|x| x.outlier).count();

@@ -1,4 +1,5 @@
-//! The χ² distribution's upper tail, for the campaign's test.
+//! Statistics shared by the stages: the χ² distribution's upper tail (the inertia tensor's fit, the
+//! gap's campaign test) and how a p-value is written.
 
 /// ln Γ(x) for x > 0 (Lanczos, g = 7, 9 terms: relative error below 1e-14).
 fn ln_gamma(x: f64) -> f64 {
