@@ -19,7 +19,8 @@ use std::process::ExitCode;
     about = "Bicycle-dynamics lab: IMU logs → inertias, eigenvalues, sim-to-real gap",
     after_help = concat!(
         "The lab's workflow: calibrate-bar → inertia → stability → dynamic → gap (see the README's tour). ",
-        "Every number comes with its standard error; SI units.\n\n",
+        "Every number comes with its standard error; SI units. Section and equation numbers ",
+        "(seed §5.4, eq. 65) are those of the lab's thesis, ../shared/seed beside the checkout.\n\n",
         "Exit codes: 0 done; 2 an input is malformed or cannot be analysed (the message names the ",
         "file, line and what); 1 anything else."
     )

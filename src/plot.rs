@@ -6,6 +6,7 @@
 
 use crate::fit::Oscillation;
 use crate::signal::Signal;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use std::sync::Once;
@@ -35,12 +36,16 @@ fn register_font() {
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy)]
 pub enum Mark {
+    /// A line, 2 px: a model or a fit.
     Line,
     /// A dashed line (imaginary parts, as in the seed's continuation diagrams).
     Dashed,
-    /// A thin line (uncertainty bands).
+    /// A thin pale line (uncertainty bands).
     Thin,
+    /// Dots: measurements.
     Dots,
+    /// A 1 px line in full colour (error bars).
+    Bar,
 }
 
 /// One named series of points.
@@ -52,9 +57,45 @@ pub struct Series {
     pub mark: Mark,
 }
 
-/// A tick label without "-0.000".
+/// A shaded range of x (a stable speed range, a fitted window), labelled in the plot and the
+/// legend.
+#[derive(Debug, Clone)]
+pub struct Shade {
+    pub from: f64,
+    pub to: f64,
+    pub color: RGBColor,
+    pub label: String,
+}
+
+/// An event at an x (the kick), drawn as a labelled vertical line.
+#[derive(Debug, Clone)]
+pub struct Event {
+    pub at: f64,
+    pub label: String,
+}
+
+/// Everything one chart shows.
+#[derive(Debug, Clone, Default)]
+pub struct Chart<'a> {
+    pub title: &'a str,
+    pub x_label: &'a str,
+    pub y_label: &'a str,
+    pub series: &'a [Series],
+    /// A logarithmic y axis (spectra).
+    pub log_y: bool,
+    pub shades: &'a [Shade],
+    pub events: &'a [Event],
+    /// The y axis' range; curves leaving it are clipped at the frame, not flattened along it.
+    /// Without it, the range of the data.
+    pub y_range: Option<(f64, f64)>,
+}
+
+/// A tick label without "-0.000" and without trailing zeros ("2.5", not "2.500").
 fn tick(v: f64, decimals: usize) -> String {
-    let s = format!("{v:.decimals$}");
+    let mut s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+    }
     if s.starts_with('-') && s[1..].bytes().all(|b| b == b'0' || b == b'.') {
         s[1..].to_string()
     } else {
@@ -103,36 +144,66 @@ pub fn decimate(points: &[(f64, f64)], x_range: (f64, f64), columns: usize) -> V
     out
 }
 
-/// An x–y chart of several series with a legend; `log_y` for spectra.
-pub fn chart(
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series],
-    log_y: bool,
-) -> Result<String, PlotError> {
-    chart_shaded(title, x_label, y_label, series, log_y, &[])
+/// A polyline clipped to `y0 ≤ y ≤ y1`: the runs inside, each ending where it crosses the
+/// frame (linear interpolation), so a curve leaving the axes leaves them instead of running
+/// along the edge. Non-finite points break a run.
+pub fn clip(points: &[(f64, f64)], (y0, y1): (f64, f64)) -> Vec<Vec<(f64, f64)>> {
+    let inside = |p: (f64, f64)| p.0.is_finite() && p.1.is_finite() && p.1 >= y0 && p.1 <= y1;
+    let cross = |a: (f64, f64), b: (f64, f64), y: f64| {
+        let t = (y - a.1) / (b.1 - a.1);
+        (a.0 + t * (b.0 - a.0), y)
+    };
+    let mut runs = Vec::new();
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    for (k, &p) in points.iter().enumerate() {
+        let prev = k.checked_sub(1).map(|j| points[j]);
+        let finite = |q: (f64, f64)| q.0.is_finite() && q.1.is_finite();
+        match (prev.filter(|q| finite(*q)), inside(p)) {
+            (_, true) if run.is_empty() => {
+                if let Some(q) = prev.filter(|q| finite(*q) && !inside(*q)) {
+                    run.push(cross(q, p, if q.1 > y1 { y1 } else { y0 }));
+                }
+                run.push(p);
+            }
+            (_, true) => run.push(p),
+            (Some(q), false) if finite(p) => {
+                if inside(q) {
+                    run.push(cross(q, p, if p.1 > y1 { y1 } else { y0 }));
+                } else if (q.1 > y1 && p.1 < y0) || (q.1 < y0 && p.1 > y1) {
+                    // Through the whole frame between two samples.
+                    let (a, b) = if q.1 > y1 { (y1, y0) } else { (y0, y1) };
+                    runs.push(vec![cross(q, p, a), cross(q, p, b)]);
+                }
+                if !run.is_empty() {
+                    runs.push(std::mem::take(&mut run));
+                }
+            }
+            _ => {
+                if !run.is_empty() {
+                    runs.push(std::mem::take(&mut run));
+                }
+            }
+        }
+    }
+    if !run.is_empty() {
+        runs.push(run);
+    }
+    runs
 }
 
-/// As [`chart`], with x ranges shaded (stable speed ranges); linear y only.
-pub fn chart_shaded(
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series],
-    log_y: bool,
-    shades: &[(f64, f64, RGBColor)],
-) -> Result<String, PlotError> {
-    register_font();
-    let pts = series.iter().flat_map(|s| s.points.iter());
+/// Width of the legend panel at the right of every figure (px): the legend never covers data.
+const LEGEND_WIDTH: u32 = 250;
+
+/// The data's bounds: x from every series, y from `y_range` or the series.
+fn bounds(c: &Chart) -> (f64, f64, f64, f64) {
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
         f64::NEG_INFINITY,
         f64::INFINITY,
         f64::NEG_INFINITY,
     );
-    for &(x, y) in pts {
-        if x.is_finite() && y.is_finite() && (!log_y || y > 0.0) {
+    for &(x, y) in c.series.iter().flat_map(|s| s.points.iter()) {
+        if x.is_finite() && y.is_finite() && (!c.log_y || y > 0.0) {
             x0 = x0.min(x);
             x1 = x1.max(x);
             y0 = y0.min(y);
@@ -142,119 +213,332 @@ pub fn chart_shaded(
     if x0.partial_cmp(&x1) != Some(std::cmp::Ordering::Less) {
         (x0, x1) = (0.0, 1.0);
     }
-    if y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
-        (y0, y1) = if log_y { (1e-6, 1.0) } else { (-1.0, 1.0) };
+    if let Some(r) = c.y_range {
+        (y0, y1) = r;
+    } else if y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
+        (y0, y1) = if c.log_y { (1e-6, 1.0) } else { (-1.0, 1.0) };
+    } else if !c.log_y {
+        let pad = 0.05 * (y1 - y0);
+        (y0, y1) = (y0 - pad, y1 + pad);
     }
-    let err = |e: &dyn std::fmt::Display| PlotError(e.to_string());
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let font = (FONT_NAME, 16).into_font();
-        let mut builder = ChartBuilder::on(&root);
-        builder
-            .caption(title, font)
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(74);
-        let xd = decimals_for(x1 - x0);
-        if log_y {
-            let (ly0, ly1) = (y0.max(y1 * 1e-6), y1 * 2.0);
-            let mut chart = builder
-                .build_cartesian_2d(x0..x1, (ly0..ly1).log_scale())
-                .map_err(|e| err(&e))?;
-            chart
-                .configure_mesh()
-                .x_desc(x_label)
-                .y_desc(y_label)
-                .label_style((FONT_NAME, 12))
-                .x_label_formatter(&|v| tick(*v, xd))
-                .y_label_formatter(&|v| format!("{v:.0e}"))
-                .draw()
-                .map_err(|e| err(&e))?;
-            draw_series(&mut chart, series, (x0, x1), |y| y > 0.0)?;
-        } else {
-            let pad = 0.05 * (y1 - y0);
-            let yd = decimals_for(y1 - y0);
-            let mut chart = builder
-                .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
-                .map_err(|e| err(&e))?;
-            for &(a, b, color) in shades {
-                let rect = Rectangle::new(
-                    [(a.max(x0), y0 - pad), (b.min(x1), y1 + pad)],
-                    color.mix(0.12).filled(),
-                );
-                chart
-                    .draw_series(std::iter::once(rect))
-                    .map_err(|e| err(&e))?;
+    (x0, x1, y0, y1)
+}
+
+fn err(e: &dyn std::fmt::Display) -> PlotError {
+    PlotError(e.to_string())
+}
+
+/// Draws `c` into `area` (no legend: see [`legend_into`]).
+fn plot_into<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, c: &Chart) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let (x0, x1, y0, y1) = bounds(c);
+    let mut builder = ChartBuilder::on(area);
+    if !c.title.is_empty() {
+        builder.caption(c.title, (FONT_NAME, 16).into_font());
+    }
+    builder
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(74);
+    let xd = decimals_for(x1 - x0);
+    let columns = area.dim_in_pixel().0 as usize;
+    if c.log_y {
+        let (ly0, ly1) = (y0.max(y1 * 1e-6), y1 * 2.0);
+        let mut chart = builder
+            .build_cartesian_2d(x0..x1, (ly0..ly1).log_scale())
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(c.x_label)
+            .y_desc(c.y_label)
+            .label_style((FONT_NAME, 12))
+            .x_label_formatter(&|v| tick(*v, xd))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| err(&e))?;
+        for s in c.series {
+            let pts: Vec<(f64, f64)> = decimate(&s.points, (x0, x1), columns)
+                .into_iter()
+                .filter(|p| p.1 > 0.0 && p.1.is_finite())
+                .collect();
+            draw_marks(&mut chart, s, vec![pts])?;
+        }
+    } else {
+        let yd = decimals_for(y1 - y0);
+        let mut chart = builder
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| err(&e))?;
+        for sh in c.shades {
+            let (a, b) = (sh.from.max(x0), sh.to.min(x1));
+            if a >= b {
+                continue;
             }
             chart
-                .configure_mesh()
-                .x_desc(x_label)
-                .y_desc(y_label)
-                .label_style((FONT_NAME, 12))
-                .x_label_formatter(&|v| tick(*v, xd))
-                .y_label_formatter(&|v| tick(*v, yd))
-                .draw()
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(a, y0), (b, y1)],
+                    sh.color.mix(0.12).filled(),
+                )))
                 .map_err(|e| err(&e))?;
-            draw_series(&mut chart, series, (x0, x1), |_| true)?;
         }
+        chart
+            .configure_mesh()
+            .x_desc(c.x_label)
+            .y_desc(c.y_label)
+            .label_style((FONT_NAME, 12))
+            .x_label_formatter(&|v| tick(*v, xd))
+            .y_label_formatter(&|v| tick(*v, yd))
+            .draw()
+            .map_err(|e| err(&e))?;
+        for s in c.series {
+            let pts = decimate(&s.points, (x0, x1), columns);
+            let runs = match s.mark {
+                Mark::Dots => vec![pts
+                    .into_iter()
+                    .filter(|p| p.1.is_finite() && p.1 >= y0 && p.1 <= y1)
+                    .collect()],
+                _ => clip(&pts, (y0, y1)),
+            };
+            draw_marks(&mut chart, s, runs)?;
+        }
+        // Labels of the shaded ranges, at their top left, and the events.
+        let font = (FONT_NAME, 12).into_font();
+        for sh in c.shades.iter().filter(|sh| !sh.label.is_empty()) {
+            let a = sh.from.max(x0);
+            if a < sh.to.min(x1) {
+                let pos = chart.backend_coord(&(a, y1));
+                area.draw(&Text::new(
+                    sh.label.clone(),
+                    (pos.0 + 4, pos.1 + 4),
+                    font.clone().color(&sh.color.mix(0.9)),
+                ))
+                .map_err(|e| err(&e))?;
+            }
+        }
+        for ev in c.events.iter().filter(|e| e.at >= x0 && e.at <= x1) {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(ev.at, y0), (ev.at, y1)],
+                    5,
+                    4,
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?;
+            let pos = chart.backend_coord(&(ev.at, y1));
+            area.draw(&Text::new(
+                ev.label.clone(),
+                (pos.0 + 4, pos.1 + 18),
+                font.clone(),
+            ))
+            .map_err(|e| err(&e))?;
+        }
+    }
+    Ok(())
+}
+
+/// Draws a series' runs in its mark.
+fn draw_marks<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate<From = (f64, f64)>>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    s: &Series,
+    runs: Vec<Vec<(f64, f64)>>,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let color = s.color;
+    for run in runs {
+        match s.mark {
+            Mark::Line => chart.draw_series(LineSeries::new(run, color.stroke_width(2))),
+            Mark::Bar => chart.draw_series(LineSeries::new(run, color.stroke_width(1))),
+            Mark::Thin => chart.draw_series(LineSeries::new(run, color.mix(0.45).stroke_width(1))),
+            Mark::Dashed => {
+                let scale = pixels_per_unit(chart);
+                for dash in dashes(&run, scale, 7.0, 5.0) {
+                    chart
+                        .draw_series(LineSeries::new(dash, color.stroke_width(2)))
+                        .map_err(|e| err(&e))?;
+                }
+                continue;
+            }
+            Mark::Dots => {
+                chart.draw_series(run.into_iter().map(|p| Circle::new(p, 2, color.filled())))
+            }
+        }
+        .map_err(|e| err(&e))?;
+    }
+    Ok(())
+}
+
+/// Pixels per data unit in x and y of a chart's plotting area.
+fn pixels_per_unit<DB: DrawingBackend, CT: plotters::coord::CoordTranslate<From = (f64, f64)>>(
+    chart: &ChartContext<'_, DB, CT>,
+) -> (f64, f64) {
+    let spec = chart.as_coord_spec();
+    let (p0, px, py) = (
+        spec.translate(&(0.0, 0.0)),
+        spec.translate(&(1.0, 0.0)),
+        spec.translate(&(0.0, 1.0)),
+    );
+    (
+        f64::from(px.0 - p0.0).abs().max(1e-12),
+        f64::from(py.1 - p0.1).abs().max(1e-12),
+    )
+}
+
+/// A polyline cut into dashes `on` pixels long with `off`-pixel gaps, measured along the curve
+/// (the pattern runs on across the points, so a finely sampled curve stays smooth).
+pub fn dashes(
+    points: &[(f64, f64)],
+    (sx, sy): (f64, f64),
+    on: f64,
+    off: f64,
+) -> Vec<Vec<(f64, f64)>> {
+    let mut out = Vec::new();
+    let mut current: Vec<(f64, f64)> = Vec::new();
+    let (mut drawing, mut left) = (true, on);
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let len = ((b.0 - a.0) * sx).hypot((b.1 - a.1) * sy);
+        if !len.is_finite() || len == 0.0 {
+            continue;
+        }
+        let mut at = 0.0;
+        if drawing && current.is_empty() {
+            current.push(a);
+        }
+        while len - at > left {
+            at += left;
+            let t = at / len;
+            let p = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+            if drawing {
+                current.push(p);
+                out.push(std::mem::take(&mut current));
+                left = off;
+            } else {
+                current.push(p);
+                left = on;
+            }
+            drawing = !drawing;
+        }
+        left -= len - at;
+        if drawing {
+            current.push(b);
+        }
+    }
+    if current.len() > 1 {
+        out.push(current);
+    }
+    out
+}
+
+/// The legend of `series` (named ones) and `shades` in its own panel, each entry drawn in its
+/// series' mark.
+fn legend_into<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    series: &[Series],
+    shades: &[Shade],
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let font = (FONT_NAME, 12).into_font();
+    let mut y = 52;
+    let mut seen: Vec<String> = Vec::new();
+    for s in series.iter().filter(|s| !s.name.is_empty()) {
+        if seen.contains(&s.name) {
+            continue;
+        }
+        seen.push(s.name.clone());
+        let (x, c) = (8, s.color);
+        match s.mark {
+            Mark::Line => area.draw(&PathElement::new(
+                vec![(x, y), (x + 26, y)],
+                c.stroke_width(2),
+            )),
+            Mark::Bar => area.draw(&PathElement::new(
+                vec![(x, y), (x + 26, y)],
+                c.stroke_width(1),
+            )),
+            Mark::Thin => area.draw(&PathElement::new(
+                vec![(x, y), (x + 26, y)],
+                c.mix(0.45).stroke_width(1),
+            )),
+            Mark::Dashed => area
+                .draw(&PathElement::new(
+                    vec![(x, y), (x + 9, y)],
+                    c.stroke_width(2),
+                ))
+                .and_then(|()| {
+                    area.draw(&PathElement::new(
+                        vec![(x + 15, y), (x + 26, y)],
+                        c.stroke_width(2),
+                    ))
+                }),
+            Mark::Dots => area
+                .draw(&Circle::new((x + 6, y), 3, c.filled()))
+                .and_then(|()| area.draw(&Circle::new((x + 19, y), 3, c.filled()))),
+        }
+        .map_err(|e| err(&e))?;
+        area.draw(&Text::new(s.name.clone(), (x + 34, y - 7), font.clone()))
+            .map_err(|e| err(&e))?;
+        y += 20;
+    }
+    for sh in shades.iter().filter(|s| !s.label.is_empty()) {
+        if seen.contains(&sh.label) {
+            continue;
+        }
+        seen.push(sh.label.clone());
+        area.draw(&Rectangle::new(
+            [(8, y - 6), (34, y + 6)],
+            sh.color.mix(0.2).filled(),
+        ))
+        .map_err(|e| err(&e))?;
+        area.draw(&Text::new(sh.label.clone(), (42, y - 7), font.clone()))
+            .map_err(|e| err(&e))?;
+        y += 20;
+    }
+    Ok(())
+}
+
+/// A figure: the chart at the left, its legend in a panel at the right.
+pub fn chart_svg(c: &Chart) -> Result<String, PlotError> {
+    register_font();
+    let mut svg = String::new();
+    {
+        let root =
+            SVGBackend::with_string(&mut svg, (WIDTH + LEGEND_WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let (plot, legend) = root.split_horizontally(WIDTH);
+        plot_into(&plot, c)?;
+        legend_into(&legend, c.series, c.shades)?;
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
 }
 
-fn draw_series<
-    'a,
-    DB: DrawingBackend + 'a,
-    CT: plotters::coord::CoordTranslate<From = (f64, f64)>,
->(
-    chart: &mut ChartContext<'a, DB, CT>,
+/// An x–y chart of several series with a legend; `log_y` for spectra.
+pub fn chart(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
     series: &[Series],
-    x_range: (f64, f64),
-    keep: impl Fn(f64) -> bool,
-) -> Result<(), PlotError>
-where
-    DB::ErrorType: 'static,
-{
-    let err = |e: &dyn std::fmt::Display| PlotError(e.to_string());
-    for s in series {
-        let pts: Vec<(f64, f64)> = decimate(&s.points, x_range, WIDTH as usize)
-            .into_iter()
-            .filter(|p| keep(p.1) && p.1.is_finite())
-            .collect();
-        let color = s.color;
-        let anno = match s.mark {
-            Mark::Line => chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(1)))
-                .map_err(|e| err(&e))?,
-            Mark::Thin => chart
-                .draw_series(LineSeries::new(pts, color.mix(0.45).stroke_width(1)))
-                .map_err(|e| err(&e))?,
-            Mark::Dashed => chart
-                .draw_series(DashedLineSeries::new(pts, 6, 4, color.stroke_width(1)))
-                .map_err(|e| err(&e))?,
-            Mark::Dots => chart
-                .draw_series(pts.into_iter().map(|p| Circle::new(p, 2, color.filled())))
-                .map_err(|e| err(&e))?,
-        };
-        if !s.name.is_empty() {
-            anno.label(s.name.clone()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-            });
-        }
-    }
-    chart
-        .configure_series_labels()
-        .label_font((FONT_NAME, 12))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))
+    log_y: bool,
+) -> Result<String, PlotError> {
+    chart_svg(&Chart {
+        title,
+        x_label,
+        y_label,
+        series,
+        log_y,
+        ..Chart::default()
+    })
 }
 
-/// The signal (grey) and the fitted damped sinusoid over the free-decay segment (red).
+/// The signal (grey dots) and the fitted damped sinusoid over the free-decay segment (red
+/// line), and under them the residual, measured − fitted, over the segment.
 pub fn fit_svg(signal: &Signal, osc: &Oscillation, title: &str) -> Result<String, PlotError> {
+    register_font();
     let t = signal.times_s();
     let data: Vec<(f64, f64)> = t
         .iter()
@@ -267,31 +551,89 @@ pub fn fit_svg(signal: &Signal, osc: &Oscillation, title: &str) -> Result<String
         .filter(|&&ti| ti >= a && ti <= b)
         .map(|&ti| (ti, osc.fit.eval(ti)))
         .collect();
+    let residual: Vec<(f64, f64)> = data
+        .iter()
+        .filter(|p| p.0 >= a && p.0 <= b && p.1.is_finite())
+        .map(|&(ti, v)| (ti, v - osc.fit.eval(ti)))
+        .collect();
     let unit = if signal.unit.is_empty() {
         String::new()
     } else {
         format!(" ({})", signal.unit)
     };
-    chart(
-        title,
-        "time (s)",
-        &format!("signal{unit}"),
-        &[
-            Series {
-                name: "measured".into(),
-                points: data,
-                color: RGBColor(120, 120, 120),
-                mark: Mark::Line,
+    let grey = RGBColor(120, 120, 120);
+    let red = RGBColor(200, 30, 30);
+    let series = [
+        Series {
+            name: "measured".into(),
+            points: data,
+            color: grey,
+            mark: Mark::Dots,
+        },
+        Series {
+            name: "fitted damped sinusoid".into(),
+            points: fitted,
+            color: red,
+            mark: Mark::Line,
+        },
+    ];
+    let shades = [Shade {
+        from: a,
+        to: b,
+        color: RGBColor(120, 120, 120),
+        label: "fitted segment".into(),
+    }];
+    let y_label = format!("signal{unit}");
+    let residual_label = format!("residual{unit}");
+    let zero = Series {
+        name: String::new(),
+        points: vec![(a, 0.0), (b, 0.0)],
+        color: red,
+        mark: Mark::Bar,
+    };
+    let residual_series = [
+        Series {
+            name: "residual, measured − fitted".into(),
+            points: residual,
+            color: grey,
+            mark: Mark::Dots,
+        },
+        zero,
+    ];
+    let mut svg = String::new();
+    {
+        let height = HEIGHT + HEIGHT / 2;
+        let root =
+            SVGBackend::with_string(&mut svg, (WIDTH + LEGEND_WIDTH, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let (plot, legend) = root.split_horizontally(WIDTH);
+        let (top, bottom) = plot.split_vertically(HEIGHT);
+        plot_into(
+            &top,
+            &Chart {
+                title,
+                x_label: "time (s)",
+                y_label: &y_label,
+                series: &series,
+                shades: &shades,
+                ..Chart::default()
             },
-            Series {
-                name: "fitted damped sinusoid".into(),
-                points: fitted,
-                color: RGBColor(200, 30, 30),
-                mark: Mark::Line,
+        )?;
+        plot_into(
+            &bottom,
+            &Chart {
+                x_label: "time (s)",
+                y_label: &residual_label,
+                series: &residual_series,
+                ..Chart::default()
             },
-        ],
-        false,
-    )
+        )?;
+        let mut all = series.to_vec();
+        all.push(residual_series[0].clone());
+        legend_into(&legend, &all, &shades)?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg)
 }
 
 /// The Hann spectrum of the fitted segment up to 4× the main frequency, with the peaks marked.
@@ -358,28 +700,41 @@ pub fn error_bars(points: &[(f64, f64, f64, f64)], color: RGBColor, name: &str) 
                 name: String::new(),
                 points: seg,
                 color,
-                mark: Mark::Line,
+                mark: Mark::Bar,
             });
         }
     }
     out
 }
 
-/// A ride's roll and steer (degrees) against time: the measured angles thin, the fitted curves
-/// over the fitted window (shaded) bold. `measured` and `fitted` rows are (t s, θ rad, γ rad).
+/// A ride's roll and steer (degrees) against time: the measured angles as dots, the fitted
+/// modes over the fitted window (shaded) as lines, the kick marked. `measured` and `fitted`
+/// rows are (t s, θ rad, γ rad).
 pub fn ride_svg(
     title: &str,
     measured: &[[f64; 3]],
     fitted: &[[f64; 3]],
     window_s: (f64, f64),
+    kick_s: f64,
 ) -> Result<String, PlotError> {
     let (blue, red) = (RGBColor(30, 80, 200), RGBColor(200, 40, 40));
+    let (pale_blue, pale_red) = (RGBColor(140, 165, 230), RGBColor(235, 150, 150));
     let column = |rows: &[[f64; 3]], k: usize| -> Vec<(f64, f64)> {
         rows.iter().map(|r| (r[0], r[k].to_degrees())).collect()
     };
     let series = [
-        ("roll θ, measured", column(measured, 1), blue, Mark::Thin),
-        ("steer γ, measured", column(measured, 2), red, Mark::Thin),
+        (
+            "roll θ, measured",
+            column(measured, 1),
+            pale_blue,
+            Mark::Dots,
+        ),
+        (
+            "steer γ, measured",
+            column(measured, 2),
+            pale_red,
+            Mark::Dots,
+        ),
         ("roll θ, fitted modes", column(fitted, 1), blue, Mark::Line),
         ("steer γ, fitted modes", column(fitted, 2), red, Mark::Line),
     ]
@@ -389,14 +744,23 @@ pub fn ride_svg(
         color,
         mark,
     });
-    chart_shaded(
+    chart_svg(&Chart {
         title,
-        "time in the log (s)",
-        "angle (degrees)",
-        &series,
-        false,
-        &[(window_s.0, window_s.1, RGBColor(120, 120, 120))],
-    )
+        x_label: "time in the log (s)",
+        y_label: "angle (degrees)",
+        series: &series,
+        shades: &[Shade {
+            from: window_s.0,
+            to: window_s.1,
+            color: RGBColor(120, 120, 120),
+            label: "fitted window".into(),
+        }],
+        events: &[Event {
+            at: kick_s,
+            label: "kick".into(),
+        }],
+        ..Chart::default()
+    })
 }
 
 /// Real parts (solid) and imaginary parts (dashed) of the eigenvalues against speed, as the
@@ -417,12 +781,7 @@ pub fn continuation_svg(
                 sw.speeds_mps
                     .iter()
                     .enumerate()
-                    .map(|(i, &v)| {
-                        (
-                            v,
-                            f(sw.eigenvalues[i][k], b.bands.se[i][k]).clamp(y_range.0, y_range.1),
-                        )
-                    })
+                    .map(|(i, &v)| (v, f(sw.eigenvalues[i][k], b.bands.se[i][k])))
                     .collect()
             };
         let multi = bikes.len() > 1;
@@ -469,34 +828,24 @@ pub fn continuation_svg(
             }
         }
         for &(lo, hi) in b.stable {
-            shades.push((lo, hi.unwrap_or(f64::INFINITY), b.color));
+            shades.push(Shade {
+                from: lo,
+                to: hi.unwrap_or(f64::INFINITY),
+                color: b.color,
+                label: label("stable"),
+            });
         }
     }
-    // Keep the y axis on the chosen range.
-    let xs = bikes
-        .first()
-        .map(|b| {
-            (
-                b.bands.sweep.speeds_mps[0],
-                *b.bands.sweep.speeds_mps.last().unwrap_or(&1.0),
-            )
-        })
-        .unwrap_or((0.0, 1.0));
-    series.push(Series {
-        name: String::new(),
-        points: vec![(xs.0, y_range.0), (xs.1, y_range.1)],
-        color: WHITE,
-        mark: Mark::Dots,
-    });
     series.extend_from_slice(extra);
-    chart_shaded(
+    chart_svg(&Chart {
         title,
-        "speed (m/s)",
-        "eigenvalue (1/s)",
-        &series,
-        false,
-        &shades,
-    )
+        x_label: "speed (m/s)",
+        y_label: "eigenvalue (1/s)",
+        series: &series,
+        shades: &shades,
+        y_range: Some(y_range),
+        ..Chart::default()
+    })
 }
 
 #[cfg(test)]
@@ -504,9 +853,42 @@ mod tests {
     use super::*;
 
     #[test]
-    fn ticks_never_show_negative_zero() {
-        assert_eq!(tick(-0.0001, 3), "0.000");
+    fn ticks_never_show_negative_zero_or_trailing_zeros() {
+        assert_eq!(tick(-0.0001, 3), "0");
         assert_eq!(tick(-0.5, 1), "-0.5");
+        assert_eq!(tick(2.5, 3), "2.5");
+        assert_eq!(tick(5.0, 3), "5");
+        assert_eq!(tick(40.0, 0), "40");
+    }
+
+    /// Dashes run on across points: a straight line of 48 px sampled every px gives four
+    /// 7 px dashes with 5 px gaps.
+    #[test]
+    fn dashes_follow_the_curve() {
+        let pts: Vec<(f64, f64)> = (0..=48).map(|i| (i as f64, 0.0)).collect();
+        let d = dashes(&pts, (1.0, 1.0), 7.0, 5.0);
+        assert_eq!(d.len(), 4);
+        for (k, dash) in d.iter().enumerate() {
+            let start = 12.0 * k as f64;
+            assert!((dash[0].0 - start).abs() < 1e-9, "{dash:?}");
+            assert!(
+                (dash.last().unwrap().0 - (start + 7.0)).abs() < 1e-9,
+                "{dash:?}"
+            );
+        }
+    }
+
+    /// A curve leaving the frame is cut where it crosses it, not drawn along the edge.
+    #[test]
+    fn clipping_cuts_at_the_frame() {
+        let pts = [(0.0, 0.0), (1.0, 2.0), (2.0, 4.0), (3.0, 2.0), (4.0, 0.0)];
+        let runs = clip(&pts, (-1.0, 3.0));
+        assert_eq!(runs.len(), 2);
+        assert_eq!(runs[0], vec![(0.0, 0.0), (1.0, 2.0), (1.5, 3.0)]);
+        assert_eq!(runs[1], vec![(2.5, 3.0), (3.0, 2.0), (4.0, 0.0)]);
+        // Through the whole frame between two samples.
+        let runs = clip(&[(0.0, -5.0), (1.0, 5.0)], (-1.0, 1.0));
+        assert_eq!(runs, vec![vec![(0.4, -1.0), (0.6, 1.0)]]);
     }
 
     #[test]

@@ -1251,7 +1251,7 @@ fn dynamic_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files
             "\n## On the continuation diagram\n\nThe model's weave (real part solid, imaginary dashed, ±2 standard errors thin, stable range shaded)\n\
              with each ride's σ (black) and ω (green) at its speed, bars at ±2 standard errors.\n\n\
              ![continuation](dynamic/continuation.svg)\n\n## Each ride\n\n\
-             θ and γ as measured (thin) and the fitted modes over the window (bold, window shaded).\n\n",
+             θ and γ as measured (dots) and the fitted modes over the window (lines, window shaded; the kick marked).\n\n",
         );
         for r in &results {
             let Some(t) = r.test() else { continue };
@@ -1272,7 +1272,7 @@ fn dynamic_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files
             let file = format!("dynamic/{name}.svg");
             files.push((
                 file.clone().into(),
-                ride_svg(&title, &t.trace, &fitted, (f.start_s, f.end_s))?.into_bytes(),
+                ride_svg(&title, &t.trace, &fitted, (f.start_s, f.end_s), t.kick_s)?.into_bytes(),
             ));
             let _ = writeln!(md, "- [{name}]({file})");
         }
@@ -1564,7 +1564,7 @@ fn gap_report(data: &Path, progress: &mut dyn FnMut(&str), files: &mut Files) ->
             chart(
                 "experiment − model, before and after (bars ±2 combined standard errors)",
                 "speed (m/s)",
-                "residual (1/s)",
+                "residual: Δσ (1/s), Δω (rad/s)",
                 &series,
                 false,
             )?

@@ -238,7 +238,14 @@ fn a_rides_pair_that_is_not_one_recording_is_named_so() {
         std::fs::write(d.join(format!("{name}_cal.log")), c).unwrap();
         let log = d.join(format!("{name}.log"));
         refused(
-            &bikeproc(&["dynamic", log.to_str().unwrap(), "--speed", "4"]),
+            &bikeproc(&[
+                "dynamic",
+                log.to_str().unwrap(),
+                "--speed",
+                "4",
+                "--bike",
+                "data/lab_bike.toml",
+            ]),
             2,
             says,
         );

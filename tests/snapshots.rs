@@ -26,7 +26,11 @@ fn text_of(args: &[&str]) -> String {
     );
     let text = String::from_utf8(out.stdout).expect("UTF-8 output");
     let bad = bad_numbers(&text);
-    assert!(bad.is_empty(), "bikeproc {}: {bad:?} in\n{text}", args.join(" "));
+    assert!(
+        bad.is_empty(),
+        "bikeproc {}: {bad:?} in\n{text}",
+        args.join(" ")
+    );
     text
 }
 
@@ -41,14 +45,35 @@ macro_rules! snapshot {
 }
 
 snapshot!(period_frame_torsion, "period", "data/frame_torsion/");
-snapshot!(period_one_log, "period", "data/frame_torsion/frame_torsion_1a.log");
+snapshot!(
+    period_one_log,
+    "period",
+    "data/frame_torsion/frame_torsion_1a.log"
+);
 snapshot!(calibrate_bar, "calibrate-bar", "data/bar_calibration");
 snapshot!(inertia_frame_torsion, "inertia", "data/frame_torsion");
-snapshot!(inertia_handlebar_torsion, "inertia", "data/handlebar_torsion");
+snapshot!(
+    inertia_handlebar_torsion,
+    "inertia",
+    "data/handlebar_torsion"
+);
 snapshot!(inertia_frame_compound, "inertia", "data/frame_compound");
 snapshot!(inertia_rear_wheel, "inertia", "data/rear_wheel_compound");
-snapshot!(stability_lab_bike, "stability", "--bike", "data/lab_bike.toml", "--speeds", "0:10:0.5");
-snapshot!(dynamic_ride_03, "dynamic", "data/ride_03.log", "--speed", "3.9");
+snapshot!(
+    stability_lab_bike,
+    "stability",
+    "--bike",
+    "data/lab_bike.toml",
+    "--speeds",
+    "0:10:0.5"
+);
+snapshot!(
+    dynamic_ride_03,
+    "dynamic",
+    "data/ride_03.log",
+    "--speed",
+    "3.9"
+);
 snapshot!(dynamic_campaign, "dynamic", "data/rides.toml");
 snapshot!(gap_campaign, "gap", "data/rides.toml");
 snapshot!(
