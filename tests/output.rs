@@ -48,6 +48,20 @@ fn check(dir: &Path) -> u64 {
     first
 }
 
+/// `root` holds the `reports` folder and nothing else: no staging folder or temporary file
+/// was left beside it.
+fn assert_only_reports_in(root: &Path) {
+    let beside: Vec<_> = std::fs::read_dir(root)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        beside,
+        vec![std::ffi::OsString::from("reports")],
+        "left beside"
+    );
+}
+
 /// The child: writes generation after generation into the folder until it is killed.
 fn child_loop(dir: &Path, start: u64) -> ! {
     let mut g = start;
@@ -110,15 +124,7 @@ fn writers_killed_at_random_leave_one_whole_set() {
     // removes the killed ones' leftovers).
     replace_dir(&dir, &set(7)).unwrap();
     assert_eq!(check(&dir), 7);
-    let beside: Vec<_> = std::fs::read_dir(&root)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(
-        beside,
-        vec![std::ffi::OsString::from("reports")],
-        "left beside"
-    );
+    assert_only_reports_in(&root);
     println!("{} generations seen after kills", seen.len());
     assert!(seen.len() > 12, "the writers did not get to write");
     std::fs::remove_dir_all(&root).unwrap();
@@ -240,15 +246,7 @@ fn report_killed_at_random_or_run_twice_at_once_leaves_one_whole_set() {
         assert!(c.wait().unwrap().success(), "a run beside another failed");
     }
     assert_eq!(which(), "new");
-    let beside: Vec<_> = std::fs::read_dir(&root)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(
-        beside,
-        vec![std::ffi::OsString::from("reports")],
-        "left beside"
-    );
+    assert_only_reports_in(&root);
     println!("a run takes {run_s:.1} s; after the kills: {seen:?}");
     std::fs::remove_dir_all(&root).unwrap();
 }
