@@ -228,6 +228,22 @@ fn err(e: &dyn std::fmt::Display) -> PlotError {
     PlotError(e.to_string())
 }
 
+/// The axes, grid and labels of a chart, the y ticks written by `$y_fmt` (linear and
+/// logarithmic axes are different types, hence a macro).
+macro_rules! mesh {
+    ($chart:expr, $c:expr, $xd:expr, $y_fmt:expr) => {
+        $chart
+            .configure_mesh()
+            .x_desc($c.x_label)
+            .y_desc($c.y_label)
+            .label_style((FONT_NAME, 12))
+            .x_label_formatter(&|v| tick(*v, $xd))
+            .y_label_formatter($y_fmt)
+            .draw()
+            .map_err(|e| err(&e))
+    };
+}
+
 /// Draws `c` into `area` (no legend: see [`legend_into`]).
 fn plot_into<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, c: &Chart) -> Result<(), PlotError>
 where
@@ -249,15 +265,7 @@ where
         let mut chart = builder
             .build_cartesian_2d(x0..x1, (ly0..ly1).log_scale())
             .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc(c.x_label)
-            .y_desc(c.y_label)
-            .label_style((FONT_NAME, 12))
-            .x_label_formatter(&|v| tick(*v, xd))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(|e| err(&e))?;
+        mesh!(chart, c, xd, &|v: &f64| format!("{v:.0e}"))?;
         for s in c.series {
             let pts: Vec<(f64, f64)> = decimate(&s.points, (x0, x1), columns)
                 .into_iter()
@@ -282,15 +290,7 @@ where
                 )))
                 .map_err(|e| err(&e))?;
         }
-        chart
-            .configure_mesh()
-            .x_desc(c.x_label)
-            .y_desc(c.y_label)
-            .label_style((FONT_NAME, 12))
-            .x_label_formatter(&|v| tick(*v, xd))
-            .y_label_formatter(&|v| tick(*v, yd))
-            .draw()
-            .map_err(|e| err(&e))?;
+        mesh!(chart, c, xd, &|v: &f64| tick(*v, yd))?;
         for s in c.series {
             let pts = decimate(&s.points, (x0, x1), columns);
             let runs = match s.mark {
