@@ -86,10 +86,19 @@ fn spawn(dir: &Path, start: u64) -> Child {
         .unwrap()
 }
 
+/// Sends `signal`; a child still running 3 s later (SIGINT is ignored by processes started in
+/// the background of a non-interactive shell, as CI may start the tests) gets SIGKILL.
 fn kill(child: &mut Child, signal: &str) {
     let _ = Command::new("kill")
         .args([signal, &child.id().to_string()])
         .status();
+    for _ in 0..300 {
+        if let Ok(Some(_)) = child.try_wait() {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let _ = child.kill();
     let _ = child.wait();
 }
 
