@@ -1692,14 +1692,7 @@ fn bicycleparameters_report(
             (Some(v), None) => format!("{v:.3}"),
             (None, _) => "–".into(),
         };
-        let ranges: Vec<String> = r
-            .stable_ranges_mps
-            .iter()
-            .map(|(lo, hi)| match hi {
-                Some(h) => format!("{lo:.3} – {h:.3}"),
-                None => format!("above {lo:.3}"),
-            })
-            .collect();
+        let ranges = crate::model::ranges_text(&r.stable_ranges_mps, 3, "");
         let _ = writeln!(
             md,
             "| {name}{} | {comparison} | {} | {} | {} |",

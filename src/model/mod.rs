@@ -353,6 +353,18 @@ pub struct Stability {
     pub weave_merge_speed_mps: Option<f64>,
 }
 
+/// Stable speed ranges as text, `lo – hi` (or `above lo` when stable to the end of the
+/// search), with `decimals` and a `unit` suffix (e.g. " m/s", or "" in a table headed m/s).
+pub fn ranges_text(ranges: &[(f64, Option<f64>)], decimals: usize, unit: &str) -> Vec<String> {
+    ranges
+        .iter()
+        .map(|(lo, hi)| match hi {
+            Some(h) => format!("{lo:.decimals$} – {h:.decimals$}{unit}"),
+            None => format!("above {lo:.decimals$}{unit}"),
+        })
+        .collect()
+}
+
 /// Bisection to 1e-13 m/s on a sign change of `f` between `a` and `b`.
 pub(crate) fn bisect(mut a: f64, mut b: f64, f: impl Fn(f64) -> f64) -> f64 {
     let fa = f(a);

@@ -99,14 +99,7 @@ impl StabilityReport {
             "{}: linearized Whipple model (Meijaard et al. 2007)",
             self.bike
         );
-        let ranges: Vec<String> = self
-            .stable_ranges_mps
-            .iter()
-            .map(|(lo, hi)| match hi {
-                Some(h) => format!("{lo:.4} – {h:.4} m/s"),
-                None => format!("above {lo:.4} m/s"),
-            })
-            .collect();
+        let ranges = super::ranges_text(&self.stable_ranges_mps, 4, " m/s");
         let _ = writeln!(
             s,
             "  stable         {}",
