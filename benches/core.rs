@@ -5,9 +5,9 @@
 use bikeproc::fit::{self, FitOptions};
 use bikeproc::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{self, Signal};
+use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{self, FileSpec, LinkModel, Locale, Precision, SensorModel};
 use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
-use bikeproc::sim::rng::Rng;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
@@ -43,7 +43,7 @@ fn spec(sensors: usize, mode: OutputMode) -> FileSpec {
 fn hour_log() -> &'static PathBuf {
     static PATH: OnceLock<PathBuf> = OnceLock::new();
     PATH.get_or_init(|| {
-        let mut rng = Rng::new(1);
+        let mut rng = seeded(1);
         let release = Release {
             rest_s: 5.0,
             ramp_s: 1.0,
@@ -84,7 +84,7 @@ fn read_one_hour_two_sensor_log(bencher: divan::Bencher) {
 fn sixty_second_signal() -> &'static Signal {
     static SIG: OnceLock<Signal> = OnceLock::new();
     SIG.get_or_init(|| {
-        let mut rng = Rng::new(2);
+        let mut rng = seeded(2);
         let release = Release {
             rest_s: 3.0,
             ramp_s: 1.0,
@@ -120,6 +120,39 @@ fn sixty_second_signal() -> &'static Signal {
 fn fit_one_60_s_signal(bencher: divan::Bencher) {
     let sig = sixty_second_signal();
     bencher.bench(|| fit::analyse(divan::black_box(sig), &FitOptions::default()).expect("fits"));
+}
+
+/// One of the six shared real pendulum signals (`../shared/reference/signals`).
+fn reference_signal(name: &str) -> Signal {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/reference/signals")
+        .join(name);
+    signal::load_signal(
+        &path,
+        &signal::Extract::DominantRotation,
+        None,
+        &ReadOptions::default(),
+    )
+    .expect("a reference signal")
+    .signal
+}
+
+/// Issue 17: the period fit on the shared real signals, as `bikeproc period FILE.csv` runs it
+/// (spectrum, σ grid, Levenberg–Marquardt, segment refinement, trend by BIC, secondary peaks).
+#[divan::bench(
+    sample_count = 30,
+    args = [
+        "browserins_fork_compound_first1_1000hz.csv",
+        "browserins_fork_compound_first1_100hz.csv",
+        "resonance_wheel_radial_torsional_500hz.csv",
+        "resonance_wheel_radial_torsional_100hz.csv",
+        "resonance_wheel_axial_compound_500hz.csv",
+        "resonance_wheel_axial_compound_100hz.csv",
+    ]
+)]
+fn period_fit_reference(bencher: divan::Bencher, name: &str) {
+    let sig = reference_signal(name);
+    bencher.bench(|| fit::analyse(divan::black_box(&sig), &FitOptions::default()).expect("fits"));
 }
 
 /// The benchmark bicycle's eigenvalues at 10,001 speeds (0–10 m/s), named and tracked.
@@ -177,7 +210,7 @@ fn simulated_ride_10_s_coast(bencher: divan::Bencher) {
 }
 
 /// Issue 6: the whole `data/rides.toml` campaign (16 rides: read both files, find the window,
-/// fit, resample 400 times, the model's weave with its standard error), on two threads as
+/// fit, resample 400 times, the model's weave with its standard error), on rayon's threads (two on this machine) as
 /// `bikeproc dynamic data/rides.toml` runs it.
 #[divan::bench(sample_count = 10)]
 fn dynamic_campaign_16_rides(bencher: divan::Bencher) {
@@ -186,11 +219,11 @@ fn dynamic_campaign_16_rides(bencher: divan::Bencher) {
     let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
     let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
     let modal = bikeproc::ride::modal::ModalOptions::default();
-    bencher.bench(|| run_campaign(&manifest, &model, &modal, 2, &|_, _| {}));
+    bencher.bench(|| run_campaign(&manifest, &model, &modal, &|_, _| {}));
 }
 
 /// Issue 7: diagnosing the 16-ride campaign of `data/rides.toml` (every candidate and pair
-/// fitted and left one ride out at a time) from its rides' eigenvalues, on two threads.
+/// fitted and left one ride out at a time) from its rides' eigenvalues, on rayon's threads (two on this machine).
 #[divan::bench(sample_count = 10)]
 fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
     use bikeproc::gap::{diagnose, GapOptions, Observation};
@@ -199,34 +232,23 @@ fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
     let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
     let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
     let modal = bikeproc::ride::modal::ModalOptions::default();
-    let rides: Vec<Observation> = run_campaign(&manifest, &model, &modal, 2, &|_, _| {})
+    let rides: Vec<Observation> = run_campaign(&manifest, &model, &modal, &|_, _| {})
         .iter()
         .enumerate()
         .filter_map(|(k, r)| r.test().map(|t| Observation::from_test(&k.to_string(), t)))
         .collect();
-    bencher.bench(|| {
-        diagnose(
-            &rides,
-            &[],
-            &model,
-            &GapOptions {
-                threads: 2,
-                ..GapOptions::default()
-            },
-            &|_, _| {},
-        )
-    });
+    bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions::default(), &|_, _| {}));
 }
 
 /// Issue 7: `bikeproc gap data/rides.toml` as a whole: the 16 rides' dynamic tests, the noted
-/// speeds' correction and the diagnosis, on two threads.
+/// speeds' correction and the diagnosis, on rayon's threads (two on this machine).
 #[divan::bench(sample_count = 10)]
 fn gap_campaign_16_rides(bencher: divan::Bencher) {
     use bikeproc::ride::dynamic::RideManifest;
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
     let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
-    bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, 2, &|_, _, _| {}));
+    bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}));
 }
 
 /// Issue 15: `bikeproc measured` on one bicycle (Rigid: the table-top geometry, handlebar and
@@ -255,5 +277,17 @@ fn measured_rigid_with_stability(bencher: divan::Bencher) {
             .expect("converts")
             .report(10.0, 0.01)
             .expect("a stability")
+    });
+}
+
+/// Issue 17: one padded spectrum of the 60 s signal (the period fit takes four).
+#[divan::bench(sample_count = 50)]
+fn spectrum_60_s_signal(bencher: divan::Bencher) {
+    let sig = sixty_second_signal();
+    bencher.bench(|| {
+        bikeproc::spectral::Spectrum::of(
+            divan::black_box(sig),
+            bikeproc::spectral::Window::Rectangular,
+        )
     });
 }

@@ -88,6 +88,18 @@ impl DampedFit {
         model(&self.params, self.trend, t - self.t_ref_s)
     }
 
+    /// The fitted curve at every time of `t` (s) ([`damped_phasors`]: one pass, no `exp` or
+    /// `sin_cos` per sample on a uniform grid).
+    pub fn eval_many(&self, t: &[f64]) -> Vec<f64> {
+        let tau: Vec<f64> = t.iter().map(|v| v - self.t_ref_s).collect();
+        let mut ph = Vec::new();
+        damped_phasors(self.params[SIGMA], self.params[OMEGA], &tau, &mut ph);
+        tau.iter()
+            .zip(&ph)
+            .map(|(&tk, &z)| model_from(&self.params, self.trend, tk, z))
+            .collect()
+    }
+
     fn se(&self, i: usize) -> f64 {
         self.covariance[(i, i)].max(0.0).sqrt()
     }
@@ -191,6 +203,55 @@ fn model(p: &[f64], trend: bool, tau: f64) -> f64 {
     x
 }
 
+/// Samples between exact evaluations in [`damped_phasors`]: the recurrence's rounding grows by
+/// about one unit in the last place per step, so its relative error stays below 1e-13.
+const PHASOR_ANCHOR: usize = 256;
+
+/// `(e^{−στ} sin ωτ, e^{−στ} cos ωτ)` at every `τ` into `out`. Where consecutive `τ` are one step
+/// apart (a uniform grid: every recording on the sensor's clock) the complex phasor
+/// z = e^{(−σ+iω)τ} is advanced by one multiplication, z ← z·e^{(−σ+iω)Δ}; it is evaluated
+/// directly at the first sample, after every change of step (a gap) and every
+/// [`PHASOR_ANCHOR`] samples. This replaces an `exp` and a `sin_cos` per sample (most of the
+/// fit's time) by four multiplications, to a relative error below 1e-13.
+fn damped_phasors(sigma: f64, omega: f64, tau: &[f64], out: &mut Vec<(f64, f64)>) {
+    out.clear();
+    out.reserve(tau.len());
+    let exact = |t: f64| {
+        let e = (-sigma * t).exp();
+        let (s, c) = (omega * t).sin_cos();
+        (e * s, e * c)
+    };
+    let (mut step, mut mul) = (f64::NAN, (0.0, 1.0));
+    let mut z = (0.0, 0.0);
+    let mut since_anchor = 0;
+    for (k, &t) in tau.iter().enumerate() {
+        let d = if k == 0 { f64::NAN } else { t - tau[k - 1] };
+        let same_step = (d - step).abs() <= 1e-9 * step.abs();
+        if k == 0 || since_anchor >= PHASOR_ANCHOR || !same_step {
+            z = exact(t);
+            since_anchor = 0;
+            if k > 0 && !same_step {
+                step = d;
+                mul = exact(d);
+            }
+        } else {
+            // z·mul with z = (im, re) stored as (e sin, e cos).
+            z = (z.0 * mul.1 + z.1 * mul.0, z.1 * mul.1 - z.0 * mul.0);
+        }
+        since_anchor += 1;
+        out.push(z);
+    }
+}
+
+/// The model at every `τ` from its phasors ([`damped_phasors`]).
+fn model_from(p: &[f64], trend: bool, t: f64, (es, ec): (f64, f64)) -> f64 {
+    let mut m = p[A] + (p[B] * es + p[C] * ec);
+    if trend {
+        m += p[D] * t;
+    }
+    m
+}
+
 /// Residuals `model − x` and the exact Jacobian of the model, rows per sample.
 fn residuals_and_jacobian(
     p: &[f64],
@@ -200,28 +261,29 @@ fn residuals_and_jacobian(
     jac: &mut DMatrix<f64>,
     r: &mut DVector<f64>,
 ) {
-    for (i, (&t, &xi)) in tau.iter().zip(x).enumerate() {
-        let e = (-p[SIGMA] * t).exp();
-        let (s, c) = (p[OMEGA] * t).sin_cos();
-        let osc = p[B] * s + p[C] * c;
-        let mut m = p[A] + e * osc;
+    let mut ph = Vec::new();
+    damped_phasors(p[SIGMA], p[OMEGA], tau, &mut ph);
+    for (i, ((&t, &xi), &(es, ec))) in tau.iter().zip(x).zip(&ph).enumerate() {
+        let osc = p[B] * es + p[C] * ec;
         jac[(i, A)] = 1.0;
-        jac[(i, B)] = e * s;
-        jac[(i, C)] = e * c;
-        jac[(i, SIGMA)] = -t * e * osc;
-        jac[(i, OMEGA)] = t * e * (p[B] * c - p[C] * s);
+        jac[(i, B)] = es;
+        jac[(i, C)] = ec;
+        jac[(i, SIGMA)] = -t * osc;
+        jac[(i, OMEGA)] = t * (p[B] * ec - p[C] * es);
         if trend {
-            m += p[D] * t;
             jac[(i, D)] = t;
         }
-        r[i] = m - xi;
+        r[i] = model_from(p, trend, t, (es, ec)) - xi;
     }
 }
 
 fn rss(p: &[f64], trend: bool, tau: &[f64], x: &[f64]) -> f64 {
+    let mut ph = Vec::new();
+    damped_phasors(p[SIGMA], p[OMEGA], tau, &mut ph);
     tau.iter()
         .zip(x)
-        .map(|(&t, &xi)| (model(p, trend, t) - xi).powi(2))
+        .zip(&ph)
+        .map(|((&t, &xi), &z)| (model_from(p, trend, t, z) - xi).powi(2))
         .sum()
 }
 
@@ -238,10 +300,10 @@ fn linear_step(
     let span = tau.last().copied().unwrap_or(1.0).max(1e-9);
     let mut ata = nalgebra::Matrix4::<f64>::zeros();
     let mut atb = nalgebra::Vector4::<f64>::zeros();
-    for (&t, &xi) in tau.iter().zip(x) {
-        let e = (-sigma * t).exp();
-        let (s, c) = (omega * t).sin_cos();
-        let row = nalgebra::Vector4::new(1.0, e * s, e * c, if trend { t / span } else { 0.0 });
+    let mut ph = Vec::new();
+    damped_phasors(sigma, omega, tau, &mut ph);
+    for ((&t, &xi), &(es, ec)) in tau.iter().zip(x).zip(&ph) {
+        let row = nalgebra::Vector4::new(1.0, es, ec, if trend { t / span } else { 0.0 });
         ata += row * row.transpose();
         atb += row * xi;
     }
@@ -295,9 +357,8 @@ pub(crate) fn levenberg_marquardt(
     let mut iterations = 0;
     for it in 0..max_iterations {
         iterations = it + 1;
-        let jt = jac.transpose();
-        let h = &jt * &jac;
-        let g = &jt * &r;
+        let h = jac.tr_mul(&jac);
+        let g = jac.tr_mul(&r);
         let mut improved = false;
         let mut small_step = false;
         while lambda < 1e16 {
@@ -390,7 +451,7 @@ pub fn fit_damped_sinusoid(
     }
     let dof = (n - np) as f64;
     let s2 = cost / dof;
-    let h = jac.transpose() * &jac;
+    let h = jac.tr_mul(&jac);
     let hinv = h
         .clone()
         .cholesky()
@@ -411,20 +472,40 @@ pub fn fit_damped_sinusoid(
     })
 }
 
+/// Samples the σ search of [`initial_guess`] looks at, at most: a start needs no more.
+const GUESS_SAMPLES: usize = 4096;
+
 /// Starting values for σ and ω: ω from the spectral peak, σ by a search over a logarithmic
-/// grid of damping ratios, each solved for the linear parameters (variable projection).
+/// grid of damping ratios, each solved for the linear parameters (variable projection). On a
+/// long record the search looks at every m-th sample (at most [`GUESS_SAMPLES`], at least 16 a
+/// period): the start moves a little, the least-squares optimum it leads to does not.
 fn initial_guess(tau: &[f64], x: &[f64], omega0: f64, trend: bool) -> Option<Vec<f64>> {
-    let mut best: Option<(Vec<f64>, f64)> = None;
+    let n = tau.len();
+    let step_s = if n > 1 {
+        (tau[n - 1] - tau[0]) / (n - 1) as f64
+    } else {
+        1.0
+    };
+    let per_period = (2.0 * PI / omega0 / step_s / 16.0).floor().max(1.0) as usize;
+    let stride = n.div_ceil(GUESS_SAMPLES).clamp(1, per_period);
+    let (tau_s, x_s): (Vec<f64>, Vec<f64>) = tau
+        .iter()
+        .zip(x)
+        .step_by(stride)
+        .map(|(&t, &v)| (t, v))
+        .unzip();
+    let mut best: Option<(f64, f64)> = None;
     for k in 0..40 {
         let zeta = 1e-4 * 10f64.powf(k as f64 * 3.5 / 39.0); // 1e-4 … 0.3
         let sigma = zeta * omega0;
-        if let Some((p, r)) = linear_step(sigma, omega0, trend, tau, x) {
-            if best.as_ref().is_none_or(|(_, br)| r < *br) {
-                best = Some((p, r));
+        if let Some((_, r)) = linear_step(sigma, omega0, trend, &tau_s, &x_s) {
+            if best.is_none_or(|(_, br)| r < br) {
+                best = Some((sigma, r));
             }
         }
     }
-    best.map(|(p, _)| p)
+    // The linear parameters of the best σ from every sample.
+    best.and_then(|(sigma, _)| linear_step(sigma, omega0, trend, tau, x).map(|(p, _)| p))
 }
 
 /// Fits `t, x` (times in s) with τ measured from `t[0]`, starting from `omega0` (rad/s) and a
@@ -496,8 +577,6 @@ pub struct Oscillation {
     pub fit: DampedFit,
     /// The free-decay segment fitted, seconds `[start, end]`.
     pub segment_s: (f64, f64),
-    /// The Hann-windowed spectrum of the fitted segment.
-    pub spectrum: Spectrum,
     /// The spectral peak the fit started from (rectangular window over the stretch of motion).
     pub main_peak: Peak,
     /// Peaks of the fit residual's spectrum that stand out of its noise: other modes (the
@@ -531,8 +610,26 @@ fn moving_mean(x: &[f64], w: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The variance of the noise on `x`, from its second differences: for white noise of variance
+/// s² a second difference has variance 6 s² and median absolute value 0.6745·√6·s; a swing
+/// well below the sampling rate adds little to them (a 5 Hz swing at 100 Hz, 9 % of its
+/// amplitude), and the median ignores the release's jolt.
+fn noise_variance(x: &[f64]) -> f64 {
+    if x.len() < 3 {
+        return 0.0;
+    }
+    let mut d2: Vec<f64> = x
+        .windows(3)
+        .map(|w| (w[0] - 2.0 * w[1] + w[2]).abs())
+        .collect();
+    let mid = d2.len() / 2;
+    let median = *d2.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (median / 0.6745).powi(2) / 6.0
+}
+
 /// Where the motion is: from the window of largest variance (0.5 s windows) until the variance
-/// sinks to the quiet level (4× the smallest window's, and a tenth of the largest) for 2 s. Returns sample indices `[begin, end]`.
+/// sinks to the quiet level (4× the smallest window's, and a tenth of the largest, but at least
+/// twice the noise's, [`noise_variance`]) for 2 s. Returns sample indices `[begin, end]`.
 /// The largest variance is often the window that straddles the release (the held angle, then
 /// the first swing), so `begin` is the end of that window: surely inside the free decay.
 fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
@@ -563,7 +660,13 @@ fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
     // its smallest (at the record's end, where the windows are short) made the swing itself
     // "quiet", leaving too short a stretch to find its frequency in ("no peak above the
     // noise" on clean 12-cycle swings).
-    let quiet_below = (4.0 * quiet).min(0.1 * var[imax]);
+    // And quiet is never below twice the noise: at a low signal-to-noise ratio (a rate gyro's
+    // 1 rad/s of noise under a 5 rad/s swing, 12 dB) a tenth of the largest variance is under
+    // the noise's own, no window is quiet and the stretch ran to the record's end, 40 s of
+    // noise burying a 3 s decay's peak.
+    let quiet_below = (4.0 * quiet)
+        .min(0.1 * var[imax])
+        .max(2.0 * noise_variance(x));
     for (i, &v) in var.iter().enumerate().skip(imax) {
         run = if v < quiet_below { run + 1 } else { 0 };
         if run >= sustain {
@@ -672,12 +775,12 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
         values: seg_x.to_vec(),
         ..signal.clone()
     };
-    let spectrum = Spectrum::of(&segment, Window::Hann);
     let residual = Signal {
-        values: seg_t
+        values: fit
+            .eval_many(seg_t)
             .iter()
             .zip(seg_x)
-            .map(|(&ti, &xi)| xi - fit.eval(ti))
+            .map(|(m, xi)| xi - m)
             .collect(),
         ..segment.clone()
     };
@@ -692,7 +795,6 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
         bic: bic(&fit),
         fit,
         segment_s: (t[i0], t[i1]),
-        spectrum,
         main_peak,
         secondary_peaks,
     })
@@ -710,7 +812,13 @@ fn refine_segment(
     let n = t.len();
     let s = fit.residual_rms;
     let period_samples = ((rate_hz * 2.0 * PI / fit.omega_d().value).round() as usize).clamp(3, n);
-    let sq = |k: usize| (fit.eval(t[k]) - x[k]).powi(2);
+    let squares: Vec<f64> = fit
+        .eval_many(t)
+        .iter()
+        .zip(x)
+        .map(|(m, xk)| (m - xk).powi(2))
+        .collect();
+    let sq = |k: usize| squares[k];
     let window_rms =
         |lo: usize, hi: usize| ((lo..hi).map(sq).sum::<f64>() / (hi - lo).max(1) as f64).sqrt();
     let w = (period_samples / 8).max(8);
@@ -832,6 +940,25 @@ pub struct OscillationSummary {
 }
 
 impl Oscillation {
+    /// The Hann-windowed spectrum of the fitted segment of `signal` (the signal the fit was
+    /// made on), for a figure: the fit itself does not need it.
+    pub fn spectrum(&self, signal: &Signal) -> Spectrum {
+        let (a, b) = self.segment_s;
+        let keep: Vec<usize> = signal
+            .times_s()
+            .iter()
+            .enumerate()
+            .filter(|(_, &t)| t >= a && t <= b)
+            .map(|(k, _)| k)
+            .collect();
+        let segment = Signal {
+            index: keep.iter().map(|&k| signal.index[k]).collect(),
+            values: keep.iter().map(|&k| signal.values[k]).collect(),
+            ..signal.clone()
+        };
+        Spectrum::of(&segment, Window::Hann)
+    }
+
     pub fn summary(&self, signal: &Signal) -> OscillationSummary {
         let f = &self.fit;
         let (p, fr, fnat, z, a) = (
@@ -1086,6 +1213,66 @@ impl SetupPeriods {
                     flagged,
                 )
             })
+    }
+}
+
+/// The periods of a batch of recordings (`bikeproc period FOLDER`), grouped by set-up, and the
+/// recordings that gave none with the reason. Its JSON is the command's `--json`.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PeriodBatch {
+    pub setups: Vec<SetupPeriods>,
+    /// `file: reason` of each recording that gave no period.
+    pub failed: Vec<String>,
+}
+
+impl PeriodBatch {
+    /// Groups named trials ([`group_trials`]) beside the failures.
+    pub fn new(trials: &[(String, crate::uncertainty::Measured)], failed: Vec<String>) -> Self {
+        PeriodBatch {
+            setups: group_trials(trials),
+            failed,
+        }
+    }
+
+    /// The set-ups as a table: mean damped period with its standard error, where that error
+    /// comes from, the scatter, and each trial (flagged ones starred).
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{:<28} {:>22} {:>24} {:>9}  trials (damped period T, s; * flagged, left out)",
+            "set-up", "mean T (s)", "", "scatter"
+        );
+        for s in &self.setups {
+            let c = &s.combined;
+            let trials: Vec<String> = s
+                .each_trial()
+                .map(|(name, p, flagged)| {
+                    format!(
+                        "{}{name} {:.6} ± {:.6}",
+                        if flagged { "*" } else { "" },
+                        p.value,
+                        p.se
+                    )
+                })
+                .collect();
+            let _ = writeln!(
+                out,
+                "{:<28} {:>11.6} ± {:<8.6} {:>24} {:>8.3}%  {}",
+                s.setup,
+                c.mean.value,
+                c.mean.se,
+                if c.scatter_dominates {
+                    "(SE from the scatter)"
+                } else {
+                    "(SE from the fits)"
+                },
+                100.0 * c.sd / c.plain_mean,
+                trials.join(", ")
+            );
+        }
+        out
     }
 }
 

@@ -74,7 +74,7 @@ pub fn bicycle_text(bytes: &[u8]) {
 /// The lab's bicycle file (`lab_bike.toml`): read, and its benchmark parameters derived.
 pub fn lab_bike(bytes: &[u8]) {
     if let Some(path) = as_file(bytes, "lab_bike.toml") {
-        let _ = crate::model::lab::load_lab_bike(&path);
+        let _ = crate::model::uncertain::load(&path);
     }
 }
 

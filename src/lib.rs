@@ -18,9 +18,10 @@
 //! - [`ride`]: a ride's log pair → θ(t), γ(t), the weave eigenvalue after the kick, the model's.
 //! - [`gap`]: a campaign's eigenvalues and the measured bicycle → where they part, which
 //!   unmodelled effect explains it, how far it shrinks on rides left out.
-//! - [`sim`]: the lab simulated from physics (never calls the estimators).
-//! - [`parallel`]: work spread over threads, results in order.
-//! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals.
+//! - [`sim`]: the lab simulated from physics (never calls the estimators; no analysis module
+//!   uses it, `tests/layering.rs`).
+//! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals
+//!   (one file per report).
 //! - `plot` (feature `plot`): SVG figures for the reports.
 //! - [`output`]: every file written whole, a report folder replaced as a whole.
 //! - [`fuzzing`]: the readers of outside files as fuzz targets.
@@ -37,7 +38,6 @@ pub mod inertia;
 pub mod log;
 pub mod model;
 pub mod output;
-pub mod parallel;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod report;

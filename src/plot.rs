@@ -637,9 +637,9 @@ pub fn fit_svg(signal: &Signal, osc: &Oscillation, title: &str) -> Result<String
 }
 
 /// The Hann spectrum of the fitted segment up to 4× the main frequency, with the peaks marked.
-pub fn spectrum_svg(osc: &Oscillation, title: &str) -> Result<String, PlotError> {
+pub fn spectrum_svg(sig: &Signal, osc: &Oscillation, title: &str) -> Result<String, PlotError> {
     let f_max = 4.0 * osc.fit.freq_hz().value;
-    let sp = &osc.spectrum;
+    let sp = &osc.spectrum(sig);
     let pts: Vec<(f64, f64)> = sp
         .freq_hz
         .iter()

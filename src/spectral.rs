@@ -94,9 +94,10 @@ impl Spectrum {
         if m.len() < 3 {
             return vec![];
         }
-        let mut sorted = m.clone();
-        sorted.sort_by(f64::total_cmp);
-        let floor = 5.0 * sorted[sorted.len() / 2];
+        // The median by selection, O(n) (the same element a full sort would put there).
+        let mut scratch = m.clone();
+        let mid = scratch.len() / 2;
+        let floor = 5.0 * *scratch.select_nth_unstable_by(mid, f64::total_cmp).1;
         let mut candidates: Vec<Peak> = (1..m.len() - 1)
             .filter(|&k| {
                 m[k] > m[k - 1]
@@ -161,25 +162,106 @@ impl Spectrum {
     }
 }
 
+/// Transforms kept between calls on one thread: rustfft's planner (the plans of the lengths
+/// seen), the real transform's twiddle factors per length, and the work buffer (kept up to
+/// [`KEEP_BUFFER_LEN`] points, so that repeated spectra do not fault fresh pages in).
+struct Transforms {
+    planner: FftPlanner<f64>,
+    twiddles: Vec<(usize, Vec<Complex<f64>>)>,
+    buffer: Vec<Complex<f64>>,
+}
+
+/// The largest work buffer a thread keeps between spectra (16 MB).
+const KEEP_BUFFER_LEN: usize = 1 << 20;
+
+thread_local! {
+    static TRANSFORMS: std::cell::RefCell<Transforms> = std::cell::RefCell::new(Transforms {
+        planner: FftPlanner::new(),
+        twiddles: Vec::new(),
+        buffer: Vec::new(),
+    });
+}
+
+/// `|X_k|` for k = 0…len/2 of the DFT of the real sequence `x` zero-padded to `len` (even),
+/// each input sample weighted by `w(i)`. The real transform as a complex one of half the length
+/// (Brigham, "The Fast Fourier Transform", §10.10): z_j = x_{2j} + i x_{2j+1}, Z = DFT_{len/2}(z),
+/// X_k = E_k + e^{−2πik/len} O_k with E_k = (Z_k + Z̄_{M−k})/2 and O_k = (Z_k − Z̄_{M−k})/(2i).
+fn real_dft_magnitudes(x: &[f64], w: impl Fn(usize) -> f64, len: usize) -> Vec<f64> {
+    let m = len / 2;
+    TRANSFORMS.with(|cell| {
+        let mut tr = cell.borrow_mut();
+        let Transforms {
+            planner,
+            twiddles,
+            buffer,
+        } = &mut *tr;
+        buffer.clear();
+        buffer.resize(m, Complex::new(0.0, 0.0));
+        for (j, slot) in buffer.iter_mut().enumerate() {
+            let (i0, i1) = (2 * j, 2 * j + 1);
+            let re = x.get(i0).map_or(0.0, |v| v * w(i0));
+            let im = x.get(i1).map_or(0.0, |v| v * w(i1));
+            if i0 >= x.len() {
+                break;
+            }
+            *slot = Complex::new(re, im);
+        }
+        planner.plan_fft_forward(m).process(buffer);
+        let tw = match twiddles.iter().position(|(l, _)| *l == len) {
+            Some(k) => &twiddles[k].1,
+            None => {
+                let step = -2.0 * std::f64::consts::PI / len as f64;
+                let t: Vec<Complex<f64>> = (0..=m)
+                    .map(|k| {
+                        let (s, c) = (step * k as f64).sin_cos();
+                        Complex::new(c, s)
+                    })
+                    .collect();
+                twiddles.push((len, t));
+                &twiddles[twiddles.len() - 1].1
+            }
+        };
+        let out = (0..=m)
+            .map(|k| {
+                let zk = buffer[k % m];
+                let zc = buffer[(m - k) % m].conj();
+                let even = (zk + zc) * 0.5;
+                let odd = (zk - zc) * Complex::new(0.0, -0.5);
+                let xk = even + tw[k] * odd;
+                xk.norm_sqr().sqrt()
+            })
+            .collect();
+        if buffer.len() > KEEP_BUFFER_LEN {
+            *buffer = Vec::new();
+        }
+        out
+    })
+}
+
 fn spectrum_of_grid(grid: &[f64], rate_hz: f64, window: Window) -> Spectrum {
     let n = grid.len();
-    let len = (n.next_power_of_two() * PAD_FACTOR).min(MAX_FFT_LEN).max(n);
-    let mut buf: Vec<Complex<f64>> = vec![Complex::new(0.0, 0.0); len];
-    let mut wsum = 0.0;
-    for (i, (&x, slot)) in grid.iter().zip(buf.iter_mut()).enumerate() {
-        let w = match window {
-            Window::Hann => 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos(),
-            Window::Rectangular => 1.0,
-        };
-        wsum += w;
-        *slot = Complex::new(x * w, 0.0);
-    }
-    FftPlanner::new().plan_fft_forward(len).process(&mut buf);
-    let half = len / 2 + 1;
+    // Even, so that the real transform can halve it.
+    let len = (n.next_power_of_two() * PAD_FACTOR)
+        .min(MAX_FFT_LEN)
+        .max(n + n % 2);
+    let weight = |i: usize| match window {
+        Window::Hann => 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos(),
+        Window::Rectangular => 1.0,
+    };
+    let wsum: f64 = match window {
+        Window::Hann => (0..n).map(weight).sum(),
+        Window::Rectangular => n as f64,
+    };
     let scale = if wsum > 0.0 { 2.0 / wsum } else { 0.0 };
+    let mut magnitude = real_dft_magnitudes(grid, weight, len);
+    for v in &mut magnitude {
+        *v *= scale;
+    }
     Spectrum {
-        freq_hz: (0..half).map(|k| k as f64 * rate_hz / len as f64).collect(),
-        magnitude: buf[..half].iter().map(|c| c.norm() * scale).collect(),
+        freq_hz: (0..magnitude.len())
+            .map(|k| k as f64 * rate_hz / len as f64)
+            .collect(),
+        magnitude,
         resolution_hz: rate_hz / n as f64,
     }
 }

@@ -116,18 +116,12 @@ fn jacobian<F: Fn(&[f64]) -> Vec<f64>>(
 /// The standard errors of many outputs, `√diag(J Σ Jᵀ)` of [`propagate`] with the same
 /// derivative steps, in memory proportional to the outputs rather than to their square:
 /// `f(x, items)` gives the outputs of the items in `items` (an item's outputs may depend on the
-/// inputs, not on the other items), taken `chunk` items at a time on up to `threads` threads.
+/// inputs, not on the other items), taken `chunk` items at a time on rayon's threads.
 /// The result holds each item's outputs in order, as `f` lists them.
 ///
 /// # Panics
 /// If `chunk` is zero.
-pub fn propagate_se<F>(
-    inputs: &Inputs,
-    items: usize,
-    chunk: usize,
-    threads: usize,
-    f: F,
-) -> Vec<f64>
+pub fn propagate_se<F>(inputs: &Inputs, items: usize, chunk: usize, f: F) -> Vec<f64>
 where
     F: Fn(&[f64], std::ops::Range<usize>) -> Vec<f64> + Sync,
 {
@@ -143,10 +137,9 @@ where
             .map(|k| js.row(k).dot(&jac.row(k)).max(0.0).sqrt())
             .collect()
     };
-    crate::parallel::map_ordered(chunks, threads, &per_chunk, &|_, _| {})
-        .into_iter()
-        .flat_map(|r| r.expect("propagate_se: a worker thread panicked"))
-        .collect()
+    use rayon::prelude::*;
+    let per: Vec<Vec<f64>> = (0..chunks).into_par_iter().map(per_chunk).collect();
+    per.concat()
 }
 
 /// The standard errors on the diagonal of a covariance.

@@ -150,7 +150,7 @@ fn the_cardan_swing_shows_as_a_secondary_peak() {
         amplitude_deg: 8.0,
         duration_s: 60.0,
     };
-    let mut rng = bikeproc::sim::rng::Rng::new(5);
+    let mut rng = bikeproc::sim::draw::seeded(5);
     let mut sensor = SensorModel::typical(&mut rng);
     // The gyro's z roughly along the bar, tilted 20° towards the swing's axis (global X).
     sensor.mounting =

@@ -56,12 +56,10 @@ fn std_dev(x: &[f64]) -> f64 {
     (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
 }
 
-/// Runs `f` on `0..n` on two threads, results in order.
+/// Runs `f` on `0..n` on rayon's threads, results in order.
 fn parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    bikeproc::parallel::map_ordered(n, 2, &f, &|_, _| {})
-        .into_iter()
-        .map(|r| r.expect("a worker thread panicked"))
-        .collect()
+    use rayon::prelude::*;
+    (0..n).into_par_iter().map(&f).collect()
 }
 
 /// Acceptance 1: the campaign in data/, each ride's weave within 2.5 standard errors of the
@@ -71,7 +69,7 @@ fn campaign_weave_within_2_5_se_of_truth() {
     let dir = root().join("data");
     let manifest = RideManifest::load(&dir.join("rides.toml")).unwrap();
     let model = uncertain::load(&manifest.bike_path()).unwrap();
-    let results = run_campaign(&manifest, &model, &ModalOptions::default(), 2, &|_, _| {});
+    let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
     let mut inside = 0;
     for (entry, ride) in manifest.rides.iter().zip(&results) {
         let name = entry.name();

@@ -4,9 +4,9 @@
 use bikeproc::fit::{self, FitOptions};
 use bikeproc::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{self, Signal};
+use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
 use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Swing, Torsion};
-use bikeproc::sim::rng::Rng;
 use bikeproc::sim::simulate_pendulum;
 use std::path::Path;
 
@@ -54,7 +54,7 @@ fn read(text: &str) -> Log {
 #[test]
 fn frequency_does_not_depend_on_the_sensor_mounting() {
     let (pend, release) = pendulum();
-    let mut rng = Rng::new(2024);
+    let mut rng = seeded(2024);
     let placement = Placement {
         body_rest: rng.rotation(),
         axis_heading_rad: 0.4,
@@ -90,7 +90,7 @@ fn frequency_does_not_depend_on_the_sensor_mounting() {
 #[test]
 fn every_mode_and_locale_reads_to_the_same_signal() {
     let (pend, release) = pendulum();
-    let mut rng = Rng::new(99);
+    let mut rng = seeded(99);
     let placement = Placement {
         body_rest: rng.rotation(),
         axis_heading_rad: 1.0,

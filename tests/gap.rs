@@ -48,7 +48,7 @@ fn blind_plus(
     std::fs::copy(&bike_path, dir.join("bike.toml")).unwrap();
     let manifest = RideManifest::load(&dir.join("rides.toml")).unwrap();
     let model = uncertain::load(&dir.join("bike.toml")).unwrap();
-    let d = diagnose_campaign(&manifest, &model, 2, &|_, _, _| {}).unwrap();
+    let d = diagnose_campaign(&manifest, &model, &|_, _, _| {}).unwrap();
     std::fs::remove_dir_all(&dir).ok();
     (d, truth)
 }
@@ -296,7 +296,7 @@ fn blind_campaigns_find_the_withheld_effect() {
 fn the_campaign_in_data_is_explained_by_its_own_effects() {
     let manifest = RideManifest::load(&root().join("data/rides.toml")).unwrap();
     let model = uncertain::load(&manifest.bike_path()).unwrap();
-    let d = diagnose_campaign(&manifest, &model, 2, &|_, _, _| {}).unwrap();
+    let d = diagnose_campaign(&manifest, &model, &|_, _, _| {}).unwrap();
     println!("{}", d.to_text());
     let simulated = [
         "steer_damping",
@@ -355,7 +355,7 @@ fn manifest_of(name: &str, logs: &[PathBuf]) -> RideManifest {
 
 fn inconclusive(m: &RideManifest) -> Diagnosis {
     let model = uncertain::load(&root().join("data/lab_bike.toml")).unwrap();
-    let d = diagnose_campaign(m, &model, 2, &|_, _, _| {}).unwrap();
+    let d = diagnose_campaign(m, &model, &|_, _, _| {}).unwrap();
     assert!(!d.conclusive, "{}", d.verdict);
     assert!(d.ranking.is_empty(), "a ranking built on nothing");
     assert!(d.verdict.starts_with("No conclusion: "), "{}", d.verdict);

@@ -3,7 +3,7 @@
 //! parameters' uncertainty against a Monte Carlo.
 
 use bikeproc::model::{uncertain, Benchmark, Canonical};
-use bikeproc::sim::rng::Rng;
+use bikeproc::sim::draw::{seeded, Draw};
 use nalgebra::Complex;
 use std::path::{Path, PathBuf};
 
@@ -167,7 +167,7 @@ fn linear_propagation_of_speed_uncertainty_agrees_with_a_monte_carlo() {
         let c = p.inputs.covariance();
         (0..x0.len()).map(|i| c[(i, i)].sqrt()).collect()
     };
-    let mut rng = Rng::new(42);
+    let mut rng = seeded(42);
     let (mut ws, mut cs) = (Vec::new(), Vec::new());
     for _ in 0..500 {
         let x: Vec<f64> = x0

@@ -4,7 +4,7 @@
 //! two, a partial one or a stray temporary file.
 
 use bikeproc::output::replace_dir;
-use bikeproc::sim::rng::Rng;
+use bikeproc::sim::draw::{seeded, Draw};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::time::Duration;
@@ -114,7 +114,7 @@ fn writers_killed_at_random_leave_one_whole_set() {
     std::fs::create_dir_all(&root).unwrap();
     let dir = root.join("reports");
     replace_dir(&dir, &set(0)).unwrap();
-    let mut rng = Rng::new(14);
+    let mut rng = seeded(14);
     let mut seen = std::collections::BTreeSet::new();
     for round in 0..24u64 {
         let signal = if round % 2 == 0 { "-INT" } else { "-KILL" };
@@ -228,7 +228,7 @@ fn report_killed_at_random_or_run_twice_at_once_leaves_one_whole_set() {
             "old"
         }
     };
-    let mut rng = Rng::new(1414);
+    let mut rng = seeded(1414);
     let mut seen = std::collections::BTreeMap::new();
     for round in 0..24u64 {
         mark_old();

@@ -4,9 +4,9 @@
 use bikeproc::fit::{self, FitOptions};
 use bikeproc::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{self, Extract, Signal};
+use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
 use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
-use bikeproc::sim::rng::Rng;
 use bikeproc::sim::simulate_pendulum;
 use bikeproc::uncertainty::Measured;
 use std::ffi::OsStr;
@@ -100,7 +100,7 @@ fn a_swing_recorded_without_rest_gives_its_period() {
         amplitude_deg: 8.0,
         duration_s: 10.0,
     };
-    let mut rng = Rng::new(13);
+    let mut rng = seeded(13);
     let mut spec = FileSpec::single_sensor(
         OutputMode::Quaternion,
         Locale::Tab,
@@ -214,7 +214,7 @@ fn a_simulated_csv_ride_gives_the_simulators_weave() {
         let mut spec = RideSpec::lab(v, Effects::default());
         spec.motion = bikeproc::sim::whipple::Motion::ImposedSpeed;
         let truth = simulate_ride(&bike, &spec, seed).unwrap().truth;
-        let mut rng = Rng::new(100 + seed);
+        let mut rng = seeded(100 + seed);
         let mut csv = String::from("time_s,roll_rad,steer_deg,rear_wheel_speed_m_per_s\n");
         for i in 0..truth.roll_rad.len() {
             let t = i as f64 / truth.rate_hz + rng.range(-0.001, 0.001);
@@ -349,7 +349,7 @@ fn every_kick_of_a_long_simulated_recording_is_found_and_fitted() {
     )
     .unwrap();
     let bike = bikeproc::model::lab::lab_to_benchmark(&lab);
-    let mut rng = Rng::new(7);
+    let mut rng = seeded(7);
     let mut csv = String::from("time,gyro_x,wheel\n");
     let mut t0 = 0.0;
     let mut truths = Vec::new();
@@ -457,7 +457,7 @@ fn a_controlled_campaign_of_csv_rides_is_compared_with_the_closed_loop() {
         a.fixed_view_mut::<2, 2>(2, 2).copy_from(&cq);
         a.complex_eigenvalues()
     };
-    let rides = run_campaign(&manifest, &model, &ModalOptions::default(), 2, &|_, _| {});
+    let rides = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
     assert_eq!(rides.len(), 21);
     for r in &rides {
         let Ok(Analysed::Csv(d)) = &r.result else {

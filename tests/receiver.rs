@@ -3,7 +3,7 @@
 
 use bikeproc::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{channel, dominant_rotation, Signal};
-use bikeproc::sim::rng::Rng;
+use bikeproc::sim::draw::{seeded, Draw};
 use proptest::prelude::*;
 use std::path::Path;
 
@@ -13,7 +13,7 @@ mod common;
 /// (on average `bursts_per_s`) in which 2–10 packets are held and delivered at once, all
 /// stamped with the delivery time, the first of them up to `max_late_s` late.
 fn restamp(log: &str, jitter_s: f64, bursts_per_s: f64, max_late_s: f64, seed: u64) -> String {
-    let mut rng = Rng::new(seed);
+    let mut rng = seeded(seed);
     let lines: Vec<&str> = log.lines().collect();
     let head = lines
         .iter()

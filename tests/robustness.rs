@@ -223,7 +223,8 @@ fn a_rides_pair_that_is_not_one_recording_is_named_so() {
             "short",
             head(&angles, 110),
             head(&cal, 110),
-            "the log holds 1.04 s",
+            // 110 lines: about 1 s, its hundredths as the packets dropped at its start leave.
+            "the log holds 1.0",
         ),
         ("mixed", angles.clone(), other_cal, "not the same recording"),
         (

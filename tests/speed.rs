@@ -8,8 +8,8 @@ use bikeproc::model::{lab::lab_to_benchmark, uncertain, Benchmark};
 use bikeproc::ride::dynamic::{dynamic_test, DynamicOptions, DynamicTest};
 use bikeproc::ride::speed::NotedReading;
 use bikeproc::sim::campaign::{coasting_ride, noted_reading, truth_bike};
+use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec, RideTruth};
-use bikeproc::sim::rng::Rng;
 use std::path::PathBuf;
 
 fn root() -> PathBuf {
@@ -56,10 +56,8 @@ fn mean_sd(x: &[f64]) -> (f64, f64) {
 }
 
 fn parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    bikeproc::parallel::map_ordered(n, 2, &f, &|_, _| {})
-        .into_iter()
-        .map(|r| r.expect("a worker thread panicked"))
-        .collect()
+    use rayon::prelude::*;
+    (0..n).into_par_iter().map(&f).collect()
 }
 
 /// Normalized errors of one coasting ride: speed (noted carried), kinematic speed, σ, ω.
@@ -81,7 +79,7 @@ fn coasting_rides(
     let (model, bike) = bikes();
     let out = parallel(n, |i| {
         let seed = first_seed + i as u64;
-        let mut rng = Rng::new(seed);
+        let mut rng = seeded(seed);
         let v = rng.range(released_mps.0, released_mps.1);
         let spec = coasting_ride(&mut rng, v, effects.clone());
         let (r, t) = analyse(

@@ -5,9 +5,9 @@
 use bikeproc::fit::{self, crb_omega_variance, FitOptions};
 use bikeproc::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal;
+use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
 use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
-use bikeproc::sim::rng::Rng;
 use bikeproc::sim::simulate_pendulum;
 use nalgebra::{UnitQuaternion, Vector3};
 use std::path::Path;
@@ -26,7 +26,7 @@ fn spec(mode: OutputMode, locale: Locale, precision: Precision) -> FileSpec {
 /// One seeded torsion test with f, ζ, SNR and duration drawn from the acceptance ranges; half
 /// fitted on the orientation (with heading drift), half on the gyro (with a drifting bias).
 fn trial(seed: u64) -> Trial {
-    let mut rng = Rng::new(seed);
+    let mut rng = seeded(seed);
     let f_hz = rng.log_range(0.5, 5.0);
     let zeta = rng.log_range(0.002, 0.05);
     let snr_db = rng.range(10.0, 40.0);

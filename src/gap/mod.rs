@@ -329,18 +329,13 @@ pub const SHAPE_PHASE_FLOOR_RAD: f64 = 0.0;
 /// Options of [`diagnose`].
 #[derive(Debug, Clone)]
 pub struct GapOptions {
-    /// Threads for the candidates' held-out fits.
-    pub threads: usize,
     /// Fit and rank on the mode shape as well as the eigenvalue.
     pub shape: bool,
 }
 
 impl Default for GapOptions {
     fn default() -> Self {
-        GapOptions {
-            threads: 1,
-            shape: true,
-        }
+        GapOptions { shape: true }
     }
 }
 
@@ -602,33 +597,34 @@ fn targeted_test(d: &mut Diagnosis) {
     d.campaign_p_value = (2.0 * d.p_value.min(p_targeted)).min(1.0);
 }
 
-/// Runs the dynamic test of every ride of `manifest` (on `threads` threads) and diagnoses the
+/// Runs the dynamic test of every ride of `manifest` (in parallel) and diagnoses the
 /// campaign against `model`; `progress(stage, done, total)` with stage "rides" then
 /// "candidates".
 pub fn diagnose_campaign(
     manifest: &crate::ride::dynamic::RideManifest,
     model: &Parametrized,
-    threads: usize,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
     let results = crate::ride::dynamic::run_campaign(
         manifest,
         model,
         &crate::ride::modal::ModalOptions::default(),
-        threads,
         &|done, total| progress("rides", done, total),
     );
-    let (rides, failed) = observations(&results);
-    diagnose(
-        &rides,
-        &failed,
-        model,
-        &GapOptions {
-            threads,
-            ..GapOptions::default()
-        },
-        &|done, total| progress("candidates", done, total),
-    )
+    diagnose_analysed(&results, model, &|done, total| {
+        progress("candidates", done, total)
+    })
+}
+
+/// Diagnoses a campaign whose rides have been analysed ([`crate::ride::dynamic::run_campaign`])
+/// against `model`, with the default options; `progress(done, total)` after each candidate.
+pub fn diagnose_analysed(
+    results: &[crate::ride::dynamic::CampaignRide],
+    model: &Parametrized,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
+    let (rides, failed) = observations(results);
+    diagnose(&rides, &failed, model, &GapOptions::default(), progress)
 }
 
 /// A campaign's analysed rides as observations, and the names and reasons of those that gave
@@ -822,7 +818,7 @@ pub fn diagnose(
         .collect();
     d.bands = speed_bands(&d.residuals);
     d.conclusive = true;
-    d.ranking = rank(&campaign, options, progress)?;
+    d.ranking = rank(&campaign, progress)?;
     targeted_test(&mut d);
     d.significant = d.campaign_p_value < SIGNIFICANCE;
     d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
@@ -1041,7 +1037,6 @@ fn plausible(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
 /// Fits and tests every effect, then pairs of the best ones; sorted by held-out RMS.
 fn rank(
     campaign: &Campaign<'_>,
-    options: &GapOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Vec<Ranked>, GapError> {
     let n = campaign.obs.len();
@@ -1102,16 +1097,9 @@ fn rank(
     };
     let singles: Vec<Vec<Effect>> = library.iter().map(|&e| vec![e]).collect();
     let over = |list: &[Vec<Effect>]| -> Vec<Ranked> {
-        crate::parallel::map_ordered(
-            list.len(),
-            options.threads,
-            &|i| evaluate(&list[i]),
-            &|_, _| {},
-        )
-        .into_iter()
-        .flatten()
-        .flatten()
-        .collect()
+        use rayon::prelude::*;
+        let all: Vec<Option<Ranked>> = list.par_iter().map(|e| evaluate(e)).collect();
+        all.into_iter().flatten().collect()
     };
     let mut ranked = over(&singles);
     sort(&mut ranked);

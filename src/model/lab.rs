@@ -87,17 +87,6 @@ pub fn lab_to_benchmark(bike: &LabBike) -> Benchmark {
     }
 }
 
-/// Loads a lab bicycle file as benchmark parameters with propagated standard errors.
-pub fn load_lab_bike(path: &Path) -> Result<Benchmark, ParamError> {
-    let bike = LabBike::load(path).map_err(|e| ParamError::Invalid {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    let b = super::uncertain::Parametrized::from_lab("lab", &bike).nominal();
-    b.validate(path)?;
-    Ok(b)
-}
-
 /// The lab's geometry defines the steer axis through the handlebar's centre of gravity; a file
 /// that says otherwise cannot be converted.
 pub fn check_geometry(bike: &LabBike, path: &Path) -> Result<(), ParamError> {

@@ -231,8 +231,9 @@ impl Benchmark {
         s
     }
 
-    /// Reads a file: TOML by extension, otherwise BicycleParameters' text, or the lab's
-    /// bicycle format (a TOML with a `[geometry]` table).
+    /// Reads a file of benchmark parameters: TOML by extension, otherwise BicycleParameters'
+    /// text. The lab's bicycle format (a TOML with a `[geometry]` table) is a parametrization
+    /// that converts to this one: [`crate::model::uncertain::load`] reads every format.
     pub fn load(path: &Path) -> Result<Benchmark, ParamError> {
         let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid {
             path: path.to_path_buf(),
@@ -240,7 +241,13 @@ impl Benchmark {
         })?;
         if path.extension().is_some_and(|e| e == "toml") {
             if text.lines().any(|l| l.trim() == "[geometry]") {
-                return super::lab::load_lab_bike(path);
+                return Err(ParamError::Invalid {
+                    path: path.to_path_buf(),
+                    message: "a lab bicycle file (it has a [geometry] table), not benchmark \
+                              parameters: they come from it through the lab's parametrization \
+                              (seed §3)"
+                        .into(),
+                });
             }
             Benchmark::parse_toml(&text, path)
         } else {

@@ -191,27 +191,20 @@ impl Parametrized {
         let sweep = nominal.sweep(speeds)?;
         // Each speed's eigenvalues and their standard errors, BANDS_CHUNK speeds at a time:
         // memory in proportion to the speeds (the covariance across speeds is not kept).
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
-        let flat = propagate_se(
-            &self.inputs,
-            speeds.len(),
-            BANDS_CHUNK,
-            threads,
-            |x, range| {
-                let c = self.canonical_at(x);
-                let mut out = Vec::with_capacity(8 * range.len());
-                for i in range {
-                    let ev = c
-                        .eigenvalues(speeds[i])
-                        .unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
-                    for z in super::match_order(&sweep.eigenvalues[i], &ev) {
-                        out.push(z.re);
-                        out.push(z.im);
-                    }
+        let flat = propagate_se(&self.inputs, speeds.len(), BANDS_CHUNK, |x, range| {
+            let c = self.canonical_at(x);
+            let mut out = Vec::with_capacity(8 * range.len());
+            for i in range {
+                let ev = c
+                    .eigenvalues(speeds[i])
+                    .unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
+                for z in super::match_order(&sweep.eigenvalues[i], &ev) {
+                    out.push(z.re);
+                    out.push(z.im);
                 }
-                out
-            },
-        );
+            }
+            out
+        });
         let se = flat
             .chunks_exact(8)
             .map(|s| [(s[0], s[1]), (s[2], s[3]), (s[4], s[5]), (s[6], s[7])])

@@ -553,6 +553,37 @@ pub struct KickDecay {
     pub not_fitted: Option<String>,
 }
 
+/// The kicks of a long CSV recording and each one's free decay, as `bikeproc dynamic FILE.csv`
+/// gives them. Its JSON is the command's `--json`.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct KickReport {
+    pub file: String,
+    pub kicks: Vec<KickDecay>,
+}
+
+impl KickReport {
+    /// The kicks found, each with its window and its decay or why it gave none.
+    pub fn to_text(&self) -> String {
+        let mut text = format!("{}: {} kicks found\n", self.file, self.kicks.len());
+        for (k, d) in self.kicks.iter().enumerate() {
+            text += &format!(
+                "\nkick {} at {:.2} s (roll rate {:+.3} rad/s), free decay {:.2} – {:.2} s\n",
+                k + 1,
+                d.kick.at_s,
+                d.kick.peak_roll_rate_rad_per_s,
+                d.kick.window_s.0,
+                d.kick.window_s.1
+            );
+            match (&d.decay, &d.not_fitted) {
+                (Some(s), _) => text += &s.to_text(),
+                (None, Some(why)) => text += &format!("not fitted: {why}\n"),
+                (None, None) => {}
+            }
+        }
+        text
+    }
+}
+
 /// The free decays of `ride`: the one in `window_s`, the whole record when it is at most
 /// [`WHOLE_RECORD_MAX_S`] long, else one after every kick [`find_kicks`] finds (a kick whose
 /// window the wheel turns through at under [`MOVING_MPS`], or whose speed changes by more than

@@ -455,8 +455,13 @@ pub fn coasting_bias(
     let h = 1.0 / (rate_hz * sub as f64);
     let n = ((fit.end_s - fit.start_s) * rate_hz).floor() as usize + 1;
     let (mut ts, mut roll, mut steer) = (Vec::new(), Vec::new(), Vec::new());
-    // A whisper of noise keeps the fit's noise levels and information criterion finite.
-    let mut rng = crate::sim::rng::Rng::new(17);
+    // A whisper of noise keeps the fit's noise levels and information criterion finite:
+    // uniform, seeded, of standard deviation 1e-7 rad.
+    let mut rng = <rand_xoshiro::Xoshiro256StarStar as rand::SeedableRng>::seed_from_u64(17);
+    let mut whisper = || {
+        let u: f64 = rand::RngExt::random(&mut rng);
+        1e-7 * 12f64.sqrt() * (u - 0.5)
+    };
     let mut t = fit.start_s;
     for k in 0..n {
         if k > 0 {
@@ -470,8 +475,8 @@ pub fn coasting_bias(
             }
         }
         ts.push(fit.start_s + k as f64 / rate_hz);
-        roll.push(x[0] + 1e-7 * rng.normal());
-        steer.push(x[1] + 1e-7 * rng.normal());
+        roll.push(x[0] + whisper());
+        steer.push(x[1] + whisper());
     }
     let sim = fit_modes(
         &ts,
@@ -815,14 +820,95 @@ impl CampaignRide {
     }
 }
 
-/// Runs every ride of a campaign on `threads` threads (at least one), calling `progress` with
+/// A campaign's rides as `bikeproc dynamic rides.toml` gives them: each ride's summary and the
+/// rides that gave none with the reason. Its JSON is the command's `--json`.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CampaignSummary {
+    /// The bicycle file the rides were compared with.
+    pub bike: String,
+    pub rides: Vec<RideSummary>,
+    /// `ride: reason` of each ride that gave no eigenvalue.
+    pub failures: Vec<String>,
+}
+
+/// One ride's summary in a campaign: a log's dynamic test or a CSV ride's free decay.
+#[derive(Debug, Clone, serde::Serialize)]
+#[serde(untagged)]
+pub enum RideSummary {
+    Log(Box<Summary>),
+    Csv(Box<super::csv::DecaySummary>),
+}
+
+impl CampaignSummary {
+    /// The summaries of a campaign's analysed rides ([`run_campaign`]) against `bike`.
+    pub fn new(bike: &Path, results: &[CampaignRide]) -> Self {
+        let mut rides = Vec::new();
+        let mut failures = Vec::new();
+        for r in results {
+            match &r.result {
+                Ok(Analysed::Log(t)) => rides.push(RideSummary::Log(Box::new(t.summary()))),
+                Ok(Analysed::Csv(d)) => rides.push(RideSummary::Csv(d.clone())),
+                Err(e) => failures.push(format!("{}: {e}", r.name)),
+            }
+        }
+        CampaignSummary {
+            bike: bike.display().to_string(),
+            rides,
+            failures,
+        }
+    }
+
+    /// Every ride's summary, then the rides not analysed.
+    pub fn to_text(&self) -> String {
+        let mut text: String = self
+            .rides
+            .iter()
+            .map(|r| match r {
+                RideSummary::Log(s) => s.to_text() + "\n",
+                RideSummary::Csv(d) => d.to_text() + "\n",
+            })
+            .collect();
+        for f in &self.failures {
+            text += &format!("not analysed: {f}\n");
+        }
+        text
+    }
+}
+
+/// The bicycle of a ride given without one: the `lab_bike.toml` beside its log, or the bicycle
+/// of the campaign manifest (`rides.toml`) beside it.
+pub fn bike_beside(ride: &Path) -> Result<PathBuf, ManifestError> {
+    let dir = ride.parent().unwrap_or(Path::new(""));
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let lab = dir.join("lab_bike.toml");
+    if lab.is_file() {
+        return Ok(lab);
+    }
+    let manifest = dir.join("rides.toml");
+    if manifest.is_file() {
+        return Ok(RideManifest::load(&manifest)?.bike_path());
+    }
+    Err(ManifestError {
+        path: ride.to_path_buf(),
+        line: None,
+        message: format!(
+            "no bicycle to compare with: give --bike (there is no lab_bike.toml or rides.toml in {})",
+            dir.display()
+        ),
+    })
+}
+
+/// Runs every ride of a campaign in parallel (rayon's threads), calling `progress` with
 /// the number done after each; results in the manifest's order (a CSV ride's kicks in time
 /// order).
 pub fn run_campaign(
     manifest: &RideManifest,
     model: &Parametrized,
     modal: &ModalOptions,
-    threads: usize,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Vec<CampaignRide> {
     let run = |i: usize| -> Vec<CampaignRide> {
@@ -847,7 +933,22 @@ pub fn run_campaign(
             result: dynamic_test(&path, model, &options).map(|t| Analysed::Log(Box::new(t))),
         }]
     };
-    crate::parallel::map_ordered(manifest.rides.len(), threads, &run, progress)
+    use rayon::prelude::*;
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let n = manifest.rides.len();
+    let per_ride: Vec<Option<Vec<CampaignRide>>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            // A ride whose analysis panics (a defect) is reported as failed; the others stand.
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i))).ok();
+            progress(
+                done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                n,
+            );
+            r
+        })
+        .collect();
+    per_ride
         .into_iter()
         .enumerate()
         .flat_map(|(i, r)| {

@@ -838,14 +838,17 @@ fn block_bootstrap(
     let block = ((2.0 * std::f64::consts::PI / omega.max(0.1) / dt).round() as usize).clamp(1, n);
     // Rows 0 and 1 of (JᵀJ)⁻¹Jᵀ: the gain of σ and ω on each residual.
     let gain = hinv.rows(0, 2) * jac.transpose();
-    let mut rng = crate::sim::rng::Rng::new(options.seed);
+    // xoshiro256** from the seed (rand_xoshiro), rand's uniform f64.
+    let mut rng =
+        <rand_xoshiro::Xoshiro256StarStar as rand::SeedableRng>::seed_from_u64(options.seed);
     let (mut sum, mut sum2) = ([0.0f64; 2], [0.0f64; 2]);
     let mut star = vec![0.0; 2 * n];
     for _ in 0..options.resamples {
         for s in 0..2 {
             let mut k = 0;
             while k < n {
-                let start = (rng.uniform() * (n - block + 1) as f64) as usize;
+                let u: f64 = rand::RngExt::random(&mut rng);
+                let start = (u * (n - block + 1) as f64) as usize;
                 for j in 0..block.min(n - k) {
                     star[s * n + k + j] = r[s * n + start + j];
                 }
@@ -879,7 +882,9 @@ mod tests {
         noise_rad: f64,
         seed: u64,
     ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let mut rng = crate::sim::rng::Rng::new(seed);
+        use crate::sim::draw::Draw;
+        let mut rng = crate::sim::draw::seeded(seed);
+        let mut noise = || noise_rad * rng.normal();
         let shape = Complex::from_polar(1.4, -0.5);
         let t: Vec<f64> = (0..250).map(|k| k as f64 * 0.01).collect();
         let mut roll = Vec::new();
@@ -887,8 +892,8 @@ mod tests {
         for &ti in &t {
             let z = (lambda0 * ti + 0.5 * rate * ti * ti).exp() * Complex::new(0.04, 0.01);
             let real = 0.01 * (-0.4 * ti).exp();
-            roll.push(z.re + real + noise_rad * rng.normal());
-            steer.push((shape * z).re - 0.5 * real + noise_rad * rng.normal());
+            roll.push(z.re + real + noise());
+            steer.push((shape * z).re - 0.5 * real + noise());
         }
         (t, roll, steer)
     }

@@ -9,9 +9,9 @@
 //! differ by a re-clamping spread of 0.05–0.2 % in frequency (the lab's FFT peaks agreed to
 //! about that), release angles and noise. Nothing here calls an estimator.
 
+use super::draw::{seeded, Draw, Rng};
 use super::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
 use super::pendulum::{Compound, Pendulum, Placement, Release, Swing, Torsion};
-use super::rng::Rng;
 use crate::log::OutputMode;
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -71,7 +71,7 @@ fn spec(shot: &Shot, seed: u64) -> FileSpec {
 }
 
 fn record(shot: &Shot, seed: u64) -> (String, String) {
-    let mut rng = Rng::new(seed);
+    let mut rng = seeded(seed);
     let sensor = SensorModel::typical(&mut rng);
     let placement = Placement {
         body_rest: rng.rotation(),
@@ -158,7 +158,7 @@ fn folder(
     let mut manifest = String::from(header);
     let mut count = 0;
     for t in tests {
-        let mut rng = Rng::new(*seed ^ 0xC0FFEE);
+        let mut rng = seeded(*seed ^ 0xC0FFEE);
         // Repeats spread symmetrically about the published frequency: re-clamping.
         let spread = rng.range(0.0005, 0.002);
         let mut logs = Vec::new();
@@ -392,7 +392,7 @@ pub struct RandomCampaign {
 
 /// Builds a random torsion campaign (3 or 4 well-spread orientations, 2 repeats of 30 s each).
 pub fn random_torsion_campaign(seed: u64) -> RandomCampaign {
-    let mut rng = Rng::new(seed);
+    let mut rng = seeded(seed);
     let mass = rng.range(2.0, 8.0);
     let (p1, p2) = (rng.range(0.05, 1.0), rng.range(0.05, 1.0));
     let phi = rng.range(0.0, PI);
@@ -507,7 +507,7 @@ pub fn lab_rides(
          # The truth of every ride is in truth/ and is never an input of the analysis.\n\
          version = 1\nbike = \"lab_bike.toml\"\n",
     );
-    let mut rng = Rng::new(1954);
+    let mut rng = seeded(1954);
     let speeds = [
         3.4, 3.6, 3.8, 4.0, 4.2, 4.4, 4.6, 4.8, 5.0, 5.2, 5.4, 5.6, 5.8, 6.0, 6.2, 6.5,
     ];
@@ -766,7 +766,7 @@ pub fn blind_campaign_plus(
 ) -> Result<(Files, BlindTruth), super::ride::RideError> {
     use super::ride::{simulate_ride, Effects, PointMass, RideSpec};
     use super::whipple::{Body, TyreModel};
-    let mut rng = Rng::new(7_000 + seed);
+    let mut rng = seeded(7_000 + seed);
     let mut bike = crate::model::lab::lab_to_benchmark(measured);
     let mut effects = Effects::default();
     let params = match withheld {

@@ -4,7 +4,7 @@
 //! files (`../shared/formats/imu-log.md`) with counter wrap, clock jitter, dropped packets and
 //! corrupt rows.
 
-use super::rng::Rng;
+use super::draw::{seeded, Draw, Rng};
 use crate::log::OutputMode;
 use nalgebra::{UnitQuaternion, Vector3};
 use std::fmt::Write as _;
@@ -368,7 +368,7 @@ pub fn write_log(
     let deg = 180.0 / std::f64::consts::PI;
     let mut values: Vec<f64> = Vec::with_capacity(9);
     let mut late = (spec.late_bursts_per_minute > 0.0)
-        .then(|| Rng::new(0x1A7E_5EED ^ ((spec.first_counter as u64) << 20)));
+        .then(|| seeded(0x1A7E_5EED ^ ((spec.first_counter as u64) << 20)));
     let late_p = spec.late_bursts_per_minute / (60.0 * spec.rate_hz);
     let (mut burst_last, mut last_stamp) = (None::<usize>, 0.0_f64);
     for (n, &packet) in packets.iter().enumerate() {

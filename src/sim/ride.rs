@@ -10,9 +10,9 @@
 //! protection); a truth bicycle whose parameters differ from the measured ones (pass it as the
 //! bicycle); a speedometer reading off by a factor.
 
+use super::draw::{seeded, Draw};
 use super::imu::{self, BodySample, FileSpec, LinkModel, Locale, Precision, SensorModel};
 use super::jet::Jet;
-use super::rng::Rng;
 use super::whipple::{self, Body, Load, RideState, WhippleParams};
 use crate::log::OutputMode;
 use crate::model::Benchmark;
@@ -470,7 +470,7 @@ fn sample(
 
 /// Simulates one ride of `bike` (the truth bicycle), deterministic for a seed.
 pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Ride, RideError> {
-    let mut rng = Rng::new(seed);
+    let mut rng = seeded(seed);
     let truth_bike = with_point_masses(bike, &spec.effects.extra_masses);
     let p = WhippleParams::from_benchmark(&truth_bike);
     // The logs' nominal rate; the sensors sample every `dt` of true time.

@@ -5,9 +5,9 @@
 #![allow(dead_code)]
 
 use bikeproc::log::OutputMode;
+use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
 use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Torsion};
-use bikeproc::sim::rng::Rng;
 use std::ffi::OsStr;
 use std::path::PathBuf;
 use std::process::{Command, Output};
@@ -80,7 +80,7 @@ pub fn torsion_logs(receiver_jitter: bool) -> Vec<TorsionLogs> {
     ];
     for (k, mode) in modes.into_iter().enumerate() {
         for locale in [Locale::Tab, Locale::Spanish] {
-            let mut rng = Rng::new(10 + k as u64);
+            let mut rng = seeded(10 + k as u64);
             let placement = Placement {
                 body_rest: rng.rotation(),
                 axis_heading_rad: 0.0,

@@ -1,0 +1,632 @@
+//! The command line's arguments (clap): every command, its options with their units, its help
+//! with examples and the shape of its `--json`.
+
+use bikeproc::fit::Trend;
+use bikeproc::log::OutputMode;
+use bikeproc::sim::imu::{Locale, Precision};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(
+    name = "bikeproc",
+    version = concat!(env!("CARGO_PKG_VERSION"), " (", env!("BIKEPROC_BUILD"), ")"),
+    about = "Bicycle-dynamics lab: IMU logs → inertias, eigenvalues, sim-to-real gap",
+    after_help = concat!(
+        "The lab's workflow: calibrate-bar → inertia → stability → dynamic → gap (see the README's tour). ",
+        "Every number comes with its standard error; SI units. Section and equation numbers ",
+        "(seed §5.4, eq. 65) are those of the lab's thesis, ../shared/seed beside the checkout.\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or cannot be analysed (the message names the ",
+        "file, line and what); 1 anything else."
+    )
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Measure the free oscillation in one log or CSV: frequency, damping, standard errors.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc period data/frame_torsion/frame_torsion_1a.log\n",
+        "  bikeproc period data/frame_torsion/        (the trials of each set-up combined)\n",
+        "  bikeproc period ride_cal.log --channel Gyr_Z --segment 2.5:40\n\n",
+        "JSON (--json): {\"period_s\", \"period_se_s\", \"freq_hz\", \"natural_freq_hz\", ",
+        "\"damping_ratio\", …, \"segment_s\", \"receiver_time_off_rows\"}, one object per file ",
+        "(trials of a set-up: their mean, scatter and flagged trials).\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or gives no period (named on stderr); 1 ",
+        "anything else."
+    ))]
+    Period(PeriodArgs),
+    /// Calibrate the torsion bar with the steel rod (and the empty fixture); writes
+    /// DIR/calibration.toml for the other commands.
+    #[command(after_help = concat!(
+        "Example:\n",
+        "  bikeproc calibrate-bar data/bar_calibration\n\n",
+        "The folder's manifest.toml names the rod's mass (kg), diameter and length (m) and its ",
+        "logs. Writes DIR/calibration.toml (stiffness N·m/rad, fixture inertia kg·m², their ",
+        "standard errors and correlation).\n\n",
+        "JSON (--json): {\"stiffness_nm_per_rad\", \"stiffness_se_nm_per_rad\", ",
+        "\"rod_inertia_kgm2\", \"fixture_inertia_kgm2\", \"freq_hz\", …}.\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or cannot be analysed; 1 anything else."
+    ))]
+    CalibrateBar(CalibrateArgs),
+    /// Moments and inertia tensors from a folder of torsion or compound-pendulum tests, or
+    /// refresh the inertias of a bicycle file (--bike).
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc inertia data/frame_torsion\n",
+        "  bikeproc inertia data/frame_torsion --orientations 1,2,4\n",
+        "  bikeproc inertia data/rear_wheel_compound\n",
+        "  bikeproc inertia --bike data/lab_bike.toml     (rewrites its inertias from its test folders)\n\n",
+        "The folder's manifest.toml says torsion or compound, the body's mass (kg), the axes and ",
+        "distances (m) and the logs; the bar's calibration comes from bar_calibration/ beside it.\n\n",
+        "JSON (--json): {\"body\", \"ixx\", \"ixx_se\", \"ixz\", \"izz\", …, ",
+        "\"orientations\", \"tensor\"} for torsion tests, {\"body\", \"ixx\", ",
+        "\"iyy\", \"izz\", their _se, \"mass_kg\", \"tests\"} for compound ones (kg·m²).\n\n",
+        "Exit codes: 0 done; 2 an input is malformed or cannot be analysed; 1 anything else."
+    ))]
+    Inertia(InertiaArgs),
+    /// Benchmark parameters with standard errors from a BicycleParameters `*Measured.txt` (raw
+    /// masses, distances, pendulum angles and periods), and the bicycle's stable speed range.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc measured ../shared/reference/bicycleparameters/RigidMeasured.txt\n",
+        "  bikeproc measured BrowserMeasured.txt --out BrowserBenchmark.txt\n",
+        "  bikeproc stability --bike BrowserBenchmark.txt\n\n",
+        "JSON (--json): {\"name\", \"parameters\": {\"IBxx\": {\"value\", \"se\"}, …}, ",
+        "\"stable_ranges_mps\", \"weave_speed_mps\", \"weave_speed_se_mps\", ",
+        "\"capsize_speed_mps\", \"capsize_speed_se_mps\"} (SI units: m, kg, kg·m², rad).\n\n",
+        "Exit codes: 0 done; 2 a measurement is missing or malformed (named with its line); 1 ",
+        "anything else."
+    ))]
+    Measured(MeasuredArgs),
+    /// Stability of a bicycle against speed: stable range, weave and capsize speeds with standard
+    /// errors, eigenvalues (linearized Whipple model, Meijaard et al. 2007).
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc stability --bike data/lab_bike.toml\n",
+        "  bikeproc stability --bike ../shared/reference/bicycleparameters/BenchmarkBenchmark.txt --speeds 0:10:0.1\n",
+        "  bikeproc stability --bike data/lab_bike.toml --cg-on-steer-axis\n\n",
+        "JSON (--json): {\"bike\", \"weave_speed_mps\", \"weave_speed_se_mps\", ",
+        "\"capsize_speed_mps\", \"capsize_speed_se_mps\", \"stable_ranges_mps\", ",
+        "\"eigenvalues\": [{\"speed_mps\", \"weave\": {\"re\", \"im\", \"re_se\", \"im_se\"}, ",
+        "\"capsize\", \"castor\", \"weave_steer_over_roll\", \"weave_steer_phase_deg\"}, …]} ",
+        "(eigenvalues in 1/s).\n\n",
+        "Exit codes: 0 done; 2 the bicycle file is malformed or gives no dynamics; 1 anything else."
+    ))]
+    Stability(StabilityArgs),
+    /// Experimental weave eigenvalue of a ride (its angles log, `_cal` beside it) or of every
+    /// ride of a campaign (rides.toml), against the model at the ride's speed.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc dynamic data/ride_03.log --speed 3.9    (the speedometer's reading at the release, m/s)\n",
+        "  bikeproc dynamic data/rides.toml                 (every ride of the campaign)\n",
+        "  bikeproc dynamic ride.csv --window 141.3:143.8 --bike Balanceassistv1Benchmark.txt\n\n",
+        "Without --bike a ride is compared with the lab_bike.toml beside its log, a campaign ",
+        "with its manifest's bicycle.\n\n",
+        "JSON (--json): {\"file\", \"speed_mps\", \"speed_se_mps\", \"speed_source\", ",
+        "\"weave\": {\"re\", \"im\", \"re_se\", \"im_se\"}, \"mode_shape\", ",
+        "\"model_weave\", …} (1/s); a campaign {\"rides\": [...], \"failures\": [...]}.\n\n",
+        "Exit codes: 0 done; 2 a ride cannot be analysed (the reason named) or an input is ",
+        "malformed; 1 anything else."
+    ))]
+    Dynamic(DynamicArgs),
+    /// The sim-to-real gap of a campaign (rides.toml): where the rides part from the model,
+    /// which unmodelled effect explains it, how far it shrinks on rides left out.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc gap data/rides.toml\n",
+        "  bikeproc gap fixtures/real/balanceassist_gain6.toml\n\n",
+        "JSON (--json): {\"significant\", \"explained\", \"chi2\", \"dof\", \"p_value\", ",
+        "\"residuals\", \"ranking\": [{\"effect\", \"params\", \"params_se\", ",
+        "\"heldout_rms_before\", \"heldout_rms_after\", \"plausible\"}, …], \"verdict\"}.\n\n",
+        "Exit codes: 0 done; 2 the manifest is malformed or no ride could be analysed; 1 ",
+        "anything else."
+    ))]
+    Gap(GapArgs),
+    /// Write simulated logs from physics.
+    #[command(subcommand, after_help = concat!(
+        "Examples:\n",
+        "  bikeproc simulate torsion --out /tmp/rod.log\n",
+        "  bikeproc simulate ride --bike data/lab_bike.toml --speed 4.5 --out /tmp/ride.log\n",
+        "  bikeproc simulate blind --effect steer_damping --out /tmp/blind\n\n",
+        "Exit codes: 0 done; 2 an input is malformed; 1 anything else (e.g. --out cannot be written)."
+    ))]
+    Simulate(SimCommand),
+    /// Regenerate every report in reports/ from data/ and the reference signals.
+    #[command(after_help = concat!(
+        "Example:\n",
+        "  bikeproc report                       (from the checkout: data/ and ../shared/reference)\n",
+        "  bikeproc report --out /tmp/reports\n\n",
+        "The new set replaces the folder as a whole (an interrupted run leaves the old one).\n\n",
+        "Exit codes: 0 done; 2 an input is malformed; 1 anything else (e.g. ../shared/reference missing)."
+    ))]
+    Report(ReportArgs),
+}
+
+#[derive(Args)]
+pub struct PeriodArgs {
+    /// A `NAME.log` / `NAME_cal.log` file, or a CSV `time_s,value`; several files or a folder
+    /// of them for repeated trials (`…1`, `…2`, … of one set-up are combined: mean, scatter,
+    /// flagged trials).
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Fit this column instead of the rotation about the dominant axis (e.g. Gyr_Z: read from
+    /// the `_cal` file when the angles file does not have it).
+    #[arg(long)]
+    pub channel: Option<String>,
+    /// Which sensor, by id or label, when the log has several.
+    #[arg(long)]
+    pub sensor: Option<String>,
+    /// Linear trend beside the offset (gyro bias, heading drift).
+    #[arg(long, value_enum, default_value_t = TrendArg::Auto)]
+    pub trend: TrendArg,
+    /// Fit this time range instead of finding the free decay, seconds `START:END`.
+    #[arg(long, value_parser = parse_range)]
+    pub segment: Option<(f64, f64)>,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct DynamicArgs {
+    /// A ride's angles log (`ride_03.log`), a campaign manifest (`rides.toml`), or a CSV of
+    /// time series from another instrument (`time_s`, `roll_rad`, `steer_deg`,
+    /// `rear_wheel_speed_m_per_s`, …; --window picks one decay).
+    pub file: PathBuf,
+    /// A CSV ride: the free decay to fit, seconds `START:END` (without it a record of up to
+    /// 10 s is one free decay; in a longer one every kick is found and each decay fitted).
+    #[arg(long, value_parser = parse_range)]
+    pub window: Option<(f64, f64)>,
+    /// A CSV ride: columns by other names, `roll=ROLL_COL,steer=…,time=…,wheel_speed=…`
+    /// (quantities: time, roll, roll_rate, steer, steer_rate, wheel_speed; a name ending in
+    /// `_deg` is read as degrees).
+    #[arg(long)]
+    pub columns: Option<bikeproc::ride::csv::Columns>,
+    /// The speedometer's reading at the release (m/s), as noted: carried to where the
+    /// eigenvalue applies by the slowing the frame sensor measures. Without it the log's `Sync`
+    /// pulses give the speed, or else the yaw rate against the steer (rolling kinematics).
+    /// Campaigns use the readings of their manifest where a log has no `Sync`.
+    #[arg(long, value_parser = parse_speed, allow_hyphen_values = true)]
+    pub speed: Option<f64>,
+    /// The speedometer's display step (m/s): a reading is uniform within ± half of it.
+    #[arg(long, default_value_t = 0.1, value_parser = fraction_or_step(2.0))]
+    pub speed_resolution: f64,
+    /// The speedometer's random error per reading, as a fraction of the reading.
+    #[arg(long, default_value_t = 0.01, value_parser = fraction_or_step(0.5))]
+    pub speed_se_fraction: f64,
+    /// The bicycle (lab TOML or BicycleParameters file); campaigns default to their manifest's.
+    #[arg(long)]
+    pub bike: Option<PathBuf>,
+    /// A steer controller in the model (a TOML file with a `[controller]` table: gains on
+    /// roll, steer and their rates against speed); campaigns take their manifest's.
+    #[arg(long)]
+    pub controller: Option<PathBuf>,
+    /// Bootstrap resamples for the check of the standard errors (20 to 100,000).
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(20..=100_000))]
+    pub resamples: u32,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct GapArgs {
+    /// A campaign manifest (`rides.toml`).
+    pub file: PathBuf,
+    /// The bicycle (lab TOML or BicycleParameters file); defaults to the manifest's.
+    #[arg(long)]
+    pub bike: Option<PathBuf>,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct CalibrateArgs {
+    /// The bar-calibration folder (its manifest.toml and logs).
+    #[arg(default_value = "data/bar_calibration")]
+    pub dir: PathBuf,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct MeasuredArgs {
+    /// A BicycleParameters `NameMeasured.txt`.
+    pub file: PathBuf,
+    /// Print JSON: `{"name", "parameters": {"IBxx": {"value", "se"}, …}, …}`.
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+    /// Also write the parameters in BicycleParameters' `*Benchmark.txt` format (which
+    /// `bikeproc stability --bike` reads).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct InertiaArgs {
+    /// A test folder (manifest.toml and its logs).
+    #[arg(required_unless_present = "bike")]
+    pub dir: Option<PathBuf>,
+    /// The tensor from these orientations only, e.g. 1,2,4.
+    #[arg(long, value_delimiter = ',')]
+    pub orientations: Vec<String>,
+    /// Refresh the inertias of this bicycle file from the test folders it names.
+    #[arg(long, conflicts_with = "dir")]
+    pub bike: Option<PathBuf>,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct StabilityArgs {
+    /// A bicycle: BicycleParameters text (`*Benchmark.txt`), benchmark TOML, or a lab bicycle
+    /// (`data/lab_bike.toml`).
+    #[arg(long)]
+    pub bike: PathBuf,
+    /// Speeds `START:END:STEP` in m/s.
+    #[arg(long, default_value = "0:10:0.01", value_parser = parse_speeds)]
+    pub speeds: (f64, f64, f64),
+    /// Move the handlebar's centre of gravity onto the steer axis (the lab's model, seed §6.2).
+    #[arg(long)]
+    pub cg_on_steer_axis: bool,
+    /// A steer controller closing the loop (a TOML file with a `[controller]` table).
+    #[arg(long)]
+    pub controller: Option<PathBuf>,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn parse_speeds(s: &str) -> Result<(f64, f64, f64), String> {
+    let parts: Vec<f64> = s
+        .split(':')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("`{p}` is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    match parts[..] {
+        [a, b, st] if a >= 0.0 && b > a && st > 0.0 && (b - a) / st <= 1e6 => Ok((a, b, st)),
+        _ => Err(
+            "expected START:END:STEP with 0 ≤ START < END and 0 < STEP (at most a million speeds)"
+                .into(),
+        ),
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum TrendArg {
+    Auto,
+    On,
+    Off,
+}
+
+#[derive(Subcommand)]
+pub enum SimCommand {
+    /// A body on the torsion bar (defaults: the lab's calibration rod, eqs. 65–67).
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate torsion --out /tmp/rod.log\n  bikeproc simulate torsion --inertia-kgm2 0.2 --locale spanish --out /tmp/wheel.log\n\nThe truth (the simulated body's parameters) is printed as JSON; the log pair is NAME.log and NAME_cal.log."
+    )]
+    Torsion(TorsionArgs),
+    /// A body hung as a compound pendulum (defaults: the lab's frame, eq. 79).
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate compound --out /tmp/frame.log\n  bikeproc simulate compound --mass-kg 2.0 --pivot-to-cg-m 0.3 --out /tmp/fork.log\n\nThe truth (the simulated body's parameters) is printed as JSON; the log pair is NAME.log and NAME_cal.log."
+    )]
+    Compound(CompoundArgs),
+    /// A ride (seed §5.4): standstill, push, release, kick at the saddle, catch; the nonlinear
+    /// Whipple bicycle with the chosen effects, recorded by a frame and a handlebar sensor.
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate ride --bike data/lab_bike.toml --speed 4.5 --out /tmp/ride.log\n  bikeproc simulate ride --bike data/lab_bike.toml --speed 5 --effects none --sync --seed 7 --out /tmp/ride.log\n\nThe truth goes to truth/NAME.json beside the log (no analysis reads it)."
+    )]
+    Ride(RideArgs),
+    /// The lab's ride campaign (seed §5.4) on the bicycle in DIR/lab_bike.toml, as data/ holds it.
+    #[command(
+        after_help = "Example:\n  bikeproc simulate rides --out /tmp/campaign     (the folder must hold lab_bike.toml)"
+    )]
+    Rides {
+        /// Folder to write into (it holds lab_bike.toml).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Rides that went wrong (no kick, too short, sensors swapped, a sensor that did not
+    /// move), as fixtures/rides/ holds them.
+    #[command(after_help = "Example:\n  bikeproc simulate ride-faults --out /tmp/faults")]
+    RideFaults {
+        /// Folder to write into.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// A blind campaign for `bikeproc gap`: 12 or 14 rides on the measured bicycle with one
+    /// effect withheld, its truth sealed in OUT/truth.json.
+    #[command(
+        after_help = "Examples:\n  bikeproc simulate blind --effect steer_damping --out /tmp/blind\n  bikeproc simulate blind --effect tyres --design noted --seed 3 --out /tmp/blind\n  bikeproc gap /tmp/blind/rides.toml"
+    )]
+    Blind {
+        /// The effect to withhold.
+        #[arg(long, value_parser = withheld_effects())]
+        effect: String,
+        /// `sync`: 12 rides, the reed switch on every other; `noted`: 14 coasting rides, the
+        /// speedometer's reading at the release rounded to 0.1 m/s, no reed switch.
+        #[arg(long, default_value = "sync", value_parser = ["sync", "noted"])]
+        design: String,
+        /// Seed of the random numbers: the same seed, the same campaign.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The measured bicycle (copied beside the rides as bike.toml).
+        #[arg(long, default_value = "data/lab_bike.toml")]
+        bike: PathBuf,
+        /// Folder to write into.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
+    #[command(after_help = "Example:\n  bikeproc simulate campaign --out /tmp/campaign")]
+    Campaign {
+        /// Folder to write into (`data` to regenerate the checked-in campaign).
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+#[derive(Args)]
+pub struct RideArgs {
+    /// The truth bicycle (BicycleParameters text, benchmark TOML or a lab bicycle).
+    #[arg(long)]
+    pub bike: PathBuf,
+    /// Speed at release (m/s).
+    #[arg(long)]
+    pub speed: f64,
+    /// The effects beyond the Whipple model: `none`; `realistic` (steer damping 0.3 N·m·s/rad,
+    /// rolling resistance 0.004, drag area 0.08 m², the sensors' and speedometer's masses, a
+    /// speedometer reading 3 % high, compliant tyres); or a TOML file of them, any left out
+    /// off: steer_viscous_nms_per_rad, steer_coulomb_nm, steer_spring_nm_per_rad,
+    /// rolling_resistance_coeff, drag_area_m2, speedometer_scale, clock_scale,
+    /// [[extra_masses]] (mass_kg, body, x_m, z_m), [tyres].
+    #[arg(long, default_value = "realistic")]
+    pub effects: String,
+    /// Seed of the random numbers (kick, noise, link): the same seed, the same files.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output `NAME.log` (its `NAME_cal.log` beside it).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Where the truth goes (default: `truth/NAME.json` beside the log); no analysis reads it.
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Wire the reed switch: the `Sync` column and the wheel circumference.
+    #[arg(long)]
+    pub sync: bool,
+    /// The sensors' orientation output: Euler angles, quaternion or rotation matrix.
+    #[arg(long, value_enum, default_value_t = ModeArg::Euler)]
+    pub mode: ModeArg,
+    /// The acquisition PC's locale: tab-separated, or Spanish (`;` and decimal commas).
+    #[arg(long, value_enum, default_value_t = LocaleArg::Tab)]
+    pub locale: LocaleArg,
+}
+
+#[derive(Args)]
+pub struct TorsionArgs {
+    /// The body's inertia about the bar's axis (kg·m²).
+    #[arg(long, default_value_t = 1.8906)]
+    pub inertia_kgm2: f64,
+    /// The bar's torsional stiffness (N·m/rad).
+    #[arg(long, default_value_t = 34.33)]
+    pub stiffness_nm_per_rad: f64,
+    /// Viscous damping ratio ζ (dimensionless).
+    #[arg(long, default_value_t = 0.004)]
+    pub damping_ratio: f64,
+    /// Dry (Coulomb) friction torque in the bearing (N·m).
+    #[arg(long, default_value_t = 0.0)]
+    pub coulomb_nm: f64,
+    /// Frequency of the Cardan joint's swing mode (Hz); no swing mode when absent.
+    #[arg(long)]
+    pub swing_freq_hz: Option<f64>,
+    /// How strongly the swing mode couples into the torsion (dimensionless, 0–1).
+    #[arg(long, default_value_t = 0.03)]
+    pub swing_coupling: f64,
+    /// The swing mode's damping ratio (dimensionless).
+    #[arg(long, default_value_t = 0.02)]
+    pub swing_damping_ratio: f64,
+    /// The swing mode's initial amplitude (degrees).
+    #[arg(long, default_value_t = 1.0)]
+    pub swing_amplitude_deg: f64,
+    #[command(flatten)]
+    pub common: SimCommon,
+}
+
+#[derive(Args)]
+pub struct CompoundArgs {
+    /// The body's mass (kg).
+    #[arg(long, default_value_t = 5.48)]
+    pub mass_kg: f64,
+    /// Distance from the pivot to the centre of gravity (m).
+    #[arg(long, default_value_t = 0.37)]
+    pub pivot_to_cg_m: f64,
+    /// Inertia about the pivot (kg·m²); eq. 79's frame: 0.8796 + 5.48·0.37².
+    #[arg(long, default_value_t = 1.62982)]
+    pub inertia_about_pivot_kgm2: f64,
+    /// Viscous damping ratio ζ (dimensionless).
+    #[arg(long, default_value_t = 0.003)]
+    pub damping_ratio: f64,
+    /// Dry (Coulomb) friction torque in the pivot (N·m).
+    #[arg(long, default_value_t = 0.0)]
+    pub coulomb_nm: f64,
+    #[command(flatten)]
+    pub common: SimCommon,
+}
+
+#[derive(Args)]
+pub struct SimCommon {
+    /// Output: `NAME.log` (its `NAME_cal.log` is written beside it).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The release angle (degrees).
+    #[arg(long, default_value_t = 8.0)]
+    pub amplitude_deg: f64,
+    /// Rest before the hand turns the body (s).
+    #[arg(long, default_value_t = 3.0)]
+    pub rest_s: f64,
+    /// Time the hand takes to turn the body to the release angle (s).
+    #[arg(long, default_value_t = 1.0)]
+    pub ramp_s: f64,
+    /// Time the body is held there before the release (s).
+    #[arg(long, default_value_t = 1.0)]
+    pub hold_s: f64,
+    /// Length of the recording (s).
+    #[arg(long, default_value_t = 60.0)]
+    pub duration_s: f64,
+    /// The sensor's orientation output: Euler angles, quaternion or rotation matrix.
+    #[arg(long, value_enum, default_value_t = ModeArg::Euler)]
+    pub mode: ModeArg,
+    /// The acquisition PC's locale: tab-separated with decimal points, or Spanish (`;` and
+    /// decimal commas).
+    #[arg(long, value_enum, default_value_t = LocaleArg::Tab)]
+    pub locale: LocaleArg,
+    /// Digits written: as the sensor's software writes them, or full precision.
+    #[arg(long, value_enum, default_value_t = PrecisionArg::Sensor)]
+    pub precision: PrecisionArg,
+    /// White noise of the orientation output (deg, per axis).
+    #[arg(long, default_value_t = 0.05)]
+    pub noise_deg: f64,
+    /// A perfect link: no dropped packets, no corrupt rows, no clock jitter.
+    #[arg(long)]
+    pub perfect_link: bool,
+    /// The sensor's id in the log's header.
+    #[arg(long, default_value = "00300417")]
+    pub sensor_id: String,
+    /// The sensor's label in the log's header.
+    #[arg(long, default_value = "torsion bar")]
+    pub label: String,
+    /// Seed of the random numbers (noise, dropped packets): the same seed, the same file.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ModeArg {
+    Euler,
+    Quaternion,
+    Matrix,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum LocaleArg {
+    Tab,
+    Spanish,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum PrecisionArg {
+    Sensor,
+    Full,
+}
+
+#[derive(Args)]
+pub struct ReportArgs {
+    /// Where the reports go.
+    #[arg(long, default_value = "reports")]
+    pub out: PathBuf,
+    /// Where the reference material is (`../shared/reference` of the checkout).
+    #[arg(long, default_value = "../shared/reference")]
+    pub reference: PathBuf,
+    /// The lab's data (the simulated campaign).
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+}
+
+/// `--speed`: a riding speed (m/s).
+pub fn parse_speed(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    bikeproc::ride::speed::check_reading_mps(v)
+}
+
+/// A number from 0 to `max`.
+pub fn fraction_or_step(max: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let v: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{s}` is not a number"))?;
+        if v.is_finite() && (0.0..=max).contains(&v) {
+            Ok(v)
+        } else {
+            Err(format!("{v}: expected a number from 0 to {max}"))
+        }
+    }
+}
+
+pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(':').ok_or("expected START:END in seconds")?;
+    let a: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{a}` is not a number"))?;
+    let b: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{b}` is not a number"))?;
+    if b > a {
+        Ok((a, b))
+    } else {
+        Err("END must be after START".into())
+    }
+}
+
+/// A campaign none of whose rides could be analysed: its input is at fault (exit 2).
+/// The effects a blind campaign can withhold, by label.
+pub fn withheld_effects() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        bikeproc::sim::campaign::Withheld::ALL.map(|w| w.label()),
+    )
+}
+
+impl From<TrendArg> for Trend {
+    fn from(t: TrendArg) -> Trend {
+        match t {
+            TrendArg::Auto => Trend::Auto,
+            TrendArg::On => Trend::On,
+            TrendArg::Off => Trend::Off,
+        }
+    }
+}
+
+impl From<ModeArg> for OutputMode {
+    fn from(m: ModeArg) -> OutputMode {
+        match m {
+            ModeArg::Euler => OutputMode::Euler,
+            ModeArg::Quaternion => OutputMode::Quaternion,
+            ModeArg::Matrix => OutputMode::Matrix,
+        }
+    }
+}
+
+impl From<LocaleArg> for Locale {
+    fn from(l: LocaleArg) -> Locale {
+        match l {
+            LocaleArg::Tab => Locale::Tab,
+            LocaleArg::Spanish => Locale::Spanish,
+        }
+    }
+}
+
+impl From<PrecisionArg> for Precision {
+    fn from(p: PrecisionArg) -> Precision {
+        match p {
+            PrecisionArg::Sensor => Precision::Sensor,
+            PrecisionArg::Full => Precision::Full,
+        }
+    }
+}

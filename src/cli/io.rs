@@ -1,0 +1,69 @@
+//! What the commands write: standard output (JSON or text) that fails cleanly when its reader
+//! has gone, files replaced in one step, and progress on a terminal (indicatif; hidden when
+//! standard error is not a terminal and with `--json`).
+
+use anyhow::Result;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::path::Path;
+
+/// Writes through a temporary file and a rename: a reader never sees half a file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    Ok(bikeproc::output::write_atomic(path, bytes)?)
+}
+
+/// Prints JSON (`--json`) or the plain text.
+pub fn emit<T: serde::Serialize>(
+    json: bool,
+    value: &T,
+    text: impl FnOnce() -> String,
+) -> Result<()> {
+    if json {
+        out(&(serde_json::to_string_pretty(value)? + "\n"))
+    } else {
+        out(&text())
+    }
+}
+
+/// Writes to standard output: a reader that has gone (`bikeproc … | head`) or a full disk is
+/// an error (exit 1) naming standard output, never a panic.
+pub fn out(text: &str) -> Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::BrokenPipe => {
+                anyhow::anyhow!(
+                    "standard output: its reader has gone (broken pipe); output cut short"
+                )
+            }
+            _ => anyhow::anyhow!("standard output: {e}"),
+        })
+}
+
+/// A progress bar on standard error, `[####    ] done/total what`; drawn only on a terminal
+/// (indicatif's standard-error target) and never with `--json`.
+pub fn progress(json: bool) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(
+        None,
+        if json {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        },
+    );
+    if let Ok(style) = ProgressStyle::with_template("[{bar:30}] {pos}/{len} {msg}") {
+        bar.set_style(style.progress_chars("## "));
+    }
+    bar
+}
+
+/// Shows `done` of `total` of the stage `what` on `bar` (the caller clears it at the end).
+pub fn advance(bar: &ProgressBar, what: &str, done: usize, total: usize) {
+    if bar.message() != what {
+        bar.set_message(what.to_string());
+    }
+    bar.set_length(total as u64);
+    bar.set_position(done as u64);
+}

@@ -1,0 +1,155 @@
+//! `period`, `calibrate-bar`, `inertia`, `measured`: recordings and measurement folders to
+//! periods, the bar's stiffness, inertia tensors and a bicycle's benchmark parameters.
+
+use super::args::{CalibrateArgs, InertiaArgs, MeasuredArgs, PeriodArgs};
+use super::io::{advance, emit, progress, write_atomic};
+use anyhow::{bail, Context, Result};
+use bikeproc::fit::{self, FitOptions, PeriodBatch};
+use bikeproc::inertia::{self, manifest::Kind, text};
+use bikeproc::log::ReadOptions;
+use bikeproc::signal::{self, Extract};
+use bikeproc::uncertainty::Measured;
+use std::path::{Path, PathBuf};
+
+pub fn period(a: PeriodArgs) -> Result<()> {
+    let extract = a
+        .channel
+        .clone()
+        .map_or(Extract::DominantRotation, Extract::Channel);
+    let options = FitOptions {
+        trend: a.trend.into(),
+        segment_s: a.segment,
+        min_freq_hz: None,
+    };
+    let measure = |file: &Path| -> Result<fit::OscillationSummary> {
+        let loaded =
+            signal::load_signal(file, &extract, a.sensor.as_deref(), &ReadOptions::default())?;
+        for w in &loaded.warnings {
+            eprintln!("warning: {w}");
+        }
+        let sig = &loaded.signal;
+        let osc = fit::analyse(sig, &options).with_context(|| format!("{}", file.display()))?;
+        let mut summary = osc.summary(sig);
+        summary.receiver_time_off_rows = loaded.time_off_rows;
+        Ok(summary)
+    };
+    if let [file] = a.files.as_slice() {
+        if !file.is_dir() {
+            let summary = measure(file)?;
+            return emit(a.json, &summary, || summary.to_text(file));
+        }
+    }
+    let files = trial_files(&a.files)?;
+    let bar = progress(a.json);
+    let (mut trials, mut failed) = (Vec::new(), Vec::new());
+    for (k, file) in files.iter().enumerate() {
+        advance(&bar, "recordings", k + 1, files.len());
+        match measure(file) {
+            Ok(s) => trials.push((stem(file), Measured::new(s.period_s, s.period_se_s))),
+            Err(e) => failed.push(format!("{e:#}")),
+        }
+    }
+    bar.finish_and_clear();
+    let batch = PeriodBatch::new(&trials, failed);
+    emit(a.json, &batch, || batch.to_text())?;
+    for f in &batch.failed {
+        eprintln!("error: {f}");
+    }
+    if !batch.failed.is_empty() {
+        bail!(
+            "{} of {} recordings gave no period",
+            batch.failed.len(),
+            files.len()
+        )
+    }
+    Ok(())
+}
+
+fn stem(file: &Path) -> String {
+    file.file_stem()
+        .map_or(String::new(), |x| x.to_string_lossy().into_owned())
+}
+
+/// The recordings named (files, and the `.csv` and `.log` files of folders, `_cal` logs left to
+/// their angles log), in name order within each folder.
+fn trial_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if !p.is_dir() {
+            out.push(p.clone());
+            continue;
+        }
+        let mut inside: Vec<PathBuf> = std::fs::read_dir(p)
+            .with_context(|| format!("{}", p.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|f| {
+                let ext = f.extension().and_then(|e| e.to_str());
+                let stem = f.file_stem().and_then(|e| e.to_str()).unwrap_or("");
+                matches!(ext, Some("csv") | Some("log")) && !stem.ends_with("_cal")
+            })
+            .collect();
+        inside.sort();
+        if inside.is_empty() {
+            bail!("{}: no .csv or .log recordings in the folder", p.display());
+        }
+        out.extend(inside);
+    }
+    Ok(out)
+}
+
+pub fn calibrate_bar(a: CalibrateArgs) -> Result<()> {
+    let cal = inertia::calibrate_bar(&a.dir)?;
+    let out = a.dir.join(inertia::CALIBRATION_FILE);
+    write_atomic(&out, cal.to_toml().as_bytes())?;
+    emit(a.json, &text::calibration_json(&cal), || {
+        text::calibration_text(&cal)
+    })?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
+
+pub fn inertia(a: InertiaArgs) -> Result<()> {
+    if let Some(bike_path) = a.bike {
+        let mut bike = inertia::bike::LabBike::load(&bike_path)?;
+        let dir = bike_path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        for w in &bike.refresh(&dir)? {
+            eprintln!("warning: {w}");
+        }
+        write_atomic(&bike_path, bike.to_toml().as_bytes())?;
+        emit(a.json, &bike, || bike.to_toml())?;
+        eprintln!("refreshed the inertias of {}", bike_path.display());
+        return Ok(());
+    }
+    let dir = a.dir.unwrap_or_default();
+    match inertia::manifest::Manifest::load(&dir)?.kind {
+        Kind::Torsion => {
+            let r = inertia::torsion(&dir, &a.orientations)?;
+            for w in &r.tensor.warnings {
+                eprintln!("warning: {w}");
+            }
+            emit(a.json, &text::torsion_json(&r), || text::torsion_text(&r))
+        }
+        Kind::Compound => {
+            let r = inertia::compound(&dir)?;
+            emit(a.json, &text::compound_json(&r), || text::compound_text(&r))
+        }
+        Kind::BarCalibration | Kind::EmptyFixture => bail!(inertia::InertiaError::Invalid {
+            path: dir.join(inertia::manifest::MANIFEST),
+            message: "a bar-calibration or empty-fixture folder: use `bikeproc calibrate-bar`"
+                .into()
+        }),
+    }
+}
+
+pub fn measured(a: MeasuredArgs) -> Result<()> {
+    let bike = inertia::measured::MeasuredBicycle::load(&a.file)?;
+    let report = bike.report(10.0, 0.01)?;
+    if let Some(out) = &a.out {
+        write_atomic(out, bike.to_benchmark_text().as_bytes())?;
+        eprintln!("wrote {}", out.display());
+    }
+    emit(a.json, &report, || inertia::text::measured_text(&report))
+}

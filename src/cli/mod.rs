@@ -1,0 +1,71 @@
+//! The command line over the library: [`args`] parses, one module per command family runs a
+//! command over a library call ([`measure`], [`model`], [`ride`], [`simulate`]; `report` is a
+//! single call), [`io`] writes. Exit code 0 on success, 2 when an input is malformed or cannot be
+//! analysed, 1 otherwise.
+
+mod args;
+mod io;
+mod measure;
+mod model;
+mod ride;
+mod simulate;
+
+use anyhow::Result;
+use args::{Cli, Command};
+use bikeproc::{fit, inertia, signal};
+use clap::Parser;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// A campaign none of whose rides gave an eigenvalue (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("no ride of {} could be analysed (the reasons are listed above)", .0.display())]
+struct NoRideAnalysed(PathBuf);
+
+/// Parses the arguments, runs the command, prints an error with its causes and maps it to the
+/// exit code.
+pub fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(if is_input_error(&e) { 2 } else { 1 })
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Period(a) => measure::period(a),
+        Command::CalibrateBar(a) => measure::calibrate_bar(a),
+        Command::Inertia(a) => measure::inertia(a),
+        Command::Measured(a) => measure::measured(a),
+        Command::Stability(a) => model::stability(a),
+        Command::Dynamic(a) => ride::dynamic(a),
+        Command::Gap(a) => ride::gap(a),
+        Command::Simulate(s) => simulate::simulate(s),
+        Command::Report(r) => {
+            let written = bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| {
+                eprintln!("{m}")
+            })?;
+            eprintln!("wrote {} files under {}", written.len(), r.out.display());
+            Ok(())
+        }
+    }
+}
+
+/// Whether the error comes from an input that is malformed or cannot be analysed.
+fn is_input_error(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.is::<bikeproc::log::LogError>()
+            || c.is::<signal::SignalError>()
+            || c.is::<fit::FitError>()
+            || c.is::<inertia::InertiaError>()
+            || c.is::<inertia::manifest::ManifestError>()
+            || c.is::<inertia::measured::MeasuredError>()
+            || c.is::<bikeproc::model::ParamError>()
+            || c.is::<bikeproc::ride::RideError>()
+            || c.is::<bikeproc::model::control::ControlError>()
+            || c.is::<NoRideAnalysed>()
+    })
+}

@@ -1,0 +1,43 @@
+//! `stability`: a bicycle file to its eigenvalues against speed, the weave and capsize speeds
+//! and the stable range, with standard errors; and the loading of a model (with a controller)
+//! that the ride commands share.
+
+use super::args::StabilityArgs;
+use super::io::emit;
+use anyhow::Result;
+use bikeproc::model::{self, uncertain::Parametrized};
+use std::path::Path;
+
+pub fn stability(a: StabilityArgs) -> Result<()> {
+    let mut p = model::uncertain::load(&a.bike)?;
+    if a.cg_on_steer_axis {
+        let b = p.nominal().with_handlebar_cg_on_steer_axis();
+        p = Parametrized::from_benchmark(&p.name, &b);
+    }
+    let p = with_controller(p, a.controller.as_deref())?;
+    let (lo, hi, step) = a.speeds;
+    let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize)
+        .map(|i| lo + i as f64 * step)
+        .collect();
+    let s = p.speeds(hi, step.min(0.01))?;
+    let bands = p.bands(&speeds)?;
+    let report = model::report::StabilityReport::new(&p.name, &s, &bands, &p.nominal_canonical());
+    emit(a.json, &report, || report.to_text())
+}
+
+/// A bicycle file as a model, with the controller of `controller` (a TOML `[controller]`
+/// table) closing the loop when given.
+pub fn load_model(bike: &Path, controller: Option<&Path>) -> Result<Parametrized> {
+    with_controller(model::uncertain::load(bike)?, controller)
+}
+
+/// `model` with the steer controller of the file `controller` closing the loop, named in the
+/// model's name.
+fn with_controller(mut model: Parametrized, controller: Option<&Path>) -> Result<Parametrized> {
+    if let Some(c) = controller {
+        let (control, description) = model::SteerControl::load(c)?;
+        model.name = format!("{} with the controller `{description}`", model.name);
+        model = model.with_control(control);
+    }
+    Ok(model)
+}

@@ -1,0 +1,107 @@
+//! `dynamic` and `gap`: rides (a log pair, another instrument's CSV, or a campaign manifest) to
+//! their weave eigenvalues against the model, and a campaign to its sim-to-real gap.
+
+use super::args::{DynamicArgs, GapArgs};
+use super::io::{advance, emit, progress};
+use super::model::load_model;
+use super::NoRideAnalysed;
+use anyhow::Result;
+use bikeproc::ride::csv::{self, KickReport};
+use bikeproc::ride::dynamic::{self, CampaignSummary, DynamicOptions, RideManifest};
+use bikeproc::ride::modal::ModalOptions;
+use bikeproc::ride::speed::NotedReading;
+
+pub fn gap(a: GapArgs) -> Result<()> {
+    let manifest = RideManifest::load(&a.file)?;
+    let model = manifest.model(a.bike.as_deref())?;
+    let bar = progress(a.json);
+    let d = bikeproc::gap::diagnose_campaign(&manifest, &model, &|what, done, total| {
+        advance(&bar, what, done, total)
+    })?;
+    bar.finish_and_clear();
+    emit(a.json, &d, || d.to_text())?;
+    if d.rides_used == 0 {
+        return Err(NoRideAnalysed(a.file.clone()).into());
+    }
+    Ok(())
+}
+
+pub fn dynamic(a: DynamicArgs) -> Result<()> {
+    let modal = ModalOptions {
+        resamples: a.resamples as usize,
+        ..ModalOptions::default()
+    };
+    let extension = a.file.extension().and_then(|e| e.to_str());
+    if extension.is_some_and(|e| e.eq_ignore_ascii_case("csv")) {
+        return csv_ride(&a, &modal);
+    }
+    if extension == Some("toml") {
+        return campaign(&a, &modal);
+    }
+    let bike = match &a.bike {
+        Some(b) => b.clone(),
+        None => dynamic::bike_beside(&a.file)?,
+    };
+    let model = load_model(&bike, a.controller.as_deref())?;
+    let options = DynamicOptions {
+        noted: noted(&a),
+        prefer_sync: false,
+        modal,
+    };
+    let summary = dynamic::dynamic_test(&a.file, &model, &options)?.summary();
+    emit(a.json, &summary, || summary.to_text())
+}
+
+/// The speedometer reading given with `--speed`, its step and error.
+fn noted(a: &DynamicArgs) -> Option<NotedReading> {
+    a.speed.map(|v| NotedReading {
+        speed_mps: v,
+        resolution_mps: a.speed_resolution,
+        se_fraction: a.speed_se_fraction,
+    })
+}
+
+/// `bikeproc dynamic rides.toml`: every ride of a campaign manifest.
+fn campaign(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
+    let manifest = RideManifest::load(&a.file)?;
+    let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
+    let model = manifest.model(Some(&bike))?;
+    let bar = progress(a.json);
+    let results = dynamic::run_campaign(&manifest, &model, modal, &|done, total| {
+        advance(&bar, "rides", done, total)
+    });
+    bar.finish_and_clear();
+    let summary = CampaignSummary::new(&bike, &results);
+    emit(a.json, &summary, || summary.to_text())?;
+    if summary.rides.is_empty() {
+        return Err(NoRideAnalysed(a.file.clone()).into());
+    }
+    Ok(())
+}
+
+/// `bikeproc dynamic FILE.csv [--window A:B]`: the free decays of another instrument's ride
+/// (one with a window or a short record; every kick of a long recording without).
+fn csv_ride(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
+    let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default())?;
+    let model = match &a.bike {
+        Some(bike) => Some(load_model(bike, a.controller.as_deref())?),
+        None => None,
+    };
+    let long = a.window.is_none()
+        && ride
+            .time_s
+            .last()
+            .zip(ride.time_s.first())
+            .is_some_and(|(l, f)| l - f > csv::WHOLE_RECORD_MAX_S);
+    let mut kicks = csv::ride_decays(&ride, a.window, noted(a), model.as_ref(), modal)?;
+    if !long {
+        if let Some(summary) = kicks.pop().and_then(|k| k.decay) {
+            return emit(a.json, &summary, || summary.to_text());
+        }
+    }
+    let report = KickReport {
+        file: a.file.display().to_string(),
+        kicks,
+    };
+    emit(a.json, &report, || report.to_text())
+}

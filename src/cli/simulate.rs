@@ -1,0 +1,144 @@
+//! `simulate`: the lab simulated from physics (pendulum tests, rides, the campaigns in `data/`,
+//! blind campaigns, the failure fixtures). The only command that uses [`bikeproc::sim`].
+
+use super::args::{RideArgs, SimCommand};
+use super::io::{out, write_atomic};
+use anyhow::{Context, Result};
+use bikeproc::inertia::bike::LabBike;
+use bikeproc::log::Log;
+use bikeproc::sim::{self, campaign, pendulum, ride};
+use std::path::Path;
+
+pub fn simulate(s: SimCommand) -> Result<()> {
+    let (pendulum, c) = match s {
+        SimCommand::Ride(r) => return simulate_ride(r),
+        SimCommand::Rides { out } => {
+            let bike = LabBike::load(&out.join("lab_bike.toml"))?;
+            return write_generated(&out, &campaign::lab_rides(&bike)?);
+        }
+        SimCommand::Blind {
+            effect,
+            design,
+            seed,
+            bike,
+            out,
+        } => {
+            let withheld = campaign::Withheld::from_label(&effect)
+                .ok_or_else(|| anyhow::anyhow!("unknown effect `{effect}`"))?;
+            let design = if design == "noted" {
+                campaign::BlindDesign::Noted
+            } else {
+                campaign::BlindDesign::Sync
+            };
+            let lab = LabBike::load(&bike)?;
+            let (mut files, _) =
+                campaign::blind_campaign(&lab, "bike.toml", withheld, design, seed)?;
+            let text = std::fs::read_to_string(&bike)
+                .with_context(|| format!("reading {}", bike.display()))?;
+            files.push(("bike.toml".into(), text));
+            return write_generated(&out, &files);
+        }
+        SimCommand::RideFaults { out } => {
+            let bike = LabBike::load(Path::new("data/lab_bike.toml"))?;
+            return write_generated(&out, &campaign::ride_fault_fixtures(&bike)?);
+        }
+        SimCommand::Campaign { out } => return write_generated(&out, &campaign::lab_campaign()),
+        SimCommand::Torsion(t) => (
+            pendulum::Pendulum::Torsion(pendulum::Torsion {
+                inertia_kgm2: t.inertia_kgm2,
+                stiffness_nm_per_rad: t.stiffness_nm_per_rad,
+                damping_ratio: t.damping_ratio,
+                coulomb_nm: t.coulomb_nm,
+                swing: t.swing_freq_hz.map(|f| pendulum::Swing {
+                    freq_hz: f,
+                    damping_ratio: t.swing_damping_ratio,
+                    coupling: t.swing_coupling,
+                    release_amplitude_deg: t.swing_amplitude_deg,
+                }),
+            }),
+            t.common,
+        ),
+        SimCommand::Compound(k) => (
+            pendulum::Pendulum::Compound(pendulum::Compound {
+                mass_kg: k.mass_kg,
+                pivot_to_cg_m: k.pivot_to_cg_m,
+                inertia_about_pivot_kgm2: k.inertia_about_pivot_kgm2,
+                damping_ratio: k.damping_ratio,
+                coulomb_nm: k.coulomb_nm,
+            }),
+            k.common,
+        ),
+    };
+    let rec = sim::simulate_single(&sim::SingleTest {
+        pendulum,
+        release: pendulum::Release {
+            rest_s: c.rest_s,
+            ramp_s: c.ramp_s,
+            hold_s: c.hold_s,
+            amplitude_deg: c.amplitude_deg,
+            duration_s: c.duration_s,
+        },
+        noise_deg: c.noise_deg,
+        perfect_link: c.perfect_link,
+        mode: c.mode.into(),
+        locale: c.locale.into(),
+        precision: c.precision.into(),
+        sensor_id: c.sensor_id.clone(),
+        label: c.label.clone(),
+        seed: c.seed,
+    });
+    let cal = Log::cal_path(&c.out);
+    write_atomic(&c.out, rec.angles_log.as_bytes())?;
+    write_atomic(&cal, rec.cal_log.as_bytes())?;
+    out(&(serde_json::to_string_pretty(&rec.truth)? + "\n"))?;
+    eprintln!("wrote {} and {}", c.out.display(), cal.display());
+    Ok(())
+}
+
+fn simulate_ride(r: RideArgs) -> Result<()> {
+    let bike = bikeproc::model::uncertain::load(&r.bike)?.nominal();
+    let effects = match r.effects.as_str() {
+        "none" => ride::Effects::default(),
+        "realistic" => ride::Effects::realistic(),
+        file => {
+            let text =
+                std::fs::read_to_string(file).with_context(|| format!("reading effects {file}"))?;
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{file}: {}", e.message()))?
+        }
+    };
+    let mut spec = ride::RideSpec::lab(r.speed, effects);
+    spec.sync = r.sync;
+    spec.mode = r.mode.into();
+    spec.locale = r.locale.into();
+    let ride = ride::simulate_ride(&bike, &spec, r.seed)?;
+    let truth = r.truth.clone().unwrap_or_else(|| {
+        let stem = r
+            .out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        r.out.with_file_name("truth").join(format!("{stem}.json"))
+    });
+    write_atomic(&r.out, ride.angles_log.as_bytes())?;
+    write_atomic(&Log::cal_path(&r.out), ride.cal_log.as_bytes())?;
+    write_atomic(&truth, serde_json::to_string(&ride.truth)?.as_bytes())?;
+    let t = &ride.truth;
+    eprintln!(
+        "wrote {} (release {:.2} s, kick {:.2} s, catch {:.2} s; speedometer {:.2} m/s) and the truth {}",
+        r.out.display(),
+        t.release_s,
+        t.kick_s,
+        t.catch_s,
+        t.noted_speed_mps,
+        truth.display()
+    );
+    Ok(())
+}
+
+/// Writes generated files under `out` and says how many.
+fn write_generated(out: &Path, files: &campaign::Files) -> Result<()> {
+    campaign::write_files(out, files)
+        .with_context(|| format!("writing under {}", out.display()))?;
+    eprintln!("wrote {} files under {}", files.len(), out.display());
+    Ok(())
+}
