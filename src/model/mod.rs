@@ -257,6 +257,12 @@ pub struct Sweep {
 pub fn match_order(prev: &[Complex<f64>; 4], next: &[Complex<f64>; 4]) -> [Complex<f64>; 4] {
     let mut best = *next;
     let mut best_d = f64::INFINITY;
+    // Ties (a complex pair meeting two reals, as below the weave speed: both assignments are
+    // equally near by symmetry) go to the naming of [`name_at`] (the larger real is capsize),
+    // not to the last bit of rounding, which a 1e-12 change of a parameter flipped.
+    let named = name_at(next);
+    let off_naming =
+        |c: &[Complex<f64>; 4]| -> f64 { (0..4).map(|i| (c[i] - named[i]).norm_sqr()).sum() };
     let idx = [0usize, 1, 2, 3];
     for a in idx {
         for b in idx {
@@ -267,9 +273,13 @@ pub fn match_order(prev: &[Complex<f64>; 4], next: &[Complex<f64>; 4]) -> [Compl
                         continue;
                     }
                     let dist: f64 = (0..4).map(|i| (prev[i] - next[p[i]]).norm_sqr()).sum();
-                    if dist < best_d {
-                        best_d = dist;
-                        best = [next[a], next[b], next[c], next[d]];
+                    let candidate = [next[a], next[b], next[c], next[d]];
+                    let tie = (dist - best_d).abs() <= 1e-12 * (1.0 + best_d);
+                    if (dist < best_d && !tie)
+                        || (tie && off_naming(&candidate) < off_naming(&best))
+                    {
+                        best_d = best_d.min(dist);
+                        best = candidate;
                     }
                 }
             }
