@@ -240,6 +240,33 @@ fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
     bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions::default(), &|_, _| {}));
 }
 
+/// Issue 17: the diagnosis's cost against the number of rides: the 16 rides of
+/// `data/rides.toml` taken 1/2, 1, 2 and 4 times (the copies 0.02 m/s apart), every candidate and
+/// pair fitted and left one ride out at a time.
+#[divan::bench(sample_count = 3, args = [8, 16, 32, 64])]
+fn gap_diagnosis_by_rides(bencher: divan::Bencher, n: usize) {
+    use bikeproc::gap::{diagnose, GapOptions, Observation};
+    use bikeproc::ride::dynamic::{run_campaign, RideManifest};
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
+    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
+    let modal = bikeproc::ride::modal::ModalOptions::default();
+    let base: Vec<Observation> = run_campaign(&manifest, &model, &modal, &|_, _| {})
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| r.test().map(|t| Observation::from_test(&k.to_string(), t)))
+        .collect();
+    let rides: Vec<Observation> = (0..n)
+        .map(|k| {
+            let mut o = base[k % base.len()].clone();
+            o.ride = format!("{}_{}", o.ride, k / base.len());
+            o.speed_mps += 0.02 * (k / base.len()) as f64;
+            o
+        })
+        .collect();
+    bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions::default(), &|_, _| {}));
+}
+
 /// Issue 7: `bikeproc gap data/rides.toml` as a whole: the 16 rides' dynamic tests, the noted
 /// speeds' correction and the diagnosis, on rayon's threads (two on this machine).
 #[divan::bench(sample_count = 10)]

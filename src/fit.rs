@@ -207,40 +207,68 @@ fn model(p: &[f64], trend: bool, tau: f64) -> f64 {
 /// about one unit in the last place per step, so its relative error stays below 1e-13.
 const PHASOR_ANCHOR: usize = 256;
 
-/// `(e^{−στ} sin ωτ, e^{−στ} cos ωτ)` at every `τ` into `out`. Where consecutive `τ` are one step
+/// `(e^{−στ} sin ωτ, e^{−στ} cos ωτ)` at successive `τ`. Where consecutive `τ` are one step
 /// apart (a uniform grid: every recording on the sensor's clock) the complex phasor
 /// z = e^{(−σ+iω)τ} is advanced by one multiplication, z ← z·e^{(−σ+iω)Δ}; it is evaluated
 /// directly at the first sample, after every change of step (a gap) and every
 /// [`PHASOR_ANCHOR`] samples. This replaces an `exp` and a `sin_cos` per sample (most of the
 /// fit's time) by four multiplications, to a relative error below 1e-13.
-fn damped_phasors(sigma: f64, omega: f64, tau: &[f64], out: &mut Vec<(f64, f64)>) {
-    out.clear();
-    out.reserve(tau.len());
-    let exact = |t: f64| {
-        let e = (-sigma * t).exp();
-        let (s, c) = (omega * t).sin_cos();
+struct PhasorWalk {
+    sigma: f64,
+    omega: f64,
+    step: f64,
+    mul: (f64, f64),
+    z: (f64, f64),
+    prev: f64,
+    since_anchor: usize,
+}
+
+impl PhasorWalk {
+    fn new(sigma: f64, omega: f64) -> Self {
+        PhasorWalk {
+            sigma,
+            omega,
+            step: f64::NAN,
+            mul: (0.0, 1.0),
+            z: (0.0, 0.0),
+            prev: f64::NAN,
+            since_anchor: PHASOR_ANCHOR,
+        }
+    }
+
+    fn exact(&self, t: f64) -> (f64, f64) {
+        let e = (-self.sigma * t).exp();
+        let (s, c) = (self.omega * t).sin_cos();
         (e * s, e * c)
-    };
-    let (mut step, mut mul) = (f64::NAN, (0.0, 1.0));
-    let mut z = (0.0, 0.0);
-    let mut since_anchor = 0;
-    for (k, &t) in tau.iter().enumerate() {
-        let d = if k == 0 { f64::NAN } else { t - tau[k - 1] };
-        let same_step = (d - step).abs() <= 1e-9 * step.abs();
-        if k == 0 || since_anchor >= PHASOR_ANCHOR || !same_step {
-            z = exact(t);
-            since_anchor = 0;
-            if k > 0 && !same_step {
-                step = d;
-                mul = exact(d);
+    }
+
+    /// The phasor at `t`, the next time after the previous call's.
+    fn at(&mut self, t: f64) -> (f64, f64) {
+        let d = t - self.prev;
+        let same_step = (d - self.step).abs() <= 1e-9 * self.step.abs();
+        if self.since_anchor >= PHASOR_ANCHOR || !same_step {
+            self.z = self.exact(t);
+            self.since_anchor = 0;
+            if !same_step && d.is_finite() {
+                self.step = d;
+                self.mul = self.exact(d);
             }
         } else {
-            // z·mul with z = (im, re) stored as (e sin, e cos).
-            z = (z.0 * mul.1 + z.1 * mul.0, z.1 * mul.1 - z.0 * mul.0);
+            // z·mul, with z = (im, re) stored as (e sin, e cos).
+            let (z, m) = (self.z, self.mul);
+            self.z = (z.0 * m.1 + z.1 * m.0, z.1 * m.1 - z.0 * m.0);
         }
-        since_anchor += 1;
-        out.push(z);
+        self.prev = t;
+        self.since_anchor += 1;
+        self.z
     }
+}
+
+/// [`PhasorWalk`] over every `τ`, into `out`.
+fn damped_phasors(sigma: f64, omega: f64, tau: &[f64], out: &mut Vec<(f64, f64)>) {
+    let mut walk = PhasorWalk::new(sigma, omega);
+    out.clear();
+    out.extend(tau.iter().map(|&t| walk.at(t)));
 }
 
 /// The model at every `τ` from its phasors ([`damped_phasors`]).
@@ -261,9 +289,9 @@ fn residuals_and_jacobian(
     jac: &mut DMatrix<f64>,
     r: &mut DVector<f64>,
 ) {
-    let mut ph = Vec::new();
-    damped_phasors(p[SIGMA], p[OMEGA], tau, &mut ph);
-    for (i, ((&t, &xi), &(es, ec))) in tau.iter().zip(x).zip(&ph).enumerate() {
+    let mut walk = PhasorWalk::new(p[SIGMA], p[OMEGA]);
+    for (i, (&t, &xi)) in tau.iter().zip(x).enumerate() {
+        let (es, ec) = walk.at(t);
         let osc = p[B] * es + p[C] * ec;
         jac[(i, A)] = 1.0;
         jac[(i, B)] = es;
@@ -278,12 +306,10 @@ fn residuals_and_jacobian(
 }
 
 fn rss(p: &[f64], trend: bool, tau: &[f64], x: &[f64]) -> f64 {
-    let mut ph = Vec::new();
-    damped_phasors(p[SIGMA], p[OMEGA], tau, &mut ph);
+    let mut walk = PhasorWalk::new(p[SIGMA], p[OMEGA]);
     tau.iter()
         .zip(x)
-        .zip(&ph)
-        .map(|((&t, &xi), &z)| (model_from(p, trend, t, z) - xi).powi(2))
+        .map(|(&t, &xi)| (model_from(p, trend, t, walk.at(t)) - xi).powi(2))
         .sum()
 }
 
@@ -554,12 +580,23 @@ pub fn fit_short_decay(
     }
     let t_ref = t[0];
     let tau: Vec<f64> = t.iter().map(|v| v - t_ref).collect();
+    // The grid's envelopes e^{−στ} once for every σ, its carriers once per ω: a real
+    // instrument's jittering clock leaves no uniform step for the phasor recurrence, and
+    // `exp` and `sin_cos` per sample per grid point took most of a CSV ride's analysis.
+    let sigmas: Vec<f64> = (0..=32).map(|k| -2.0 + 0.25 * k as f64).collect();
+    let envelopes: Vec<Vec<f64>> = sigmas
+        .iter()
+        .map(|s| tau.iter().map(|t| (-s * t).exp()).collect())
+        .collect();
+    let mut carrier = vec![(0.0, 0.0); tau.len()];
     let mut best: Option<(Vec<f64>, f64)> = None;
     let mut omega = omega_range.0;
     while omega <= omega_range.1 + 1e-9 {
-        for k in 0..=32 {
-            let sigma = -2.0 + 0.25 * k as f64;
-            if let Some((p, r)) = linear_step(sigma, omega, false, &tau, x) {
+        for (slot, t) in carrier.iter_mut().zip(&tau) {
+            *slot = (omega * t).sin_cos();
+        }
+        for (&sigma, env) in sigmas.iter().zip(&envelopes) {
+            if let Some((p, r)) = linear_step_on(sigma, omega, env, &carrier, x) {
                 if best.as_ref().is_none_or(|b| r < b.1) {
                     best = Some((p, r));
                 }
@@ -569,6 +606,33 @@ pub fn fit_short_decay(
     }
     let (p0, _) = best.ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
     fit_damped_sinusoid(&tau, x, t_ref, &p0, false)
+}
+
+/// [`linear_step`] without a trend from a record's envelope `e^{−στ}` and carrier
+/// `(sin ωτ, cos ωτ)` at every sample.
+fn linear_step_on(
+    sigma: f64,
+    omega: f64,
+    envelope: &[f64],
+    carrier: &[(f64, f64)],
+    x: &[f64],
+) -> Option<(Vec<f64>, f64)> {
+    let mut ata = nalgebra::Matrix3::<f64>::zeros();
+    let mut atb = nalgebra::Vector3::<f64>::zeros();
+    for ((&e, &(s, c)), &xi) in envelope.iter().zip(carrier).zip(x) {
+        let row = nalgebra::Vector3::new(1.0, e * s, e * c);
+        ata += row * row.transpose();
+        atb += row * xi;
+    }
+    let sol = ata.cholesky()?.solve(&atb);
+    let r: f64 = envelope
+        .iter()
+        .zip(carrier)
+        .zip(x)
+        .map(|((&e, &(s, c)), &xi)| (sol[0] + (sol[1] * (e * s) + sol[2] * (e * c)) - xi).powi(2))
+        .sum();
+    r.is_finite()
+        .then(|| (vec![sol[0], sol[1], sol[2], sigma, omega], r))
 }
 
 /// Everything measured about one free oscillation.

@@ -765,6 +765,7 @@ pub fn diagnose(
         guesses: guesses.clone(),
         parts,
         cov: &exp_cov + &model_cov,
+        inverse: std::sync::OnceLock::new(),
     };
     d.parts_per_ride = parts;
     d.dof = parts * n;
@@ -971,8 +972,7 @@ fn heldout(
     let mut fits = Vec::with_capacity(n);
     let cache = ResidualCache::new(campaign, effects);
     for i in 0..n {
-        let others: Vec<usize> = (0..n).filter(|&j| j != i).collect();
-        let params = match campaign.subset(others) {
+        let params = match campaign.leave_one_out(i) {
             Some(s) => {
                 let step: Vec<f64> = effects::specs(effects)
                     .iter()
