@@ -324,24 +324,31 @@ fn linear_step(
     x: &[f64],
 ) -> Option<(Vec<f64>, f64)> {
     let span = tau.last().copied().unwrap_or(1.0).max(1e-9);
+    // The data less their mean (the offset column takes it back): the residual sum of squares
+    // below comes from the normal equations, xᵀx − solᵀAᵀx, without a second pass over the
+    // samples, and an offset large against the swing would cost it digits.
+    let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
     let mut ata = nalgebra::Matrix4::<f64>::zeros();
     let mut atb = nalgebra::Vector4::<f64>::zeros();
-    let mut ph = Vec::new();
-    damped_phasors(sigma, omega, tau, &mut ph);
-    for ((&t, &xi), &(es, ec)) in tau.iter().zip(x).zip(&ph) {
+    let mut xtx = 0.0;
+    let mut walk = PhasorWalk::new(sigma, omega);
+    for (&t, &xi) in tau.iter().zip(x) {
+        let (es, ec) = walk.at(t);
+        let xc = xi - mean;
         let row = nalgebra::Vector4::new(1.0, es, ec, if trend { t / span } else { 0.0 });
         ata += row * row.transpose();
-        atb += row * xi;
+        atb += row * xc;
+        xtx += xc * xc;
     }
     if !trend {
         ata[(3, 3)] = 1.0;
     }
     let sol = ata.cholesky()?.solve(&atb);
-    let mut p = vec![sol[0], sol[1], sol[2], sigma, omega];
+    let mut p = vec![sol[0] + mean, sol[1], sol[2], sigma, omega];
     if trend {
         p.push(sol[3] / span);
     }
-    let r = rss(&p, trend, tau, x);
+    let r = (xtx - sol.dot(&atb)).max(0.0);
     r.is_finite().then_some((p, r))
 }
 
@@ -397,6 +404,14 @@ pub(crate) fn levenberg_marquardt(
                 continue;
             };
             let delta = ch.solve(&(-&g));
+            // The reduction the quadratic model predicts: −(2 δᵀg + δᵀHδ).
+            let predicted = -(2.0 * delta.dot(&g) + delta.dot(&(&h * &delta)));
+            if predicted <= 1e-15 * cost {
+                // Converged: no step can gain more than rounding (its trials were all
+                // rejected, one λ after another, until λ was enormous).
+                small_step = true;
+                break;
+            }
             let trial: Vec<f64> = p.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
             let new_cost = problem.cost(&trial);
             let rel_step = delta
@@ -499,7 +514,7 @@ pub fn fit_damped_sinusoid(
 }
 
 /// Samples the σ search of [`initial_guess`] looks at, at most: a start needs no more.
-const GUESS_SAMPLES: usize = 4096;
+const GUESS_SAMPLES: usize = 1024;
 
 /// Starting values for σ and ω: ω from the spectral peak, σ by a search over a logarithmic
 /// grid of damping ratios, each solved for the linear parameters (variable projection). On a
