@@ -12,6 +12,13 @@
 //! covariance `s² (JᵀJ)⁻¹`. The Jacobian is analytic (exact): a relative finite-difference step
 //! leaves the offset stuck when the signal's mean is near zero.
 //!
+//! The Levenberg–Marquardt ([`levenberg_marquardt`]) is in-house for a measured reason
+//! (`benches/kernels`, `cd benches/kernels && cargo bench`): on the shared fork recording at
+//! 1000 Hz (30,000 samples) from a start 2–10 % off, it takes 2.63 ms (median) against the
+//! levenberg-marquardt crate's 29.4 ms (MINPACK's algorithm, the same analytic Jacobian), and the
+//! two converged points differ by less than 1e-6 of a standard error in every parameter; here it
+//! evaluates the model by phasor recurrence and stops when no step can gain.
+//!
 //! The lab (seed §5.3.3.2) takes the FFT's peak: with 60 s at 100 Hz a bin is 0.017 Hz, 2 % at
 //! 0.8 Hz. The fit reaches the Cramér–Rao bound ([`crb_omega_variance`]) instead.
 

@@ -3,6 +3,11 @@
 //! errors, its speed's, and the model's from the measured parameters, correlated across
 //! rides), a bounded Nelder–Mead search after a grid, standard errors from the χ² curvature,
 //! and leave-one-ride-out predictions.
+//!
+//! The Nelder–Mead ([`nelder_mead`]) is in-house for a measured reason (`benches/kernels`): it
+//! keeps every vertex inside the effects' physical box, which argmin's `NelderMead` does not, and
+//! on Rosenbrock's function from (−1.2, 1) it reaches f = 1.2e-12 in 12.2 µs against argmin's
+//! 8.0e-13 in 36.2 µs (medians).
 
 use super::effects::{linear_bike, predict_weave, specs, Effect};
 use super::Observation;
