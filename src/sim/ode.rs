@@ -1,6 +1,13 @@
 //! An adaptive explicit Runge–Kutta integrator: Dormand & Prince 5(4) (J. Comput. Appl. Math.
 //! 6:19–26, 1980), local extrapolation, error per step against `atol + rtol·|y|`, step-size
 //! control with a safety factor. Written here so the simulator depends on no solver crate.
+//!
+//! Kept for a measured reason (`benches/kernels`): on a damped oscillator over 10 s (ω = 2π,
+//! ζ = 0.05, rtol 1e-10, atol 1e-12) it ends 2.9e-11 from the closed form in 2,049 steps and
+//! 229 µs; ode_solvers' `Dopri5` (0.6.2) takes 2,045 steps and 190 µs, but its dense output at
+//! the span's end came out 0.56 off in y' (6.4e5 with the whole span as the output interval), as
+//! we called it; we did not find out why. The Whipple rides need the state at every sample and
+//! a projection after every step, which this one gives directly.
 
 /// Butcher tableau of DOPRI5.
 const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];

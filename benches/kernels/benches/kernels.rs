@@ -7,6 +7,10 @@
 //!   errors, the iterations, the time.
 //! - The bounded Nelder–Mead of the gap's candidate fits (`bikeproc::gap::fit::nelder_mead`)
 //!   against argmin's `NelderMead` on Rosenbrock's function from (−1.2, 1) (minimum (1, 1)).
+//! - The simulator's Dormand–Prince 5(4) (`bikeproc::sim::ode`) against ode_solvers' `Dopri5`
+//!   on a damped oscillator over 10 s (closed form), both at rtol 1e-10, atol 1e-12.
+//! - The simulator's second-order jets (`bikeproc::sim::jet`) against num-dual's `Dual2_64` on
+//!   a kinematics-like function of three coordinates along one direction.
 
 use bikeproc::fit::{self, FitOptions};
 use bikeproc::log::ReadOptions;
@@ -196,6 +200,104 @@ fn nelder_mead_argmin_rosenbrock() -> (Vec<f64>, f64, u64) {
     argmin_nm()
 }
 
+/// y'' + 2ζω y' + ω² y = 0, ω = 2π rad/s, ζ = 0.05, from y = 1, y' = 0: its state at 10 s.
+const OMEGA: f64 = 2.0 * std::f64::consts::PI;
+const ZETA: f64 = 0.05;
+
+fn oscillator_exact(t: f64) -> [f64; 2] {
+    let wd = OMEGA * (1.0 - ZETA * ZETA).sqrt();
+    let s = ZETA * OMEGA;
+    let e = (-s * t).exp();
+    let (sn, cs) = (wd * t).sin_cos();
+    let y = e * (cs + s / wd * sn);
+    let v = e * (-(s * s + wd * wd) / wd * sn);
+    [y, v]
+}
+
+fn bikeproc_ode() -> ([f64; 2], usize) {
+    use bikeproc::sim::ode::{integrate, Tolerance};
+    let f = |_t: f64, y: &[f64; 2]| Some([y[1], -2.0 * ZETA * OMEGA * y[1] - OMEGA * OMEGA * y[0]]);
+    let mut y = [1.0, 0.0];
+    let (mut h, mut fsal) = (1e-3, None);
+    let steps = integrate(
+        &f,
+        &|_| {},
+        0.0,
+        10.0,
+        &mut y,
+        &mut h,
+        &mut fsal,
+        &Tolerance::default(),
+    )
+    .expect("integrates");
+    (y, steps)
+}
+
+struct Oscillator;
+
+impl ode_solvers::System<f64, ode_solvers::Vector2<f64>> for Oscillator {
+    fn system(&self, _t: f64, y: &ode_solvers::Vector2<f64>, dy: &mut ode_solvers::Vector2<f64>) {
+        dy[0] = y[1];
+        dy[1] = -2.0 * ZETA * OMEGA * y[1] - OMEGA * OMEGA * y[0];
+    }
+}
+
+fn crate_ode() -> ([f64; 2], u32) {
+    let mut stepper = ode_solvers::Dopri5::new(
+        Oscillator,
+        0.0,
+        10.0,
+        // Dense output every 0.5 s (with the whole span as its interval, ode_solvers 0.6.2
+        // returned 6.4e5 at the end: an interpolation outside the last step).
+        0.5,
+        ode_solvers::Vector2::new(1.0, 0.0),
+        1e-10,
+        1e-12,
+    );
+    let stats = stepper.integrate().expect("integrates");
+    let y = stepper.y_out().last().copied().unwrap_or_default();
+    ([y[0], y[1]], stats.accepted_steps)
+}
+
+#[divan::bench(sample_count = 50)]
+fn dopri5_bikeproc_oscillator_10_s() -> ([f64; 2], usize) {
+    bikeproc_ode()
+}
+
+#[divan::bench(sample_count = 50)]
+fn dopri5_ode_solvers_oscillator_10_s() -> ([f64; 2], u32) {
+    crate_ode()
+}
+
+/// f(a, b, c) = sin a cos b √(1 + c²) + cos(a + b) / (2 + sin c), over bikeproc's jets.
+fn kinematics_jet(q: [f64; 3], qd: [f64; 3]) -> bikeproc::sim::jet::Jet {
+    use bikeproc::sim::jet::{Jet, Scalar};
+    let [a, b, c] = [0, 1, 2].map(|i| Jet::var(q[i], qd[i]));
+    let one = Jet::c(1.0);
+    a.sin() * b.cos() * (one + c * c).sqrt() + (a + b).cos() / (Jet::c(2.0) + c.sin())
+}
+
+/// The same f over num-dual's second-order duals.
+fn kinematics_dual(q: [f64; 3], qd: [f64; 3]) -> num_dual::Dual2_64 {
+    use num_dual::{Dual2_64, DualNum};
+    let [a, b, c] = [0, 1, 2].map(|i| Dual2_64::new(q[i], qd[i], 0.0));
+    let one = Dual2_64::from(1.0);
+    a.sin() * b.cos() * (one + c * c).sqrt() + (a + b).cos() / (Dual2_64::from(2.0) + c.sin())
+}
+
+const Q: [f64; 3] = [0.3, -0.7, 1.1];
+const QD: [f64; 3] = [1.5, 0.4, -2.0];
+
+#[divan::bench(sample_count = 200)]
+fn jet_bikeproc_kinematics() -> bikeproc::sim::jet::Jet {
+    kinematics_jet(divan::black_box(Q), divan::black_box(QD))
+}
+
+#[divan::bench(sample_count = 200)]
+fn jet_num_dual_kinematics() -> num_dual::Dual2_64 {
+    kinematics_dual(divan::black_box(Q), divan::black_box(QD))
+}
+
 fn main() {
     let s = sinusoid();
     let ours = bikeproc_lm(s);
@@ -222,6 +324,26 @@ fn main() {
     println!(
         "Nelder–Mead, Rosenbrock from (-1.2, 1): bikeproc ({:.3e}, {:.3e}) f {:.2e}; argmin ({:.3e}, {:.3e}) f {:.2e} in {} evaluations",
         x[0], x[1], f, xa[0], xa[1], fa, na
+    );
+    let exact = oscillator_exact(10.0);
+    let (yb, nb) = bikeproc_ode();
+    let (yc, nc) = crate_ode();
+    println!(
+        "Dormand–Prince 5(4), damped oscillator to 10 s: bikeproc error ({:.1e}, {:.1e}) in {nb} steps; ode_solvers ({:.1e}, {:.1e}) in {nc} steps",
+        yb[0] - exact[0],
+        yb[1] - exact[1],
+        yc[0] - exact[0],
+        yc[1] - exact[1]
+    );
+    let (j, d) = (kinematics_jet(Q, QD), kinematics_dual(Q, QD));
+    println!(
+        "Second-order jets: value {:.3e}, rate {:.3e}, second derivative {:.3e} apart (num-dual: {:.15e}, {:.15e}, {:.15e})",
+        j.v - d.re,
+        j.d - d.v1,
+        j.dd - d.v2,
+        d.re,
+        d.v1,
+        d.v2
     );
     divan::main();
 }
