@@ -226,18 +226,28 @@ fn dynamic_campaign_16_rides(bencher: divan::Bencher) {
 /// fitted and left one ride out at a time) from its rides' eigenvalues, on rayon's threads (two on this machine).
 #[divan::bench(sample_count = 10)]
 fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
-    use bikeproc::gap::{diagnose, GapOptions, Observation};
+    use bikeproc::gap::{diagnose, GapOptions};
+    let (model, rides) = data_campaign_observations();
+    bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions::default(), &|_, _| {}));
+}
+
+/// The model of `data/rides.toml`'s bicycle and its rides' observations (their dynamic tests).
+fn data_campaign_observations() -> (
+    bikeproc::model::uncertain::Parametrized,
+    Vec<bikeproc::gap::Observation>,
+) {
+    use bikeproc::gap::Observation;
     use bikeproc::ride::dynamic::{run_campaign, RideManifest};
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
     let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
     let modal = bikeproc::ride::modal::ModalOptions::default();
-    let rides: Vec<Observation> = run_campaign(&manifest, &model, &modal, &|_, _| {})
+    let rides = run_campaign(&manifest, &model, &modal, &|_, _| {})
         .iter()
         .enumerate()
         .filter_map(|(k, r)| r.test().map(|t| Observation::from_test(&k.to_string(), t)))
         .collect();
-    bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions::default(), &|_, _| {}));
+    (model, rides)
 }
 
 /// Issue 17: the diagnosis's cost against the number of rides: the 16 rides of
@@ -246,16 +256,7 @@ fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
 #[divan::bench(sample_count = 3, args = [8, 16, 32, 64])]
 fn gap_diagnosis_by_rides(bencher: divan::Bencher, n: usize) {
     use bikeproc::gap::{diagnose, GapOptions, Observation};
-    use bikeproc::ride::dynamic::{run_campaign, RideManifest};
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
-    let modal = bikeproc::ride::modal::ModalOptions::default();
-    let base: Vec<Observation> = run_campaign(&manifest, &model, &modal, &|_, _| {})
-        .iter()
-        .enumerate()
-        .filter_map(|(k, r)| r.test().map(|t| Observation::from_test(&k.to_string(), t)))
-        .collect();
+    let (model, base) = data_campaign_observations();
     let rides: Vec<Observation> = (0..n)
         .map(|k| {
             let mut o = base[k % base.len()].clone();
