@@ -54,7 +54,8 @@ pub enum Trend {
 #[derive(Debug, Clone, Default)]
 pub struct FitOptions {
     pub trend: Trend,
-    /// Fit this time range (s) instead of choosing the free decay automatically.
+    /// Fit this time range (s), both ends included, instead of choosing the free decay
+    /// automatically.
     pub segment_s: Option<(f64, f64)>,
     /// Ignore spectral peaks below this frequency (Hz); default: 2 bins of the record.
     pub min_freq_hz: Option<f64>,
@@ -785,8 +786,11 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
     let trend_for_search = options.trend != Trend::Off;
     let (mut i0, mut i1) = match options.segment_s {
         Some((a, b)) => {
-            let i0 = t.iter().position(|&v| v >= a).unwrap_or(n);
-            let i1 = t.iter().rposition(|&v| v <= b).unwrap_or(0);
+            // Both ends included: a sample's time is t0 + i/rate, rounded, and 30000 × 0.001
+            // gives 30.000000000000004, which `t ≤ 30` dropped. A millionth of a sample covers it.
+            let slack = 1e-6 / signal.sample_rate_hz;
+            let i0 = t.iter().position(|&v| v >= a - slack).unwrap_or(n);
+            let i1 = t.iter().rposition(|&v| v <= b + slack).unwrap_or(0);
             if i1 <= i0 + 8 {
                 return Err(FitError::TooShort(i1.saturating_sub(i0)));
             }
@@ -1245,6 +1249,42 @@ mod tests {
                 (approx / exact - 1.0).abs() < tol,
                 "f={f_hz} ζ={zeta}: {approx} vs {exact}"
             );
+        }
+    }
+
+    /// `--segment A:B` takes both end samples: at 100 Hz sample 1,070 is at 1070 × 0.01 =
+    /// 10.700000000000001 s, beyond B = 10.7 by rounding, and `t ≤ B` dropped it.
+    #[test]
+    fn a_segment_includes_both_ends() {
+        let rate = 100.0;
+        let sig = Signal {
+            name: "x".into(),
+            unit: "rad".into(),
+            sample_rate_hz: rate,
+            t0_s: 0.0,
+            index: (0..=3_000).collect(),
+            values: (0..=3_000)
+                .map(|i| {
+                    let t = i as f64 / rate;
+                    (-0.05 * t).exp() * (4.0 * t).cos()
+                })
+                .collect(),
+        };
+        assert!(
+            sig.times_s()[1_070] > 10.7,
+            "the rounding this test is about"
+        );
+        for (a, b, samples) in [(0.0, 10.7, 1_071), (2.0, 10.7, 871), (0.35, 30.0, 2_966)] {
+            let osc = analyse(
+                &sig,
+                &FitOptions {
+                    trend: Trend::Off,
+                    segment_s: Some((a, b)),
+                    min_freq_hz: None,
+                },
+            )
+            .expect("fits");
+            assert_eq!(osc.fit.samples, samples, "{a}:{b}");
         }
     }
 
