@@ -12,7 +12,7 @@
 //! covariance `s² (JᵀJ)⁻¹`. The Jacobian is analytic (exact): a relative finite-difference step
 //! leaves the offset stuck when the signal's mean is near zero.
 //!
-//! The Levenberg–Marquardt ([`levenberg_marquardt`]) is in-house for a measured reason
+//! The Levenberg–Marquardt (`levenberg_marquardt`) is in-house for a measured reason
 //! (`benches/kernels`, `cd benches/kernels && cargo bench`): on the shared fork recording at
 //! 1000 Hz (30,000 samples) from a start 2–10 % off, it takes 2.63 ms (median) against the
 //! levenberg-marquardt crate's 29.4 ms (MINPACK's algorithm, the same analytic Jacobian), and the
@@ -96,7 +96,7 @@ impl DampedFit {
         model(&self.params, self.trend, t - self.t_ref_s)
     }
 
-    /// The fitted curve at every time of `t` (s) ([`damped_phasors`]: one pass, no `exp` or
+    /// The fitted curve at every time of `t` (s) (`damped_phasors`: one pass, no `exp` or
     /// `sin_cos` per sample on a uniform grid).
     pub fn eval_many(&self, t: &[f64]) -> Vec<f64> {
         let tau: Vec<f64> = t.iter().map(|v| v - self.t_ref_s).collect();
@@ -468,7 +468,7 @@ impl LeastSquares for Sinusoid<'_> {
     }
 }
 
-/// Levenberg–Marquardt ([`levenberg_marquardt`]) on all parameters from `p0`.
+/// Levenberg–Marquardt (`levenberg_marquardt`) on all parameters from `p0`.
 ///
 /// `tau` is time from the segment start; the result's covariance is `s² (JᵀJ)⁻¹` with
 /// `s² = RSS / (N − p)`.
@@ -767,7 +767,7 @@ fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
 /// Measures the free oscillation in `signal`: where it is, its frequency, the free-decay
 /// segment, the fit, other modes.
 ///
-/// 1. The stretch of motion ([`motion_stretch`]) and its rectangular-window spectrum give the
+/// 1. The stretch of motion (`motion_stretch`) and its rectangular-window spectrum give the
 ///    starting frequency; a σ search and Levenberg–Marquardt give a first fit.
 /// 2. The segment: extended backwards until the data leave the fitted decay (the release:
 ///    before it the body was held), with a guard of half a window for the release transient;

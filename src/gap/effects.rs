@@ -349,7 +349,7 @@ pub fn linear_bike(
     }
 }
 
-/// The true speed behind a ride's reported one under `effects` (see [`predict`]).
+/// The true speed behind a ride's reported one under `effects` (see `predict`).
 pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 {
     let mut v = obs.speed_mps;
     for (e, ps) in split(effects, params) {

@@ -98,7 +98,7 @@ impl<'a> Campaign<'a> {
         })
     }
 
-    /// Every ride but `left_out` ([`Solve::LeaveOneOut`]); `None` when the covariance or the
+    /// Every ride but `left_out` (`Solve::LeaveOneOut`); `None` when the covariance or the
     /// left-out ride's block of its inverse is singular.
     pub fn leave_one_out(&self, left_out: usize) -> Option<Subset<'_, 'a>> {
         let inverse = self

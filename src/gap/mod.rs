@@ -305,7 +305,7 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// in Σz² …
 pub const TIE_CHI2: f64 = 2.0;
 /// … and by more than this many of that sum's standard deviations had the two been equally
-/// right ([`distinguishable`]).
+/// right (`distinguishable`).
 pub const TIE_SE: f64 = 2.0;
 /// Fewer usable rides than this support no conclusion.
 pub const MIN_RIDES: usize = 4;

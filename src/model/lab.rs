@@ -35,7 +35,7 @@ fn tensor_to_benchmark(b: &Body, beta: f64) -> (f64, f64, f64, f64) {
 }
 
 /// The lab's bicycle in the benchmark form (module doc, steps 1–6). Standard errors are not
-/// set here: see [`Parametrized::from_lab`].
+/// set here: see [`crate::model::uncertain::Parametrized::from_lab`].
 pub fn lab_to_benchmark(bike: &LabBike) -> Benchmark {
     let g = &bike.geometry;
     let (rt, rd) = (g.rear_wheel_radius_m, g.front_wheel_radius_m);

@@ -12,7 +12,7 @@
 //!
 //! The coasting bicycle slows down (0.05–0.15 m/s²), so its eigenvalue drifts over the window.
 //! The eigenvalue is fitted constant (σ̇ = ω̇ = 0) and applies at `t_ref`, the amplitude-weighted
-//! time at which a linear drift leaves the constant fit unbiased ([`eigenvalue_time`]); there
+//! time at which a linear drift leaves the constant fit unbiased (`eigenvalue_time`); there
 //! the speed is read. What the drift leaves beyond first order is measured by fitting σ̇ and ω̇
 //! too: the eigenvalue of that fit at `t_ref` less the constant fit's is a systematic error
 //! ([`Drift`]), added to the standard errors in quadrature (noise-sized on a steady ride, up to
