@@ -705,13 +705,11 @@ fn noise_variance(x: &[f64]) -> f64 {
     if x.len() < 3 {
         return 0.0;
     }
-    let mut d2: Vec<f64> = x
+    let d2: Vec<f64> = x
         .windows(3)
         .map(|w| (w[0] - 2.0 * w[1] + w[2]).abs())
         .collect();
-    let mid = d2.len() / 2;
-    let median = *d2.select_nth_unstable_by(mid, f64::total_cmp).1;
-    (median / 0.6745).powi(2) / 6.0
+    (crate::signal::median(&d2) / 0.6745).powi(2) / 6.0
 }
 
 /// Where the motion is: from the window of largest variance (0.5 s windows) until the variance
