@@ -92,10 +92,7 @@ impl Spectrum {
         if m.len() < 3 {
             return vec![];
         }
-        // The median by selection, O(n) (the same element a full sort would put there).
-        let mut scratch = m.clone();
-        let mid = scratch.len() / 2;
-        let floor = 5.0 * *scratch.select_nth_unstable_by(mid, f64::total_cmp).1;
+        let floor = noise_floor(m);
         let candidates: Vec<Peak> = (1..m.len() - 1)
             .filter(|&k| {
                 m[k] > m[k - 1]
@@ -436,9 +433,7 @@ impl ZoomSpectrum {
         if c.len() < 3 {
             return vec![];
         }
-        let mut scratch = c.clone();
-        let mid = scratch.len() / 2;
-        let floor = 5.0 * *scratch.select_nth_unstable_by(mid, f64::total_cmp).1;
+        let floor = noise_floor(c);
         let coarse_df = self.rate_hz / (self.padded_len() / self.factor()) as f64;
         let mut coarse_peaks: Vec<usize> = (1..c.len() - 1)
             .filter(|&k| {
@@ -482,6 +477,14 @@ impl ZoomSpectrum {
     pub fn main_peak(&self, min_freq_hz: f64) -> Option<Peak> {
         self.peaks(min_freq_hz, 1.0, 0.0, 1).into_iter().next()
     }
+}
+
+/// The level a peak must stand above: 5× the median magnitude (by selection, O(n): the same
+/// element a full sort would put there). `magnitudes` must not be empty.
+fn noise_floor(magnitudes: &[f64]) -> f64 {
+    let mut scratch = magnitudes.to_vec();
+    let mid = scratch.len() / 2;
+    5.0 * *scratch.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// The magnitude of the `k`-th strongest of `peaks` (0 if there are fewer).
