@@ -389,8 +389,11 @@ pub fn refine(
 
 /// The minimum of `subset`'s χ² near `start` (a fit to more rides): one Newton step on the
 /// χ² surface's central-difference gradient and Hessian (steps of 1e-3 of each range: 3
-/// evaluations for one parameter, 9 for two), clamped to the bounds; Nelder–Mead from `start`
-/// (steps `step`) when the Hessian is not positive definite or the step does not lower χ².
+/// evaluations for one parameter, 9 for two), clamped to the bounds; failing that (the Hessian
+/// not positive definite, or χ² not lowered), the step with the parameters `start` left at an
+/// active bound held there ([`active_bounds`]: where the subset's minimum stays, a third of
+/// the held-out refits of the data/ campaign); Nelder–Mead from `start` (steps `step`) when
+/// neither lowers χ².
 /// Leaving one ride out moves the minimum by a fraction of its standard error, where χ² is
 /// quadratic to within the step's own error.
 pub fn refit_near(
@@ -411,11 +414,18 @@ pub fn refit_near(
     let f0 = f(&x0);
     let (grad, hess) = central_differences(&f, &x0, f0, &h);
     if f0.is_finite() && grad.iter().all(|g| g.is_finite()) {
-        if let Some(chol) = hess.cholesky() {
-            let dx = chol.solve(&grad);
-            let x1: Vec<f64> = (0..n)
-                .map(|i| (x0[i] - dx[i]).clamp(lo[i], hi[i]))
-                .collect();
+        let steps = [
+            newton_step(&x0, &grad, &hess, &lo, &hi, &[]),
+            newton_step(
+                &x0,
+                &grad,
+                &hess,
+                &lo,
+                &hi,
+                &active_bounds(start, &grad, &lo, &hi, &h),
+            ),
+        ];
+        for x1 in steps.into_iter().flatten() {
             let f1 = f(&x1);
             if f1 <= f0 {
                 return EffectFit {
@@ -426,6 +436,72 @@ pub fn refit_near(
         }
     }
     refine(subset, effects, start, step)
+}
+
+/// The parameters `start` (a fit to more rides) left at a bound of their box, within `h` of it,
+/// where χ² still falls outward (`grad` > 0 at the lower bound, < 0 at the upper): the
+/// constraint is active there, and a subset's fit keeps them at it. Each with its bound.
+fn active_bounds(
+    start: &[f64],
+    grad: &DVector<f64>,
+    lo: &[f64],
+    hi: &[f64],
+    h: &[f64],
+) -> Vec<(usize, f64)> {
+    (0..start.len())
+        .filter_map(|i| {
+            if start[i] <= lo[i] + h[i] && grad[i] > 0.0 {
+                Some((i, lo[i]))
+            } else if start[i] >= hi[i] - h[i] && grad[i] < 0.0 {
+                Some((i, hi[i]))
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// One Newton step from `x0` on a quadratic model (gradient `grad`, Hessian `hess`) with the
+/// parameters of `held` fixed at the values given (the free ones' gradient moved by the
+/// Hessian's cross terms accordingly), clamped to the box; `None` when no parameter is free
+/// to move beyond those held, or the free parameters' Hessian is not positive definite. With
+/// nothing held, the plain Newton step x0 − H⁻¹g.
+fn newton_step(
+    x0: &[f64],
+    grad: &DVector<f64>,
+    hess: &DMatrix<f64>,
+    lo: &[f64],
+    hi: &[f64],
+    held: &[(usize, f64)],
+) -> Option<Vec<f64>> {
+    let n = x0.len();
+    let mut x1 = x0.to_vec();
+    for &(i, v) in held {
+        x1[i] = v;
+    }
+    let free: Vec<usize> = (0..n).filter(|i| held.iter().all(|h| h.0 != *i)).collect();
+    if free.is_empty() {
+        return (!held.is_empty()).then_some(x1);
+    }
+    let g = DVector::from_iterator(
+        free.len(),
+        free.iter().map(|&i| {
+            grad[i]
+                + held
+                    .iter()
+                    .map(|&(j, v)| hess[(i, j)] * (v - x0[j]))
+                    .sum::<f64>()
+        }),
+    );
+    let dx = hess
+        .select_rows(free.iter())
+        .select_columns(free.iter())
+        .cholesky()?
+        .solve(&g);
+    for (k, &i) in free.iter().enumerate() {
+        x1[i] = (x0[i] - dx[k]).clamp(lo[i], hi[i]);
+    }
+    Some(x1)
 }
 
 /// The gradient and Hessian of `f` at `x0` (where it is `f0`) by central differences with
@@ -488,5 +564,55 @@ pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) ->
             })
             .collect(),
         None => vec![f64::NAN; n],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// f(x) = (x₀ + 1)² + (x₁ − 0.5)² + 0.5 x₀x₁ on the box [0, 2]²: its minimum (−1.2, 0.8)
+    /// lies outside, and the box's is x₀ = 0 (the bound active), x₁ = 0.5.
+    fn quadratic(x: &[f64]) -> f64 {
+        (x[0] + 1.0).powi(2) + (x[1] - 0.5).powi(2) + 0.5 * x[0] * x[1]
+    }
+
+    #[test]
+    fn a_newton_step_keeps_an_active_bound() {
+        let (lo, hi, h) = ([0.0, 0.0], [2.0, 2.0], [0.002, 0.002]);
+        let x0 = [0.002, 0.4];
+        let (grad, hess) = central_differences(&quadratic, &x0, quadratic(&x0), &h);
+        // Central differences are exact on a quadratic (to rounding).
+        assert!((grad[0] - (2.0 * 1.002 + 0.5 * 0.4)).abs() < 1e-9, "{grad}");
+        assert!((hess[(0, 1)] - 0.5).abs() < 1e-6, "{hess}");
+        // The plain step leaves the box and is clamped to (0, 0.8): not the box's minimum.
+        let plain = newton_step(&x0, &grad, &hess, &lo, &hi, &[]).unwrap();
+        assert!(
+            quadratic(&plain) > quadratic(&[0.0, 0.5]) + 0.05,
+            "{plain:?}"
+        );
+        // x₀ starts at its lower bound with χ² falling outward: held there, x₁ to 0.5.
+        let held = active_bounds(&x0, &grad, &lo, &hi, &h);
+        assert_eq!(held, vec![(0, 0.0)]);
+        let step = newton_step(&x0, &grad, &hess, &lo, &hi, &held).unwrap();
+        assert_eq!(step[0], 0.0);
+        assert!((step[1] - 0.5).abs() < 1e-6, "{step:?}");
+        // Nothing free: the bound point itself; nothing held and nothing free: no step.
+        let both = [(0, 0.0), (1, 2.0)];
+        assert_eq!(
+            newton_step(&x0, &grad, &hess, &lo, &hi, &both),
+            Some(vec![0.0, 2.0])
+        );
+        assert_eq!(
+            newton_step(
+                &[],
+                &DVector::zeros(0),
+                &DMatrix::zeros(0, 0),
+                &[],
+                &[],
+                &[]
+            ),
+            None
+        );
     }
 }
