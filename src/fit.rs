@@ -1018,6 +1018,38 @@ fn motion_stretch(x: &[f64], rate_hz: f64) -> (usize, usize) {
     ((imax + w / 2).min(end.saturating_sub(16)), end)
 }
 
+/// `bikeproc period FILE`: the free oscillation of one recording (a log pair or a `time_s,value`
+/// CSV), its summary with the receiver's off-time rows, and the reader's warnings.
+pub fn measure_file(
+    file: &std::path::Path,
+    extract: &crate::signal::Extract,
+    sensor: Option<&str>,
+    options: &FitOptions,
+) -> Result<(OscillationSummary, Vec<String>), MeasureError> {
+    let loaded =
+        crate::signal::load_signal(file, extract, sensor, &crate::log::ReadOptions::default())?;
+    let sig = &loaded.signal;
+    let osc = analyse(sig, options).map_err(|source| MeasureError::Fit {
+        path: file.to_path_buf(),
+        source,
+    })?;
+    let mut summary = osc.summary(sig);
+    summary.receiver_time_off_rows = loaded.time_off_rows;
+    Ok((summary, loaded.warnings))
+}
+
+/// Why [`measure_file`] found no period: the file, or the fit (named with the file).
+#[derive(Debug, thiserror::Error)]
+pub enum MeasureError {
+    #[error(transparent)]
+    Read(#[from] crate::signal::SignalError),
+    #[error("{}: {source}", path.display())]
+    Fit {
+        path: std::path::PathBuf,
+        source: FitError,
+    },
+}
+
 /// Measures the free oscillation in `signal`: where it is, its frequency, the free-decay
 /// segment, the fit, other modes.
 ///

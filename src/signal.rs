@@ -34,6 +34,9 @@ pub struct Signal {
 pub enum SignalError {
     #[error(transparent)]
     Log(#[from] LogError),
+    /// Samples given as arrays ([`Signal::from_samples`]): `sample` counts from 0.
+    #[error("sample {sample}: {message}")]
+    Samples { sample: usize, message: String },
     #[error("{path}:{line}: channel `{channel}` is not in this file (columns: {available})")]
     NoChannel {
         path: PathBuf,
@@ -130,6 +133,45 @@ impl Signal {
             message: format!("cannot read: {e}"),
         })?;
         Signal::from_csv_reader(file, path)
+    }
+
+    /// A signal from its times `t` (s) and values `x`, gridded as a CSV's ([`sampling_grid`]):
+    /// finite, as many of each, at least 8, times advancing.
+    pub fn from_samples(name: &str, t: &[f64], x: &[f64]) -> Result<Signal, SignalError> {
+        let bad = |sample: usize, message: String| SignalError::Samples { sample, message };
+        if t.len() != x.len() {
+            return Err(bad(
+                t.len().min(x.len()),
+                format!("{} times but {} values", t.len(), x.len()),
+            ));
+        }
+        if t.len() < MIN_SAMPLES {
+            return Err(bad(
+                t.len(),
+                format!("only {} samples: too few for a signal", t.len()),
+            ));
+        }
+        if let Some(i) = (0..t.len()).find(|&i| !t[i].is_finite() || !x[i].is_finite()) {
+            return Err(bad(
+                i,
+                format!("not a finite number (time {}, value {})", t[i], x[i]),
+            ));
+        }
+        if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
+            return Err(bad(
+                i + 1,
+                format!("time {} s does not advance from {} s", t[i + 1], t[i]),
+            ));
+        }
+        let (dt, index) = sampling_grid(t).map_err(|(i, message)| bad(i, message))?;
+        Ok(Signal {
+            name: name.to_string(),
+            unit: String::new(),
+            sample_rate_hz: 1.0 / dt,
+            t0_s: t[0],
+            index,
+            values: x.to_vec(),
+        })
     }
 
     /// As [`Signal::from_csv`], from any reader; `path` names it in messages.
@@ -291,11 +333,11 @@ impl CsvTable {
         }
     }
 
-    /// The sampling grid of the times `t` (s, one per row): the median step and each sample's
-    /// grid index. Times must advance, and lie within a quarter step of the grid.
+    /// The sampling grid of the times `t` (s, one per row): [`sampling_grid`], its errors at
+    /// their row's line.
     pub fn sampling_grid(&self, t: &[f64]) -> Result<(f64, Vec<u64>), SignalError> {
         let lines = self.lines();
-        if t.len() < 8 {
+        if t.len() < MIN_SAMPLES {
             return Err(SignalError::Invalid {
                 path: self.path.clone(),
                 line: lines.last().copied().unwrap_or(1) as usize,
@@ -303,28 +345,37 @@ impl CsvTable {
             });
         }
         self.advancing(t)?;
-        let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-        steps.sort_by(f64::total_cmp);
-        let dt = steps[steps.len() / 2];
-        let mut index = Vec::with_capacity(t.len());
-        for (i, &ti) in t.iter().enumerate() {
-            let k = (ti - t[0]) / dt;
-            let r = k.round();
-            let gap_s = i.checked_sub(1).map_or(0.0, |p| ti - t[p]);
-            if gap_s > MAX_GAP_S || r > grid_span_limit(i) as f64 {
-                return Err(self.error(lines[i], 1, gap_too_long_message(gap_s)));
-            }
-            if (k - r).abs() > 0.25 {
-                return Err(self.error(
-                    lines[i],
-                    1,
-                    format!("time {ti} s is off the {:.6} s sampling grid", dt),
-                ));
-            }
-            index.push(r as u64);
-        }
-        Ok((dt, index))
+        sampling_grid(t).map_err(|(i, message)| self.error(lines[i], 1, message))
     }
+}
+
+/// The fewest samples a signal may have.
+const MIN_SAMPLES: usize = 8;
+
+/// The sampling grid of advancing times `t` (s, at least two): the median step and each
+/// sample's grid index. Times must lie within a quarter step of the grid, and no hole may
+/// exceed [`MAX_GAP_S`] or [`grid_span_limit`]; an error gives the offending sample's index.
+pub fn sampling_grid(t: &[f64]) -> Result<(f64, Vec<u64>), (usize, String)> {
+    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let dt = steps[steps.len() / 2];
+    let mut index = Vec::with_capacity(t.len());
+    for (i, &ti) in t.iter().enumerate() {
+        let k = (ti - t[0]) / dt;
+        let r = k.round();
+        let gap_s = i.checked_sub(1).map_or(0.0, |p| ti - t[p]);
+        if gap_s > MAX_GAP_S || r > grid_span_limit(i) as f64 {
+            return Err((i, gap_too_long_message(gap_s)));
+        }
+        if (k - r).abs() > 0.25 {
+            return Err((
+                i,
+                format!("time {ti} s is off the {:.6} s sampling grid", dt),
+            ));
+        }
+        index.push(r as u64);
+    }
+    Ok((dt, index))
 }
 
 /// The longest hole a recording may hold (s): a link lost for longer than an hour has ended

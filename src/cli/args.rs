@@ -296,11 +296,8 @@ pub fn parse_speeds(s: &str) -> Result<(f64, f64, f64), String> {
         })
         .collect::<Result<_, _>>()?;
     match parts[..] {
-        [a, b, st] if a >= 0.0 && b > a && st > 0.0 && (b - a) / st <= 1e6 => Ok((a, b, st)),
-        _ => Err(
-            "expected START:END:STEP with 0 ≤ START < END and 0 < STEP (at most a million speeds)"
-                .into(),
-        ),
+        [a, b, st] if bikeproc::model::report::valid_speed_grid((a, b, st)) => Ok((a, b, st)),
+        _ => Err(bikeproc::model::report::SPEED_GRID_RULE.into()),
     }
 }
 

@@ -5,9 +5,8 @@ use super::args::{CalibrateArgs, InertiaArgs, MeasuredArgs, PeriodArgs};
 use super::io::{advance, emit, progress, write_atomic};
 use anyhow::{bail, Context, Result};
 use bikeproc::fit::{self, FitOptions, PeriodBatch};
-use bikeproc::inertia::{self, manifest::Kind, text};
-use bikeproc::log::ReadOptions;
-use bikeproc::signal::{self, Extract};
+use bikeproc::inertia::{self, text};
+use bikeproc::signal::Extract;
 use bikeproc::uncertainty::Measured;
 use std::path::{Path, PathBuf};
 
@@ -22,15 +21,10 @@ pub fn period(a: PeriodArgs) -> Result<()> {
         min_freq_hz: None,
     };
     let measure = |file: &Path| -> Result<fit::OscillationSummary> {
-        let loaded =
-            signal::load_signal(file, &extract, a.sensor.as_deref(), &ReadOptions::default())?;
-        for w in &loaded.warnings {
+        let (summary, warnings) = fit::measure_file(file, &extract, a.sensor.as_deref(), &options)?;
+        for w in &warnings {
             eprintln!("warning: {w}");
         }
-        let sig = &loaded.signal;
-        let osc = fit::analyse(sig, &options).with_context(|| format!("{}", file.display()))?;
-        let mut summary = osc.summary(sig);
-        summary.receiver_time_off_rows = loaded.time_off_rows;
         Ok(summary)
     };
     if let [file] = a.files.as_slice() {
@@ -124,24 +118,11 @@ pub fn inertia(a: InertiaArgs) -> Result<()> {
         return Ok(());
     }
     let dir = a.dir.unwrap_or_default();
-    match inertia::manifest::Manifest::load(&dir)?.kind {
-        Kind::Torsion => {
-            let r = inertia::torsion(&dir, &a.orientations)?;
-            for w in &r.tensor.warnings {
-                eprintln!("warning: {w}");
-            }
-            emit(a.json, &text::torsion_json(&r), || text::torsion_text(&r))
-        }
-        Kind::Compound => {
-            let r = inertia::compound(&dir)?;
-            emit(a.json, &text::compound_json(&r), || text::compound_text(&r))
-        }
-        Kind::BarCalibration | Kind::EmptyFixture => bail!(inertia::InertiaError::Invalid {
-            path: dir.join(inertia::manifest::MANIFEST),
-            message: "a bar-calibration or empty-fixture folder: use `bikeproc calibrate-bar`"
-                .into()
-        }),
+    let r = inertia::analyse_folder(&dir, &a.orientations)?;
+    for w in r.warnings() {
+        eprintln!("warning: {w}");
     }
+    emit(a.json, &r.json(), || r.text())
 }
 
 pub fn measured(a: MeasuredArgs) -> Result<()> {

@@ -60,6 +60,7 @@ fn is_input_error(e: &anyhow::Error) -> bool {
         c.is::<bikeproc::log::LogError>()
             || c.is::<signal::SignalError>()
             || c.is::<fit::FitError>()
+            || c.is::<fit::MeasureError>()
             || c.is::<inertia::InertiaError>()
             || c.is::<inertia::manifest::ManifestError>()
             || c.is::<inertia::measured::MeasuredError>()

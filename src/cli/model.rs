@@ -15,13 +15,7 @@ pub fn stability(a: StabilityArgs) -> Result<()> {
         p = Parametrized::from_benchmark(&p.name, &b);
     }
     let p = with_controller(p, a.controller.as_deref())?;
-    let (lo, hi, step) = a.speeds;
-    let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize)
-        .map(|i| lo + i as f64 * step)
-        .collect();
-    let s = p.speeds(hi, step.min(0.01))?;
-    let bands = p.bands(&speeds)?;
-    let report = model::report::StabilityReport::new(&p.name, &s, &bands, &p.nominal_canonical());
+    let report = model::report::StabilityReport::over(&p, a.speeds)?;
     emit(a.json, &report, || report.to_text())
 }
 

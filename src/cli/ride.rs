@@ -7,7 +7,7 @@ use super::model::load_model;
 use super::NoRideAnalysed;
 use anyhow::Result;
 use bikeproc::ride::csv::{self, KickReport};
-use bikeproc::ride::dynamic::{self, CampaignSummary, DynamicOptions, RideManifest};
+use bikeproc::ride::dynamic::{self, DynamicOptions, RideManifest};
 use bikeproc::ride::modal::ModalOptions;
 use bikeproc::ride::speed::NotedReading;
 
@@ -65,13 +65,11 @@ fn noted(a: &DynamicArgs) -> Option<NotedReading> {
 fn campaign(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
     let manifest = RideManifest::load(&a.file)?;
     let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
-    let model = manifest.model(Some(&bike))?;
     let bar = progress(a.json);
-    let results = dynamic::run_campaign(&manifest, &model, modal, &|done, total| {
+    let summary = dynamic::campaign_summary(&manifest, &bike, modal, &|done, total| {
         advance(&bar, "rides", done, total)
-    });
+    })?;
     bar.finish_and_clear();
-    let summary = CampaignSummary::new(&bike, &results);
     emit(a.json, &summary, || summary.to_text())?;
     if summary.rides.is_empty() {
         return Err(NoRideAnalysed(a.file.clone()).into());

@@ -692,6 +692,63 @@ fn orientation_moments(x: &[f64], i: usize) -> [f64; 3] {
     [i1, i2, icg]
 }
 
+/// What `bikeproc inertia FOLDER` measured: a torsion folder's tensor or a compound folder's
+/// moments, by the folder's manifest.
+#[derive(Debug, Clone)]
+pub enum FolderResult {
+    Torsion(Box<TorsionResult>),
+    Compound(CompoundResult),
+}
+
+impl FolderResult {
+    /// The JSON of `bikeproc inertia --json`.
+    pub fn json(&self) -> serde_json::Value {
+        match self {
+            FolderResult::Torsion(r) => text::torsion_json(r),
+            FolderResult::Compound(r) => text::compound_json(r),
+        }
+    }
+
+    /// The text of `bikeproc inertia`.
+    pub fn text(&self) -> String {
+        match self {
+            FolderResult::Torsion(r) => text::torsion_text(r),
+            FolderResult::Compound(r) => text::compound_text(r),
+        }
+    }
+
+    /// The tensor's warnings (a torsion folder's; none for a compound one).
+    pub fn warnings(&self) -> &[String] {
+        match self {
+            FolderResult::Torsion(r) => &r.tensor.warnings,
+            FolderResult::Compound(_) => &[],
+        }
+    }
+}
+
+/// Measures the folder `dir` as its manifest says: a torsion folder ([`torsion`], with the
+/// orientations `use_orientations`, all when empty) or a compound one ([`compound`]); a
+/// bar-calibration or empty-fixture folder is an error pointing to `calibrate-bar`.
+pub fn analyse_folder(
+    dir: &Path,
+    use_orientations: &[String],
+) -> Result<FolderResult, InertiaError> {
+    match manifest::Manifest::load(dir)?.kind {
+        manifest::Kind::Torsion => Ok(FolderResult::Torsion(Box::new(torsion(
+            dir,
+            use_orientations,
+        )?))),
+        manifest::Kind::Compound => Ok(FolderResult::Compound(compound(dir)?)),
+        manifest::Kind::BarCalibration | manifest::Kind::EmptyFixture => {
+            Err(InertiaError::Invalid {
+                path: dir.join(manifest::MANIFEST),
+                message: "a bar-calibration or empty-fixture folder: use `bikeproc calibrate-bar`"
+                    .into(),
+            })
+        }
+    }
+}
+
 /// Processes a torsion folder: every orientation's moments, and the tensor from the
 /// orientations named in `use_orientations` (all when empty).
 pub fn torsion(dir: &Path, use_orientations: &[String]) -> Result<TorsionResult, InertiaError> {

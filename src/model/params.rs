@@ -18,6 +18,9 @@ pub enum ParamError {
     Missing { path: PathBuf, name: String },
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
+    /// A raw-measurement file's error (`*Measured.txt`), which names its file and line itself.
+    #[error("{0}")]
+    Measured(String),
     #[error("the mass matrix M is singular: the parameters give no dynamics")]
     SingularMass,
     #[error("the eigenvalues could not be computed (non-finite state matrix)")]

@@ -40,7 +40,37 @@ pub struct StabilityReport {
     pub eigenvalues: Vec<EigenRow>,
 }
 
+/// What a speed grid START:END:STEP must be for [`StabilityReport::over`].
+pub const SPEED_GRID_RULE: &str =
+    "expected START:END:STEP with 0 ≤ START < END and 0 < STEP (at most a million speeds)";
+
+/// Whether `(start, end, step)` is a speed grid [`StabilityReport::over`] takes
+/// ([`SPEED_GRID_RULE`]).
+pub fn valid_speed_grid((start, end, step): (f64, f64, f64)) -> bool {
+    start >= 0.0 && end > start && step > 0.0 && (end - start) / step <= 1e6
+}
+
 impl StabilityReport {
+    /// `bikeproc stability --speeds LO:HI:STEP`: the eigenvalues with their standard errors at
+    /// LO, LO + STEP, … HI, and the weave and capsize speeds and stable ranges searched to HI
+    /// at steps of STEP (at most 0.01 m/s).
+    pub fn over(
+        p: &super::uncertain::Parametrized,
+        (lo, hi, step): (f64, f64, f64),
+    ) -> Result<StabilityReport, super::ParamError> {
+        let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize)
+            .map(|i| lo + i as f64 * step)
+            .collect();
+        let s = p.speeds(hi, step.min(0.01))?;
+        let bands = p.bands(&speeds)?;
+        Ok(StabilityReport::new(
+            &p.name,
+            &s,
+            &bands,
+            &p.nominal_canonical(),
+        ))
+    }
+
     pub fn new(
         name: &str,
         s: &SpeedsWithSe,

@@ -268,8 +268,18 @@ impl Parametrized {
 }
 
 /// Loads any bicycle file as a parametrized model: a lab bicycle (TOML with `[geometry]`)
-/// keeps its measured inputs; other files are their own benchmark parameters.
+/// keeps its measured inputs; BicycleParameters' raw measurements (`*Measured.txt`) become
+/// their benchmark parameters with standard errors (what `bikeproc measured --out` writes);
+/// other files are their own benchmark parameters.
 pub fn load(path: &Path) -> Result<Parametrized, ParamError> {
+    if path
+        .file_name()
+        .is_some_and(|n| n.to_string_lossy().ends_with("Measured.txt"))
+    {
+        let bike = crate::inertia::measured::MeasuredBicycle::load(path)
+            .map_err(|e| ParamError::Measured(e.to_string()))?;
+        return Ok(Parametrized::from_benchmark(&bike.name, &bike.benchmark()));
+    }
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())

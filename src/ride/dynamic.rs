@@ -902,6 +902,19 @@ pub fn bike_beside(ride: &Path) -> Result<PathBuf, ManifestError> {
     })
 }
 
+/// `bikeproc dynamic rides.toml`: every ride of `manifest` analysed against the bicycle file
+/// `bike` (with the manifest's controller), summarized; `progress(done, total)` after each.
+pub fn campaign_summary(
+    manifest: &RideManifest,
+    bike: &Path,
+    modal: &ModalOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<CampaignSummary, crate::model::ParamError> {
+    let model = manifest.model(Some(bike))?;
+    let results = run_campaign(manifest, &model, modal, progress);
+    Ok(CampaignSummary::new(bike, &results))
+}
+
 /// Runs every ride of a campaign in parallel (rayon's threads), calling `progress` with
 /// the number done after each; results in the manifest's order (a CSV ride's kicks in time
 /// order).
