@@ -33,9 +33,6 @@ fn to_python<'py>(py: Python<'py>, value: &impl serde::Serialize) -> PyResult<Bo
     py.import("json")?.call_method1("loads", (text,))
 }
 
-/// read_log(path)
-/// --
-///
 /// Reads an IMU log (the acquisition side's format) onto its sensors' sample grid.
 ///
 /// Returns a dict: ``sample_rate_hz`` (Hz), ``mode`` (the output mode), ``time_s`` (s from the
@@ -105,9 +102,6 @@ fn trend(name: &str) -> PyResult<bikeproc::fit::Trend> {
     }
 }
 
-/// fit_period(t, x, trend="auto")
-/// --
-///
 /// Fits the free oscillation in the samples ``x`` at times ``t`` (s; advancing, on a uniform
 /// grid with holes allowed): the free decay's segment, x(t) = a (+ d·t) + e^{−σt}(b sin ω_d t +
 /// c cos ω_d t) by least squares, ``trend`` "auto" (by BIC), "on" or "off".
@@ -135,9 +129,6 @@ fn fit_period<'py>(
     to_python(py, &osc.summary(&signal))
 }
 
-/// period(path, channel=None, sensor=None, trend="auto")
-/// --
-///
 /// ``bikeproc period FILE``: the free oscillation of one recording (a log, with its ``_cal``
 /// partner where a calibrated channel is asked for, or a ``time_s,value`` CSV). ``channel``
 /// names a column (e.g. "Gyr_Z"); by default the rotation about the dominant axis (rad).
@@ -167,9 +158,6 @@ fn period<'py>(
     to_python(py, &summary)
 }
 
-/// calibrate_bar(folder)
-/// --
-///
 /// ``bikeproc calibrate-bar FOLDER``: the torsion bar's stiffness (N·m/rad) and the fixture's
 /// inertia (kg·m²) from the steel rod's recordings, with standard errors and their correlation.
 /// Unlike the command, it writes no ``calibration.toml``.
@@ -181,9 +169,6 @@ fn calibrate_bar<'py>(py: Python<'py>, folder: PathBuf) -> PyResult<Bound<'py, P
     to_python(py, &bikeproc::inertia::text::calibration_json(&cal))
 }
 
-/// inertia(folder, orientations=None)
-/// --
-///
 /// ``bikeproc inertia FOLDER``: a torsion folder's inertia tensor (kg·m², with standard errors
 /// and the fit's χ²; ``orientations`` a list of the orientations to use, all by default) or a
 /// compound-pendulum folder's moments about the pivot and the centre of gravity (kg·m²).
@@ -201,9 +186,6 @@ fn inertia<'py>(
     to_python(py, &r.json())
 }
 
-/// dynamic(path, speed=None, bike=None)
-/// --
-///
 /// ``bikeproc dynamic RIDE.log [--speed V]`` or ``bikeproc dynamic rides.toml``: a kicked
 /// ride's weave (eigenvalue −σ ± iω, 1/s
 /// and rad/s, with standard errors from the modal fit and its bootstrap), its speed from every
@@ -247,9 +229,6 @@ fn dynamic<'py>(
     to_python(py, &summary)
 }
 
-/// gap(manifest, bike=None)
-/// --
-///
 /// ``bikeproc gap rides.toml``: the sim-to-real gap of a ride campaign: each ride's weave
 /// residual in combined standard errors, the campaign's test, the candidate effects fitted and
 /// ranked by leave-one-ride-out prediction, ties, the rides that would tell them apart, and
@@ -303,9 +282,6 @@ impl Bicycle {
         Ok(sweep.modes.iter().map(|m| format!("{m:?}")).collect())
     }
 
-    /// eigenvalues(speeds)
-    /// --
-    ///
     /// The nominal bicycle's eigenvalues (1/s) at each of ``speeds`` (m/s, a 1-D array),
     /// followed from speed to speed and named as ``modes``: a complex array of shape
     /// (len(speeds), 4).
@@ -326,9 +302,6 @@ impl Bicycle {
         Ok(array.into_pyarray(py))
     }
 
-    /// stability(start=0.0, end=10.0, step=0.01)
-    /// --
-    ///
     /// ``bikeproc stability --speeds START:END:STEP``: the weave and capsize speeds (m/s) with
     /// standard errors from the parameters', the stable ranges, and the eigenvalues with their
     /// standard errors at START, START + STEP, … END.
@@ -346,9 +319,6 @@ impl Bicycle {
         to_python(py, &report)
     }
 
-    /// stable_range(end=10.0)
-    /// --
-    ///
     /// The speed ranges (m/s) where the bicycle is self-stable, searched to ``end`` at 0.01
     /// m/s: a list of dicts ``low_mps``, ``high_mps`` (None when still stable at ``end``).
     #[pyo3(signature = (end=10.0))]
@@ -366,9 +336,6 @@ impl Bicycle {
             .collect()
     }
 
-    /// weave_speed(end=10.0)
-    /// --
-    ///
     /// The weave speed (m/s), where the weave turns stable, with its standard error from the
     /// parameters': a dict ``value``, ``se`` (None when there is none below ``end``).
     #[pyo3(signature = (end=10.0))]
@@ -377,9 +344,6 @@ impl Bicycle {
         estimate(py, r.weave_speed_mps, r.weave_speed_se_mps)
     }
 
-    /// capsize_speed(end=10.0)
-    /// --
-    ///
     /// The capsize speed (m/s), where the capsize mode turns unstable, with its standard error:
     /// a dict ``value``, ``se`` (None when there is none below ``end``).
     #[pyo3(signature = (end=10.0))]
