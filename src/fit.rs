@@ -543,25 +543,19 @@ pub(crate) struct Solution {
     pub normal: DMatrix<f64>,
 }
 
-/// The normal equations at `p` for [`levenberg_marquardt`]: from the problem's own accumulation
-/// where it has one, else through the stored Jacobian and residuals (`jac`, `r`: work space).
-/// Returns the cost there, or `None` when the problem has no accumulation of its own (the cost
-/// is then the caller's to keep).
-fn normal_at(
+/// `JᵀJ` and `Jᵀr` at `p` through the stored Jacobian and residuals (`jac`, `r`: work space,
+/// left holding them), for a problem without [`LeastSquares::normal_equations`].
+fn stored_normal_equations(
     problem: &dyn LeastSquares,
     p: &[f64],
     jac: &mut DMatrix<f64>,
     r: &mut DVector<f64>,
     h: &mut DMatrix<f64>,
     g: &mut DVector<f64>,
-) -> Option<f64> {
-    if let Some(cost) = problem.normal_equations(p, h, g) {
-        return Some(cost);
-    }
+) {
     problem.residuals_and_jacobian(p, jac, r);
     *h = jac.tr_mul(jac);
     *g = jac.tr_mul(r);
-    None
 }
 
 /// Levenberg–Marquardt on all parameters from `p0` (`n` residuals), with Marquardt's diagonal
@@ -586,7 +580,7 @@ pub(crate) fn levenberg_marquardt(
     let mut cost = match first {
         Some(cost) => cost,
         None => {
-            normal_at(problem, &p, &mut jac, &mut r, &mut h, &mut g);
+            stored_normal_equations(problem, &p, &mut jac, &mut r, &mut h, &mut g);
             r.norm_squared()
         }
     };
@@ -643,7 +637,7 @@ pub(crate) fn levenberg_marquardt(
             lambda *= 10.0;
         }
         if !fused {
-            normal_at(problem, &p, &mut jac, &mut r, &mut h, &mut g);
+            stored_normal_equations(problem, &p, &mut jac, &mut r, &mut h, &mut g);
         }
         if !improved || small_step {
             break;
@@ -686,8 +680,8 @@ impl LeastSquares for Sinusoid<'_> {
 }
 
 /// The cost, `JᵀJ` and `Jᵀr` of the damped sinusoid (`NP` = 5 parameters, or 6 with the trend)
-/// in one pass over the samples, the Jacobian's row built from the phasor ([`PhasorWalk`]) as in
-/// [`residuals_and_jacobian`] and never stored.
+/// in one pass over the samples ([`phasor_lanes`], [`NormalSums`]), the Jacobian's rows those
+/// of [`residuals_and_jacobian`], never stored.
 fn sinusoid_normal_equations<const NP: usize>(
     p: &[f64],
     tau: &[f64],
@@ -696,9 +690,8 @@ fn sinusoid_normal_equations<const NP: usize>(
     g: &mut DVector<f64>,
 ) -> f64 {
     let trend = NP > D;
-    // Per lane: the upper triangle of JᵀJ, Jᵀr and the cost (summed over the lanes at the end).
     let mut sums = NormalSums::<NP>::new();
-    let (a, b, c, d) = (p[A], p[B], p[C], if trend { p[D] } else { 0.0 });
+    let (b, c) = (p[B], p[C]);
     phasor_lanes(p[SIGMA], p[OMEGA], tau, |k, ch| {
         let xs = lanes_of(x, k);
         let mut rows = [[0.0; LANES]; NP];
@@ -714,8 +707,8 @@ fn sinusoid_normal_equations<const NP: usize>(
             if trend {
                 rows[NP - 1][l] = t;
             }
-            // As `model_from`; zero on the padding (its row is zero there too).
-            r[l] = ch.live[l] * ((a + osc) + d * t - xs[l]);
+            // Zero on the padding (its row is zero there too).
+            r[l] = ch.live[l] * (model_from(p, trend, t, (es, ec)) - xs[l]);
         }
         sums.add(&rows, &r);
     });
@@ -1594,13 +1587,7 @@ mod tests {
     /// A uniform 100 Hz grid with dropped samples (gaps of 1–3 steps), a chunk of jittered
     /// times, and a seeded noisy damped swing with a drift on it.
     fn gappy_record() -> (Vec<f64>, Vec<f64>) {
-        let mut seed = 99u64;
-        let mut uniform = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = crate::testing::lcg_uniform(99);
         let mut tau = Vec::new();
         let mut i = 0u32;
         while tau.len() < 2003 {

@@ -46,4 +46,6 @@ pub mod signal;
 pub mod sim;
 pub mod spectral;
 pub mod stats;
+#[cfg(test)]
+mod testing;
 pub mod uncertainty;

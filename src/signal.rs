@@ -157,11 +157,8 @@ impl Signal {
                 format!("not a finite number (time {}, value {})", t[i], x[i]),
             ));
         }
-        if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(bad(
-                i + 1,
-                format!("time {} s does not advance from {} s", t[i + 1], t[i]),
-            ));
+        if let Some((i, message)) = not_advancing(t) {
+            return Err(bad(i, message));
         }
         let (dt, index) = sampling_grid(t).map_err(|(i, message)| bad(i, message))?;
         Ok(Signal {
@@ -323,12 +320,8 @@ impl CsvTable {
     /// Checks that the times `t` (s, one per row) advance from row to row; the first that does
     /// not is named by its line.
     pub fn advancing(&self, t: &[f64]) -> Result<(), SignalError> {
-        match t.windows(2).position(|w| w[1] <= w[0]) {
-            Some(i) => Err(self.error(
-                self.rows.get(i + 1).map_or(0, |r| r.0),
-                1,
-                format!("time {} s does not advance from {} s", t[i + 1], t[i]),
-            )),
+        match not_advancing(t) {
+            Some((i, message)) => Err(self.error(self.rows.get(i).map_or(0, |r| r.0), 1, message)),
             None => Ok(()),
         }
     }
@@ -347,6 +340,17 @@ impl CsvTable {
         self.advancing(t)?;
         sampling_grid(t).map_err(|(i, message)| self.error(lines[i], 1, message))
     }
+}
+
+/// The first sample whose time `t` (s) does not advance from the one before it, with the
+/// message saying so.
+fn not_advancing(t: &[f64]) -> Option<(usize, String)> {
+    t.windows(2).position(|w| w[1] <= w[0]).map(|i| {
+        (
+            i + 1,
+            format!("time {} s does not advance from {} s", t[i + 1], t[i]),
+        )
+    })
 }
 
 /// The fewest samples a signal may have.

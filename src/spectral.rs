@@ -392,22 +392,20 @@ impl ZoomSpectrum {
                 (m[k - 1], m[k], m[k + 1]),
             ));
         }
+        // The dominant lobe's half-bin window, kept unless its largest bin is at an edge.
         let half = PAD_FACTOR / 2;
-        let near: [f64; PAD_FACTOR + 1] = if dominant {
-            self.padded_bins(k * f - half)
-        } else {
-            [0.0; PAD_FACTOR + 1]
-        };
-        let edge = near
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.total_cmp(b.1))
-            .is_some_and(|(b, _)| b == 0 || b == PAD_FACTOR);
-        let (first, m): (usize, Vec<f64>) = if !dominant || edge {
-            let wide: [f64; ZOOM_BINS] = self.padded_bins((k - 1) * f);
-            ((k - 1) * f, wide.to_vec())
-        } else {
-            (k * f - half, near.to_vec())
+        let near = dominant
+            .then(|| self.padded_bins::<{ PAD_FACTOR + 1 }>(k * f - half))
+            .filter(|m| {
+                let largest = (0..m.len()).max_by(|&a, &b| m[a].total_cmp(&m[b]));
+                !matches!(largest, Some(0) | Some(PAD_FACTOR))
+            });
+        let (first, m): (usize, Vec<f64>) = match near {
+            Some(m) => (k * f - half, m.to_vec()),
+            None => (
+                (k - 1) * f,
+                self.padded_bins::<ZOOM_BINS>((k - 1) * f).to_vec(),
+            ),
         };
         let count = m.len().min((len / 2 + 1).saturating_sub(first));
         (1..count.saturating_sub(1))
@@ -568,15 +566,8 @@ mod tests {
     #[test]
     fn fft_matches_naive_dft() {
         // Seeded pseudo-random input (a fixed LCG), compared with the O(N²) definition.
-        let mut s = 12345u64;
-        let x: Vec<f64> = (0..100)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect();
+        let mut uniform = crate::testing::lcg_uniform(12345);
+        let x: Vec<f64> = (0..100).map(|_| uniform() - 0.5).collect();
         let sp = spectrum_of_grid(&x, 100.0, Window::Hann);
         let len = (sp.freq_hz.len() - 1) * 2;
         for k in [0, 1, 7, 100, 333, 512] {
@@ -591,13 +582,7 @@ mod tests {
     /// A seeded record: two decaying sinusoids (0.8 and 2.9 Hz, the second 20 % of the first)
     /// in noise, with a few dropped samples.
     fn two_mode_signal(n: usize) -> Signal {
-        let mut s = 777u64;
-        let mut uniform = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = crate::testing::lcg_uniform(777);
         let index: Vec<u64> = (0..n as u64).filter(|i| i % 397 != 5).collect();
         let values = index
             .iter()

@@ -12,7 +12,7 @@ use numpy::{Complex64, IntoPyArray, PyArray2, PyReadonlyArray1};
 use pyo3::create_exception;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 create_exception!(
     bikeproc,
@@ -265,7 +265,7 @@ impl Bicycle {
     #[staticmethod]
     fn from_file(path: PathBuf) -> PyResult<Bicycle> {
         Ok(Bicycle {
-            model: load_bicycle(&path).map_err(err)?,
+            model: bikeproc::model::uncertain::load(&path).map_err(err)?,
         })
     }
 
@@ -323,8 +323,8 @@ impl Bicycle {
     /// m/s: a list of dicts ``low_mps``, ``high_mps`` (None when still stable at ``end``).
     #[pyo3(signature = (end=10.0))]
     fn stable_range<'py>(&self, py: Python<'py>, end: f64) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let report = stability_report(py, &self.model, (0.0, end, 0.01))?;
-        report
+        self.speeds(py, end)?
+            .stability
             .stable_ranges_mps
             .iter()
             .map(|(lo, hi)| {
@@ -340,8 +340,8 @@ impl Bicycle {
     /// parameters': a dict ``value``, ``se`` (None when there is none below ``end``).
     #[pyo3(signature = (end=10.0))]
     fn weave_speed<'py>(&self, py: Python<'py>, end: f64) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let r = stability_report(py, &self.model, (0.0, end, 0.01))?;
-        estimate(py, r.weave_speed_mps, r.weave_speed_se_mps)
+        let s = self.speeds(py, end)?;
+        estimate(py, s.stability.weave_speed_mps, s.weave_speed_se_mps)
     }
 
     /// The capsize speed (m/s), where the capsize mode turns unstable, with its standard error:
@@ -352,8 +352,8 @@ impl Bicycle {
         py: Python<'py>,
         end: f64,
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let r = stability_report(py, &self.model, (0.0, end, 0.01))?;
-        estimate(py, r.capsize_speed_mps, r.capsize_speed_se_mps)
+        let s = self.speeds(py, end)?;
+        estimate(py, s.stability.capsize_speed_mps, s.capsize_speed_se_mps)
     }
 
     fn __repr__(&self) -> String {
@@ -361,9 +361,30 @@ impl Bicycle {
     }
 }
 
-/// A bicycle file of any of the kinds [`Bicycle`] reads.
-fn load_bicycle(path: &Path) -> anyhow::Result<Parametrized> {
-    Ok(bikeproc::model::uncertain::load(path)?)
+impl Bicycle {
+    /// The stable ranges and the weave and capsize speeds with their standard errors, searched
+    /// to `end` at 0.01 m/s (what `stability` reports them from).
+    fn speeds(
+        &self,
+        py: Python<'_>,
+        end: f64,
+    ) -> PyResult<bikeproc::model::uncertain::SpeedsWithSe> {
+        check_grid((0.0, end, 0.01))?;
+        py.detach(|| self.model.speeds(end, 0.01)).map_err(err)
+    }
+}
+
+/// Nothing, for a speed grid `stability` takes; otherwise the error saying what one must be.
+fn check_grid(grid: (f64, f64, f64)) -> PyResult<()> {
+    use bikeproc::model::report::{valid_speed_grid, SPEED_GRID_RULE};
+    if valid_speed_grid(grid) {
+        Ok(())
+    } else {
+        Err(BikeprocError::new_err(format!(
+            "speeds {}:{}:{}: {SPEED_GRID_RULE}",
+            grid.0, grid.1, grid.2
+        )))
+    }
 }
 
 /// [`bikeproc::model::report::StabilityReport::over`] the grid, checked first.
@@ -372,14 +393,8 @@ fn stability_report(
     model: &Parametrized,
     grid: (f64, f64, f64),
 ) -> PyResult<bikeproc::model::report::StabilityReport> {
-    use bikeproc::model::report::{valid_speed_grid, StabilityReport, SPEED_GRID_RULE};
-    if !valid_speed_grid(grid) {
-        return Err(BikeprocError::new_err(format!(
-            "speeds {}:{}:{}: {SPEED_GRID_RULE}",
-            grid.0, grid.1, grid.2
-        )));
-    }
-    py.detach(|| StabilityReport::over(model, grid))
+    check_grid(grid)?;
+    py.detach(|| bikeproc::model::report::StabilityReport::over(model, grid))
         .map_err(err)
 }
 
