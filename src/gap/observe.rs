@@ -1,0 +1,219 @@
+//! The campaign's observations and their residuals. In: each analysed ride (a log's dynamic
+//! test or a CSV's free decay, [`crate::ride::dynamic`]). Out: one [`Observation`] per ride
+//! (its weave, mode shape and speed with their standard errors), the names of the rides that
+//! gave none, and the residual types the diagnosis fills in ([`RideResidual`], by speed band
+//! [`BandResidual`]).
+
+use super::linear;
+use crate::ride::dynamic::{DynamicTest, SpeedSource};
+use nalgebra::Complex;
+
+/// One ride's experimental weave, as the dynamic test gave it.
+#[derive(Debug, Clone)]
+pub struct Observation {
+    pub ride: String,
+    /// The speed where the eigenvalue applies (m/s): the `Sync` speed, the noted reading plus
+    /// `speed_correction_mps`, or the kinematic speed.
+    pub speed_mps: f64,
+    /// For a noted reading: the slowing from the release to where the eigenvalue applies
+    /// (m/s, negative), measured by the ride's frame sensor
+    /// ([`crate::ride::speed::slowing`]); 0 otherwise.
+    pub speed_correction_mps: f64,
+    pub speed_se_mps: f64,
+    pub speed_source: SpeedSource,
+    /// Every source of the speed the ride's log offers, compared.
+    pub speed_sources: crate::ride::speed::SpeedSources,
+    pub weave: Complex<f64>,
+    pub re_se: f64,
+    pub im_se: f64,
+    /// The weave's mode shape |γ/θ| and arg(γ/θ) (rad), with the fit's standard errors.
+    pub shape_ratio: crate::fit::Estimate,
+    pub shape_phase_rad: crate::fit::Estimate,
+    /// The fitted window's time (s), roll and steer (rad), for the time-series check.
+    pub window: Option<[Vec<f64>; 3]>,
+    /// The window's length (s) and the bicycle's forward acceleration over it (m/s²).
+    pub window_s: f64,
+    pub window_accel_mps2: f64,
+}
+
+impl Observation {
+    pub fn from_test(ride: &str, t: &DynamicTest) -> Observation {
+        Observation {
+            ride: ride.to_string(),
+            speed_mps: t.speed.speed_mps,
+            speed_correction_mps: match (t.speed.source, &t.speed.sources.noted) {
+                (SpeedSource::Noted, Some(n)) => n.slowing.delta_mps,
+                _ => 0.0,
+            },
+            speed_se_mps: t.speed.speed_se_mps,
+            speed_source: t.speed.source,
+            speed_sources: t.speed.sources.clone(),
+            weave: Complex::new(t.fit.weave.re, t.fit.weave.im),
+            re_se: t.fit.weave.re_se,
+            im_se: t.fit.weave.im_se,
+            shape_ratio: t.fit.shape.ratio,
+            shape_phase_rad: t.fit.shape.phase_rad,
+            window_s: t.fit.end_s - t.fit.start_s,
+            window_accel_mps2: t.speed.sources.window_accel_mps2,
+            window: {
+                let rows: Vec<&[f64; 3]> = t
+                    .trace
+                    .iter()
+                    .filter(|r| r[0] >= t.fit.start_s && r[0] <= t.fit.end_s)
+                    .collect();
+                (rows.len() >= 40).then(|| [0, 1, 2].map(|k| rows.iter().map(|r| r[k]).collect()))
+            },
+        }
+    }
+}
+
+impl Observation {
+    /// A CSV ride's free decay ([`crate::ride::csv`]): its eigenvalue, its mode shape when it
+    /// was fitted from roll and steer (none from the roll rate alone), its speed from the
+    /// wheel-speed column or the reading given; `None` without a speed.
+    pub fn from_decay(ride: &str, d: &crate::ride::csv::DecaySummary) -> Option<Observation> {
+        let (speed, source) = (d.speed_mps?, d.speed_source?);
+        let w = &d.decay.weave;
+        let none = crate::fit::Estimate {
+            value: f64::NAN,
+            se: f64::NAN,
+        };
+        let (a, b) = d.decay.window_s;
+        Some(Observation {
+            ride: ride.to_string(),
+            speed_mps: speed.value,
+            speed_correction_mps: 0.0,
+            speed_se_mps: speed.se,
+            speed_source: source,
+            speed_sources: crate::ride::speed::SpeedSources {
+                at_s: 0.5 * (a + b),
+                noted: None,
+                sync: None,
+                kinematic: None,
+                window_accel_mps2: 0.0,
+                disagreements: Vec::new(),
+            },
+            weave: Complex::new(w.re, w.im),
+            re_se: w.re_se,
+            im_se: w.im_se,
+            shape_ratio: d.decay.shape.map_or(none, |s| s.ratio),
+            shape_phase_rad: d.decay.shape.map_or(none, |s| s.phase_rad),
+            window: None,
+            window_s: b - a,
+            window_accel_mps2: 0.0,
+        })
+    }
+}
+
+/// A ride's residual against the unextended model.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct RideResidual {
+    pub ride: String,
+    pub speed_mps: f64,
+    /// The correction of a noted speed for the slowing before the window (m/s; 0 for `Sync`).
+    pub speed_correction_mps: f64,
+    pub speed_se_mps: f64,
+    /// The source the speed is taken from, and every source the log offers, compared.
+    pub speed_source: SpeedSource,
+    pub speed_sources: crate::ride::speed::SpeedSources,
+    /// Experiment − model (1/s), real and imaginary parts.
+    pub re: f64,
+    pub im: f64,
+    /// Combined standard errors (experiment, speed and model).
+    pub re_se: f64,
+    pub im_se: f64,
+    pub re_z: f64,
+    pub im_z: f64,
+    /// The mode shape: |γ/θ| and its phase (rad), experiment − model, with their combined
+    /// standard errors (the fit's with its floor, the speed's, the model's from the
+    /// parameters; the fit's alone when the shape is left out of the diagnosis).
+    pub shape_ratio: f64,
+    pub shape_ratio_se: f64,
+    pub shape_ratio_z: f64,
+    pub shape_phase_rad: f64,
+    pub shape_phase_se_rad: f64,
+    pub shape_phase_z: f64,
+}
+
+/// The residual of a ride's mode shape against `bike` at its weave: (Δ|γ/θ|, Δarg) with the
+/// phase difference wrapped to ±π; NaN when the model has no shape there.
+pub(super) fn shape_residual(
+    bike: &linear::LinearBike,
+    o: &Observation,
+    speed_mps: f64,
+    weave: Complex<f64>,
+) -> (f64, f64) {
+    match bike.mode_shape(speed_mps, weave) {
+        Some(m) => (
+            o.shape_ratio.value - m.norm(),
+            crate::signal::wrap_pi(o.shape_phase_rad.value - m.arg()),
+        ),
+        None => (f64::NAN, f64::NAN),
+    }
+}
+
+/// The residuals of the rides in one speed band, weighted means.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BandResidual {
+    pub speeds_mps: [f64; 2],
+    pub rides: usize,
+    pub re: crate::fit::Estimate,
+    pub im: crate::fit::Estimate,
+}
+
+/// A campaign's analysed rides as observations, and the names and reasons of those that gave
+/// none.
+pub fn observations(
+    results: &[crate::ride::dynamic::CampaignRide],
+) -> (Vec<Observation>, Vec<String>) {
+    use crate::ride::dynamic::Analysed;
+    let mut rides = Vec::new();
+    let mut failed = Vec::new();
+    for r in results {
+        let name = &r.name;
+        match &r.result {
+            Ok(Analysed::Log(t)) => rides.push(Observation::from_test(name, t)),
+            Ok(Analysed::Csv(d)) => match Observation::from_decay(name, d) {
+                Some(o) => rides.push(o),
+                None => failed.push(format!("{name}: no speed")),
+            },
+            Err(e) => failed.push(format!("{name}: {e}")),
+        }
+    }
+    (rides, failed)
+}
+
+/// Weighted mean residuals in 1 m/s bands.
+pub(super) fn speed_bands(res: &[RideResidual]) -> Vec<BandResidual> {
+    let mut bands: Vec<BandResidual> = Vec::new();
+    let mut keys: Vec<i64> = res.iter().map(|r| r.speed_mps.floor() as i64).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    for k in keys {
+        let inside: Vec<&RideResidual> = res
+            .iter()
+            .filter(|r| r.speed_mps.floor() as i64 == k)
+            .collect();
+        bands.push(BandResidual {
+            speeds_mps: [k as f64, k as f64 + 1.0],
+            rides: inside.len(),
+            re: weighted_mean(inside.iter().map(|r| (r.re, r.re_se))),
+            im: weighted_mean(inside.iter().map(|r| (r.im, r.im_se))),
+        });
+    }
+    bands
+}
+
+/// The inverse-variance weighted mean of `(value, se)` pairs, with its standard error.
+pub fn weighted_mean(xs: impl Iterator<Item = (f64, f64)>) -> crate::fit::Estimate {
+    let (mut sw, mut swx) = (0.0, 0.0);
+    for (x, se) in xs {
+        let w = 1.0 / (se * se);
+        sw += w;
+        swx += w * x;
+    }
+    crate::fit::Estimate {
+        value: swx / sw,
+        se: 1.0 / sw.sqrt(),
+    }
+}

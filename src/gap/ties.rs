@@ -1,0 +1,286 @@
+//! Ties, and the rides that would break them. In: the ranked candidates with their held-out
+//! whitened residuals, the campaign's covariance and the measured bicycle's. Out: whether the
+//! rides left out tell two candidates apart ([`distinguishable`], [`heldout_contrast`]), the
+//! candidates tied with the best, and the two speeds to ride next with how many rides there
+//! are expected to split them ([`NextRides`]).
+
+use super::fit::Campaign;
+use super::{effects, linear, Observation, Ranked, TIE_CHI2, TIE_SE};
+use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
+use nalgebra::{DMatrix, DVector};
+
+/// A ride to make next, to tell tied candidates apart.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct NextRide {
+    /// Where the eigenvalue should apply (m/s) …
+    pub speed_mps: f64,
+    /// … and so the speed to release the bicycle at (m/s): the same less the campaign's mean
+    /// slowing between release and window.
+    pub release_speed_mps: f64,
+    /// For each candidate tied with the best: how far apart their predictions of a ride there
+    /// are, in the standard errors the tie test weighs it with (√(δᵀ Σ⁻¹ δ) over the parts;
+    /// Σ the fit's and the speed's errors of the campaign's ride nearest that speed and the
+    /// model's at that speed), in the order of `tied` without the best.
+    pub separation_se: Vec<f64>,
+}
+
+/// The rides to make next and what they are expected to achieve.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct NextRides {
+    /// Two speeds, best first; empty when nothing is tied.
+    pub rides: Vec<NextRide>,
+    /// For each candidate tied with the best, in the order of `tied` without the best: the
+    /// squared separation Σ|dᵢ|² the campaign's rides already give the pair in the tie test …
+    pub separation_now: Vec<f64>,
+    /// … and what it takes to expect the test to pass by one of its standard deviations,
+    /// [`UNTIE_SEPARATION`].
+    pub separation_needed: f64,
+    /// Rides at the two speeds, alternately, expected to reach it for every tied pair; `None`
+    /// when rides there add (almost) nothing (then the candidates differ no more than the
+    /// measured bicycle's own uncertainty lets the model move, and only a better measured
+    /// bicycle can tell them apart).
+    pub rides_needed: Option<usize>,
+}
+
+/// The squared separation Σ|dᵢ|² at which the tie test is expected to pass by one of its
+/// standard deviations: S ≈ Σ|dᵢ|² − 2√Σ|dᵢ|² must exceed [`TIE_SE`] · 2√Σ|dᵢ|², so
+/// √Σ|dᵢ|² ≥ 2·TIE_SE + 2 (36 with TIE_SE = 2).
+pub const UNTIE_SEPARATION: f64 = (2.0 * TIE_SE + 2.0) * (2.0 * TIE_SE + 2.0);
+
+/// More rides than this at the recommended speeds count as "none would do".
+const MAX_RIDES_NEEDED: usize = 100;
+
+/// The rides to make next when candidates are tied: two speeds, chosen one after the other on
+/// a 0.05 m/s grid from 0.5 m/s below the campaign's slowest ride to 0.5 m/s above its
+/// fastest (at least 0.3 m/s apart), each maximizing Σ over the best's tied rivals of
+/// min(D, needed), D the squared separation of the two candidates' predictions of a ride
+/// there (with the rides already chosen) and "needed" what the pair still lacks of
+/// [`UNTIE_SEPARATION`].
+///
+/// D is weighed as the tie test ([`distinguishable`]) will weigh the ride once made: by its
+/// own covariance, the fit's and the speed's errors of the campaign's ride nearest that speed
+/// (a ride near the weave speed is measured less well than one above it) plus the model's
+/// error at that speed, propagated from the measured parameters. That last part matters: the
+/// candidates often differ by less than the measured bicycle's uncertainty moves its weave, and
+/// weighing a ride by its fit's errors alone promised three to four times the separation the
+/// recommended rides then gave. A ride at that speed is predicted from that nearest ride,
+/// speed source and slowing alike.
+pub(super) fn next_rides(
+    campaign: &Campaign<'_>,
+    exp_cov: &DMatrix<f64>,
+    model: &Parametrized,
+    ranking: &[Ranked],
+    tied: &[String],
+) -> NextRides {
+    let (Some(best), true) = (ranking.first(), tied.len() > 1) else {
+        return NextRides::default();
+    };
+    let rivals: Vec<&Ranked> = tied
+        .iter()
+        .filter(|t| **t != best.effect)
+        .filter_map(|t| ranking.iter().find(|r| r.effect == *t))
+        .collect();
+    let separation_now: Vec<f64> = rivals.iter().map(|r| heldout_contrast(best, r).1).collect();
+    let needed: Vec<f64> = separation_now
+        .iter()
+        .map(|now| (UNTIE_SEPARATION - now).max(0.0))
+        .collect();
+    let obs = campaign.obs;
+    let p = campaign.parts;
+    // A ride at speed v is expected to be measured as well as the campaign's ride nearest to
+    // it: the covariance of its parts (the fit's and the speed's).
+    let nearest = |v: f64| -> Option<usize> {
+        (0..obs.len()).min_by(|&a, &b| {
+            (obs[a].speed_mps - v)
+                .abs()
+                .total_cmp(&(obs[b].speed_mps - v).abs())
+        })
+    };
+    let block = |m: &DMatrix<f64>, start: usize| m.view((start, start), (p, p)).into_owned();
+    let (lo, hi) = obs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
+            (a.min(o.speed_mps), b.max(o.speed_mps))
+        });
+    let mean_slowing = obs.iter().map(|o| o.speed_correction_mps).sum::<f64>() / obs.len() as f64;
+    let predict_at = |r: &Ranked, v: f64, i: usize| -> Option<Vec<f64>> {
+        let o = Observation {
+            speed_mps: v,
+            ..obs[i].clone()
+        };
+        let bike = effects::linear_bike(campaign.base, &campaign.control, &r.effects, &r.params);
+        let guess = linear::LinearBike::whipple(campaign.base)
+            .with_control(campaign.control)
+            .weave_near(v, campaign.guesses[i])?;
+        let (w, shape) = effects::predict_weave(&bike, &r.effects, &r.params, &o, guess, p > 2)?;
+        let mut out = vec![w.re, w.im];
+        if let Some(s) = shape {
+            out.extend([s.norm(), s.arg()]);
+        }
+        Some(out)
+    };
+    let grid: Vec<f64> = (0..)
+        .map(|k| (lo - 0.5).max(0.5) + 0.05 * k as f64)
+        .take_while(|&v| v <= hi + 0.5 + 1e-9)
+        .collect();
+    // The model's error at every grid speed (one propagation); where it fails, the nearest
+    // ride's (its block of the campaign's covariance less the fit's and the speed's).
+    let model_at_grid = model.weave_model(&grid).ok();
+    // D of each rival at each grid speed.
+    let d: Vec<Vec<f64>> = grid
+        .iter()
+        .enumerate()
+        .map(|(k, &v)| {
+            let zero = vec![0.0; rivals.len()];
+            let Some((i, b)) = nearest(v).and_then(|i| Some((i, predict_at(best, v, i)?))) else {
+                return zero;
+            };
+            let model_block = match &model_at_grid {
+                Some(wm) => block(&wm.cov, WEAVE_PARTS * k),
+                None => block(&campaign.cov, p * i) - block(exp_cov, p * i),
+            };
+            let Some(chol) = (block(exp_cov, p * i) + model_block).cholesky() else {
+                return zero;
+            };
+            rivals
+                .iter()
+                .map(|r| {
+                    predict_at(r, v, i).map_or(0.0, |x| {
+                        let delta = DVector::from_iterator(
+                            b.len(),
+                            (0..b.len()).map(|a| {
+                                let diff = b[a] - x[a];
+                                if a == 3 {
+                                    crate::signal::wrap_pi(diff)
+                                } else {
+                                    diff
+                                }
+                            }),
+                        );
+                        chol.l()
+                            .solve_lower_triangular(&delta)
+                            .map_or(0.0, |w| w.norm_squared())
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let mut so_far = vec![0.0; rivals.len()];
+    let mut rides = Vec::new();
+    for _ in 0..2 {
+        let gain = |k: usize| -> f64 {
+            so_far
+                .iter()
+                .zip(&d[k])
+                .zip(&needed)
+                .map(|((s, x), n)| (s + x).min(*n))
+                .sum()
+        };
+        let Some(k) = (0..grid.len())
+            .filter(|&k| {
+                rides
+                    .iter()
+                    .all(|n: &NextRide| (n.speed_mps - grid[k]).abs() >= 0.3)
+            })
+            .max_by(|&a, &b| gain(a).total_cmp(&gain(b)).then(b.cmp(&a)))
+        else {
+            break;
+        };
+        for (s, x) in so_far.iter_mut().zip(&d[k]) {
+            *s += x;
+        }
+        rides.push(NextRide {
+            speed_mps: grid[k],
+            release_speed_mps: grid[k] - mean_slowing,
+            separation_se: d[k].iter().map(|x| x.sqrt()).collect(),
+        });
+    }
+    // Rides alternately at the two speeds until every pair has what it needs.
+    let rides_needed = (|| {
+        let per_ride: Vec<Vec<f64>> = rides
+            .iter()
+            .map(|r| r.separation_se.iter().map(|x| x * x).collect())
+            .collect();
+        if per_ride.is_empty() {
+            return None;
+        }
+        let mut got = vec![0.0; rivals.len()];
+        for n in 0..=MAX_RIDES_NEEDED {
+            if got.iter().zip(&needed).all(|(g, need)| g >= need) {
+                return Some(n);
+            }
+            for (g, x) in got.iter_mut().zip(&per_ride[n % per_ride.len()]) {
+                *g += x;
+            }
+        }
+        None
+    })();
+    NextRides {
+        rides,
+        separation_now,
+        separation_needed: UNTIE_SEPARATION,
+        rides_needed,
+    }
+}
+
+/// Whether the rides left out tell `a` from `b`: `a` is better when S = Σᵢ (z²_b,i − z²_a,i),
+/// the held-out χ² by which it beats `b`, exceeds [`TIE_CHI2`] and [`TIE_SE`] of its standard
+/// deviation had the two been equally right. With the whitened residuals of ride i, r_a and
+/// r_b = r_a + dᵢ (dᵢ the two predictions' difference in the ride's standard errors), each
+/// term is |dᵢ|² + 2 dᵢ·r_a: its standard deviation is 2|dᵢ| when r_a is pure noise (Vuong's
+/// test with the separations known), so S is judged against 2 √Σ|dᵢ|². (A paired t-test on
+/// the terms, used before, could never pass with the separation in two rides of 16: its
+/// statistic is then 1.46 whatever their size, so the rides recommended to break a tie could
+/// not break it.)
+pub(super) fn distinguishable(a: &Ranked, b: &Ranked) -> bool {
+    let (s, d2) = heldout_contrast(a, b);
+    s > TIE_CHI2 && s > TIE_SE * 2.0 * d2.sqrt()
+}
+
+/// (S, Σ|dᵢ|²) of the tie test between `a` and `b` (see [`Diagnosis::tied`]): the held-out χ²
+/// by which `a` beats `b`, and the squared separation of their held-out predictions in the
+/// rides' standard errors; the sums of [`ride_contrasts`]. S is infinite when one of the two
+/// cannot predict a ride the other can (that ride tells them apart).
+pub fn heldout_contrast(a: &Ranked, b: &Ranked) -> (f64, f64) {
+    ride_contrasts(a, b)
+        .iter()
+        .fold((0.0, 0.0), |(s, d2), c| match c {
+            Some((si, di)) => (s + si, d2 + di),
+            None => (f64::INFINITY, d2),
+        })
+}
+
+/// Each ride's part of [`heldout_contrast`], in the campaign's order: (z²_b − z²_a, |d|²);
+/// `None` where one of the two predicts the ride and the other cannot.
+pub fn ride_contrasts(a: &Ranked, b: &Ranked) -> Vec<Option<(f64, f64)>> {
+    a.heldout_whitened
+        .iter()
+        .zip(&b.heldout_whitened)
+        .map(|(ra, rb)| {
+            (ra.len() == rb.len()).then(|| {
+                (
+                    rb.iter().map(|x| x * x).sum::<f64>() - ra.iter().map(|x| x * x).sum::<f64>(),
+                    ra.iter().zip(rb).map(|(x, y)| (y - x).powi(2)).sum::<f64>(),
+                )
+            })
+        })
+        .collect()
+}
+
+/// The candidates as plausible as the best that the rides left out cannot tell from it
+/// ([`distinguishable`]); empty when only the best.
+pub(super) fn tied(ranked: &[Ranked]) -> Vec<String> {
+    let Some(best) = ranked.first() else {
+        return Vec::new();
+    };
+    let t: Vec<String> = ranked
+        .iter()
+        .filter(|r| r.plausible == best.plausible && !distinguishable(best, r))
+        .map(|r| r.effect.clone())
+        .collect();
+    if t.len() > 1 {
+        t
+    } else {
+        Vec::new()
+    }
+}

@@ -1,0 +1,367 @@
+//! The diagnosis in words. In: a finished [`Diagnosis`]. Out: the verdict (where the gap lies,
+//! whether it is significant, which candidate explains it or why none does, how far it shrinks,
+//! what to ride next) and the human-readable table of `bikeproc gap`.
+
+use super::effects::{self, Effect};
+use super::{stats, weighted_mean, Diagnosis, RideResidual, EXPLAINED_HELDOUT_RMS, TIE_SE};
+use std::fmt::Write as _;
+
+/// What each ride's residual is made of.
+fn decided_on(parts: usize) -> &'static str {
+    if parts > 2 {
+        "the weave's eigenvalue and mode shape"
+    } else {
+        "the weave's eigenvalue"
+    }
+}
+
+/// Where the residual the closest candidate leaves lies: the RMS normalized residual of σ, ω
+/// and the mode shape's |γ/θ| and phase (the largest named), and the ride furthest from it.
+fn where_left(d: &Diagnosis) -> String {
+    let res = if d.residuals_after.is_empty() {
+        &d.residuals
+    } else {
+        &d.residuals_after
+    };
+    let rms = |f: &dyn Fn(&RideResidual) -> f64| -> f64 {
+        let v: Vec<f64> = res.iter().map(f).filter(|x| x.is_finite()).collect();
+        (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+    };
+    let parts = [
+        ("the damping rate σ", rms(&|r| r.re_z)),
+        ("the frequency ω", rms(&|r| r.im_z)),
+        ("the mode shape's |γ/θ|", rms(&|r| r.shape_ratio_z)),
+        ("the mode shape's phase", rms(&|r| r.shape_phase_z)),
+    ];
+    let (worst_part, worst_rms) = parts
+        .iter()
+        .copied()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or(("", f64::NAN));
+    let worst_ride = res
+        .iter()
+        .max_by(|a, b| (a.re_z.hypot(a.im_z)).total_cmp(&b.re_z.hypot(b.im_z)));
+    let mut out = format!(
+        "Left: what is left lies most in {worst_part} (RMS {worst_rms:.1} standard errors; σ {:.1}, ω {:.1}, |γ/θ| {:.1}, phase {:.1})",
+        parts[0].1, parts[1].1, parts[2].1, parts[3].1
+    );
+    if let Some(r) = worst_ride {
+        let _ = write!(
+            out,
+            "; the ride furthest from it is {} at {:.2} m/s ({:+.1}, {:+.1} standard errors in σ, ω)",
+            r.ride, r.speed_mps, r.re_z, r.im_z
+        );
+    }
+    out.push('.');
+    out
+}
+
+/// The diagnosis in words.
+pub(super) fn verdict(d: &Diagnosis) -> String {
+    let mut v = String::new();
+    let part = |name: &str, unit: &str, sel: &dyn Fn(&RideResidual) -> (f64, f64, f64)| {
+        let beyond = d.residuals.iter().filter(|r| sel(r).2.abs() > 2.0).count();
+        let m = weighted_mean(d.residuals.iter().map(|r| {
+            let (x, se, _) = sel(r);
+            (x, se)
+        }));
+        let (mean, se) = (m.value, m.se);
+        let dir = if mean < 0.0 { "lower" } else { "higher" };
+        format!(
+            "{name} {dir} than the model's by {:.3} ± {:.3} {unit} on average ({beyond} of {} rides beyond 2σ)",
+            mean.abs(),
+            se,
+            d.residuals.len()
+        )
+    };
+    let shape = if d.residuals.iter().any(|r| r.shape_ratio_z.is_finite()) {
+        part("mode shape |γ/θ|", "rad/rad", &|r| {
+            (r.shape_ratio, r.shape_ratio_se, r.shape_ratio_z)
+        })
+    } else {
+        "mode shape not measured (the rides give the eigenvalue alone)".to_string()
+    };
+    let _ = writeln!(
+        v,
+        "Where: {}; {}; {}.",
+        part("weave frequency", "rad/s", &|r| (r.im, r.im_se, r.im_z)),
+        part("weave damping rate (σ)", "1/s", &|r| (
+            r.re, r.re_se, r.re_z
+        )),
+        shape
+    );
+    let _ = write!(
+        v,
+        "Test: campaign χ² = {:.1} for {} degrees of freedom ({}; {} of each ride, the measured parameters' uncertainty included)",
+        d.chi2,
+        d.dof,
+        stats::p_is(d.p_value),
+        decided_on(d.parts_per_ride)
+    );
+    if let Some(t) = &d.targeted {
+        let _ = write!(
+            v,
+            "; the single effect that lowers it most, {}, by a likelihood ratio of {:.1} on {} degree{} of freedom ({} for the best of the effects tried)",
+            t.effect,
+            t.likelihood_ratio,
+            t.dof,
+            if t.dof == 1 { "" } else { "s" },
+            stats::p_is(t.p_value)
+        );
+    }
+    let _ = write!(
+        v,
+        "; the campaign's test, either of the two: {}: ",
+        stats::p_is(d.campaign_p_value)
+    );
+    if !d.significant {
+        v.push_str(if d.parameters_could_explain {
+            "no significant gap; without the parameters' uncertainty there would be one, so it is within what the inertia measurements allow."
+        } else {
+            "no significant gap."
+        });
+        return v;
+    }
+    v.push_str(
+        "a significant gap, which the measured parameters' own uncertainty cannot explain.\n",
+    );
+    let Some(best) = d.ranking.first() else {
+        v.push_str("Which: no candidate could be fitted.");
+        return v;
+    };
+    let named: Vec<(Effect, effects::ParamSpec)> = best
+        .effects
+        .iter()
+        .flat_map(|&e| e.params().into_iter().map(move |p| (e, p)))
+        .collect();
+    let params: Vec<String> = named
+        .iter()
+        .zip(best.params.iter().zip(&best.params_se))
+        .map(|((e, spec), (p, se))| {
+            format!(
+                "{} {} = {}",
+                e.name(),
+                spec.name,
+                param_text(*p, *se, spec.unit)
+            )
+        })
+        .collect();
+    let shrink = 1.0 - best.heldout_rms_after / best.heldout_rms_before;
+    if !d.explained {
+        let _ = write!(
+            v,
+            "Which: no candidate of the library explains it; the closest is {} ({}).\nHow far: it leaves the rides left out at an RMS of {:.2} standard errors (from {:.2}; an explanation brings it to about 1, at most {EXPLAINED_HELDOUT_RMS}), and its fit to every ride gives χ² = {:.1} ({}).\n",
+            best.effect,
+            params.join(", "),
+            best.heldout_rms_after,
+            best.heldout_rms_before,
+            best.chi2,
+            stats::p_is(d.best_fit_p_value)
+        );
+        v.push_str(&where_left(d));
+        v.push_str(&next_rides_text(d));
+        return v;
+    }
+    if d.tied.len() > 1 {
+        let _ = write!(
+            v,
+            "Which: the rides left out cannot tell apart {} (none is worse than the best by {TIE_SE} standard deviations of the held-out χ² difference its predictions' separation allows); the best of them is ",
+            d.tied.join(", ")
+        );
+    } else {
+        v.push_str("Which: the best explanation is ");
+    }
+    let _ = write!(
+        v,
+        "{} ({}), {}.\nHow far: held-out RMS normalized residual {:.2} → {:.2} standard errors ({:.0} % smaller).",
+        best.effect,
+        params.join(", "),
+        if best.plausible {
+            "a physically plausible value"
+        } else {
+            "a value outside the plausible range"
+        },
+        best.heldout_rms_before,
+        best.heldout_rms_after,
+        100.0 * shrink
+    );
+    if let (Some(a), Some(b)) = (d.heldout_vaf_before, d.heldout_vaf_after) {
+        let _ = write!(
+            v,
+            " In the time series, the eigenvalues account for {:.1} % of θ's and γ's variance before and {:.1} % after.",
+            100.0 * a,
+            100.0 * b
+        );
+    }
+    v.push_str(&next_rides_text(d));
+    v
+}
+
+/// The next rides in words (empty when none are recommended).
+fn next_rides_text(d: &Diagnosis) -> String {
+    let next = &d.next_rides;
+    if next.rides.is_empty() {
+        return String::new();
+    }
+    let rides: Vec<String> = next
+        .rides
+        .iter()
+        .map(|n| {
+            let most = n.separation_se.iter().copied().fold(0.0, f64::max);
+            format!(
+                "{:.2} m/s where the eigenvalue applies (release at about {:.1} m/s; a ride there sets the tied candidates' predictions up to {most:.1} of its standard errors apart)",
+                n.speed_mps, n.release_speed_mps
+            )
+        })
+        .collect();
+    let least = next
+        .separation_now
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let how_many = match next.rides_needed {
+        Some(n) => format!(
+            "about {n} rides there, alternately, are expected to tell them apart (the rides so far give the closest pair a squared separation of {least:.1} of the {:.0} the test needs)",
+            next.separation_needed
+        ),
+        None => format!(
+            "no number of rides is: the rides so far give the closest pair a squared separation of {least:.1} of the {:.0} the test needs, and more rides add almost nothing, because the candidates differ by less than the measured bicycle's own uncertainty moves its weave; measure the bicycle better",
+            next.separation_needed
+        ),
+    };
+    format!(
+        "\nNext: the rides that best tell the tied candidates apart are at {}; {how_many}.",
+        rides.join(" and at ")
+    )
+}
+
+impl Diagnosis {
+    /// The human-readable form.
+    pub fn to_text(&self) -> String {
+        let mut out = String::new();
+        if !self.conclusive {
+            let _ = writeln!(out, "{}", self.verdict);
+            for f in &self.rides_failed {
+                let _ = writeln!(out, "  not analysed: {f}");
+            }
+            return out;
+        }
+        let _ = writeln!(
+            out,
+            "Where: experiment − model, in combined standard errors ({} rides)",
+            self.rides_used
+        );
+        let _ = writeln!(
+            out,
+            "  {:<10} {:>9} {:>18} {:>6} {:>18} {:>6} {:>18} {:>6} {:>16} {:>6}",
+            "ride",
+            "speed m/s",
+            "Δσ 1/s",
+            "z",
+            "Δω rad/s",
+            "z",
+            "Δ|γ/θ| rad/rad",
+            "z",
+            "Δarg(γ/θ) °",
+            "z"
+        );
+        for r in &self.residuals {
+            let shape = if r.shape_ratio.is_finite() {
+                format!(
+                    "{:>+8.3} ± {:<7.3} {:>+6.1} {:>+6.1} ± {:<5.1} {:>+6.1}",
+                    r.shape_ratio,
+                    r.shape_ratio_se,
+                    r.shape_ratio_z,
+                    r.shape_phase_rad.to_degrees(),
+                    r.shape_phase_se_rad.to_degrees(),
+                    r.shape_phase_z
+                )
+            } else {
+                "      not measured".to_string()
+            };
+            let _ = writeln!(
+                out,
+                "  {:<10} {:>9.3} {:>8.3} ± {:<7.3} {:>+6.1} {:>8.3} ± {:<7.3} {:>+6.1} {shape}",
+                r.ride, r.speed_mps, r.re, r.re_se, r.re_z, r.im, r.im_se, r.im_z,
+            );
+        }
+        for b in &self.bands {
+            let _ = writeln!(
+                out,
+                "  band {:.0}–{:.0} m/s ({} rides): Δσ {:.3} ± {:.3}, Δω {:.3} ± {:.3}",
+                b.speeds_mps[0], b.speeds_mps[1], b.rides, b.re.value, b.re.se, b.im.value, b.im.se
+            );
+        }
+        let _ = writeln!(
+            out,
+            "  χ² {:.1} / {} (p {}); without the parameters' uncertainty {:.1} (p {})",
+            self.chi2,
+            self.dof,
+            stats::format_p(self.p_value),
+            self.chi2_without_parameter_error,
+            stats::format_p(self.p_value_without_parameter_error)
+        );
+        if let Some(t) = &self.targeted {
+            let _ = writeln!(
+                out,
+                "  targeted: {} lowers χ² by {:.1} on {} dof (p {} over the single effects tried); the campaign's test p {}",
+                t.effect,
+                t.likelihood_ratio,
+                t.dof,
+                stats::format_p(t.p_value),
+                stats::format_p(self.campaign_p_value)
+            );
+        }
+        let _ = writeln!(
+            out,
+            "Which: candidates fitted on {} by held-out RMS normalized residual (in standard errors;\n  pairs of effects are listed only where they beat the best single one on the rides left out)",
+            decided_on(self.parts_per_ride)
+        );
+        let _ = writeln!(
+            out,
+            "  {:<28} {:>30} {:>8} {:>8} {:>9}",
+            "effect", "parameters", "before", "after", "plausible"
+        );
+        for r in &self.ranking {
+            let params: Vec<String> = r
+                .params
+                .iter()
+                .zip(&r.params_se)
+                .zip(&r.units)
+                .map(|((p, se), u)| param_text(*p, *se, u))
+                .collect();
+            let _ = writeln!(
+                out,
+                "  {:<28} {:>30} {:>8.2} {:>8.2} {:>9}",
+                r.effect,
+                params.join(", "),
+                r.heldout_rms_before,
+                r.heldout_rms_after,
+                if r.plausible { "yes" } else { "no" }
+            );
+        }
+        for f in &self.rides_failed {
+            let _ = writeln!(out, "  not analysed: {f}");
+        }
+        let _ = writeln!(out, "Verdict:");
+        for line in self.verdict.lines() {
+            let _ = writeln!(out, "  {line}");
+        }
+        out
+    }
+}
+
+/// A fitted parameter with its standard error and unit, `0.092 ± 0.061 kg·m²`; one the fit left
+/// at the edge of its search range (or could not identify) has no standard error, and says so.
+pub fn param_text(value: f64, se: f64, unit: &str) -> String {
+    let unit = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    };
+    if se.is_finite() {
+        format!("{value:.3} ± {se:.3}{unit}")
+    } else {
+        format!("{value:.3}{unit} (no standard error: at a bound or not identified)")
+    }
+}
