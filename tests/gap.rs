@@ -6,7 +6,7 @@ use bikeproc::gap::{diagnose_campaign, ride_contrasts, Diagnosis};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::model::uncertain;
 use bikeproc::ride::dynamic::RideManifest;
-use bikeproc::sim::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Withheld};
+use bikeproc::sim::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Draws, Withheld};
 use common::root;
 use std::path::PathBuf;
 
@@ -33,8 +33,16 @@ fn blind_plus(
 ) -> (Diagnosis, BlindTruth) {
     let bike_path = root().join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();
-    let (files, truth) =
-        blind_campaign_plus(&lab, "bike.toml", withheld, design, seed, extra).unwrap();
+    let (files, truth) = blind_campaign_plus(
+        &lab,
+        "bike.toml",
+        withheld,
+        design,
+        seed,
+        extra,
+        Draws::Suite,
+    )
+    .unwrap();
     let dir = scratch(&format!(
         "{}_{design:?}_{seed}_{}",
         withheld.label(),

@@ -539,8 +539,23 @@ fn gap_on_a_controlled_campaign_names_where_and_which() {
     assert_eq!(d["significant"], true);
     let verdict = d["verdict"].as_str().unwrap();
     println!("{verdict}");
+    // Issue 29 item 6: the first sentence says whether the gap is explained and why, the
+    // numbers of the test that decides it with it; where the gap lies comes next.
+    let first = verdict.lines().next().unwrap();
     assert!(
-        verdict.starts_with("Where: weave frequency lower than the model's by"),
+        first.starts_with("Explained: ") || first.starts_with("Not explained: "),
+        "{verdict}"
+    );
+    assert_eq!(first.starts_with("Explained: "), d["explained"] == true);
+    if d["explained"] == false {
+        assert!(first.contains("fails the"), "{first}");
+    }
+    assert!(
+        verdict
+            .lines()
+            .nth(1)
+            .unwrap()
+            .starts_with("Where: weave frequency lower than the model's by"),
         "{verdict}"
     );
     assert!(names(&d).iter().any(|n| n == "actuator_gain"));

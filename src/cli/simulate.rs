@@ -19,6 +19,7 @@ pub fn simulate(s: SimCommand) -> Result<()> {
         SimCommand::Blind {
             effect,
             design,
+            draws,
             seed,
             bike,
             out,
@@ -31,13 +32,32 @@ pub fn simulate(s: SimCommand) -> Result<()> {
                 campaign::BlindDesign::Sync
             };
             let lab = LabBike::load(&bike)?;
-            let (mut files, _) =
-                campaign::blind_campaign(&lab, "bike.toml", withheld, design, seed)?;
+            let draws = if draws == "broad" {
+                campaign::Draws::Broad
+            } else {
+                campaign::Draws::Suite
+            };
+            let (mut files, _) = campaign::blind_campaign_plus(
+                &lab,
+                "bike.toml",
+                withheld,
+                design,
+                seed,
+                &[],
+                draws,
+            )?;
             let text = std::fs::read_to_string(&bike)
                 .with_context(|| format!("reading {}", bike.display()))?;
             files.push(("bike.toml".into(), text));
             return write_generated(&out, &files);
         }
+        SimCommand::GapCalibration {
+            campaigns,
+            controls,
+            only,
+            bike,
+            out,
+        } => return gap_calibration(campaigns, controls, &only, &bike, &out),
         SimCommand::RideFaults { out } => {
             let bike = LabBike::load(Path::new("data/lab_bike.toml"))?;
             return write_generated(&out, &campaign::ride_fault_fixtures(&bike)?);
@@ -140,5 +160,68 @@ fn write_generated(out: &Path, files: &campaign::Files) -> Result<()> {
     campaign::write_files(out, files)
         .with_context(|| format!("writing under {}", out.display()))?;
     eprintln!("wrote {} files under {}", files.len(), out.display());
+    Ok(())
+}
+
+/// `simulate gap-calibration`: the blind campaigns run one after the other (each uses both
+/// cores), a line on standard error per campaign.
+fn gap_calibration(
+    campaigns: u64,
+    controls: u64,
+    only: &[String],
+    bike: &Path,
+    out: &Path,
+) -> Result<()> {
+    use campaign::Withheld;
+    use sim::calibration;
+    for o in only {
+        if Withheld::from_label(o).is_none() {
+            anyhow::bail!("--only: unknown effect `{o}`");
+        }
+    }
+    let lab = LabBike::load(bike)?;
+    let text =
+        calibration::bike_text(bike).with_context(|| format!("reading {}", bike.display()))?;
+    let cases: Vec<calibration::Case> = calibration::cases(campaigns, controls)
+        .into_iter()
+        .filter(|c| only.is_empty() || only.iter().any(|o| o == c.withheld.label()))
+        .collect();
+    let (mut results, mut failures) = (Vec::new(), Vec::new());
+    for (k, case) in cases.iter().enumerate() {
+        match calibration::run_case(&lab, &text, *case) {
+            Ok(r) => {
+                eprintln!(
+                    "[{}/{}] {} {:?} seed {}: p {:.2e}, best {}, named {}, right {}",
+                    k + 1,
+                    cases.len(),
+                    r.effect,
+                    r.design,
+                    r.seed,
+                    r.campaign_p_value,
+                    r.best,
+                    r.named,
+                    r.right
+                );
+                results.push(r);
+            }
+            Err(e) => failures.push(format!(
+                "{} {:?} seed {}: {e}",
+                case.withheld.label(),
+                case.design,
+                case.seed
+            )),
+        }
+    }
+    let mut command =
+        format!("bikeproc simulate gap-calibration --campaigns {campaigns} --controls {controls}");
+    if !only.is_empty() {
+        command += &format!(" --only {}", only.join(","));
+    }
+    command += &format!(" --out {}", out.display());
+    let md = calibration::markdown(&results, &failures, &command);
+    write_atomic(out, md.as_bytes())?;
+    let json = serde_json::to_string_pretty(&results)?;
+    write_atomic(&out.with_extension("json"), json.as_bytes())?;
+    eprintln!("wrote {} and its .json", out.display());
     Ok(())
 }

@@ -44,7 +44,7 @@ pub mod verdict;
 pub use crate::stats;
 pub use observe::{observations, weighted_mean, BandResidual, Observation, RideResidual};
 pub use rank::Ranked;
-pub use significance::TargetedTest;
+pub use significance::{DetectionLimit, TargetedTest};
 pub use ties::{heldout_contrast, ride_contrasts, NextRide, NextRides, UNTIE_SEPARATION};
 pub use verdict::param_text;
 
@@ -119,6 +119,9 @@ pub struct Diagnosis {
     pub best_fit_p_value: f64,
     /// When candidates are tied: the rides to make next, where their predictions differ most.
     pub next_rides: NextRides,
+    /// With no significant gap: each one-parameter candidate's smallest size these rides would
+    /// have detected (the campaign's test, 80 % power), what the quiet campaign rules out.
+    pub detection_limits: Vec<significance::DetectionLimit>,
     pub verdict: String,
 }
 
@@ -235,6 +238,7 @@ pub fn diagnose(
         explained: false,
         best_fit_p_value: f64::NAN,
         next_rides: NextRides::default(),
+        detection_limits: Vec::new(),
         verdict: String::new(),
     };
     if let Some(reason) = insufficiency(rides, failed) {
@@ -308,6 +312,28 @@ pub fn diagnose(
             }
         }
     }
+    // The coasting correction's error is one for the whole campaign (the tyres and damping
+    // the rides share set it): each ride's own part (in its standard errors) made common.
+    // Without it, 14 coasting rides of an effect-free campaign gave σ and ω a shared residual
+    // of +0.3 and +0.5 of their standard errors, which the effects' fits took up.
+    {
+        use crate::ride::dynamic::{COASTING_BIAS_COMMON_FRACTION as C, COASTING_BIAS_SE_FRACTION};
+        for (i, oi) in rides.iter().enumerate() {
+            for (j, oj) in rides.iter().enumerate() {
+                for a in 0..2 {
+                    for b in 0..2 {
+                        let own = if i == j && a == b {
+                            COASTING_BIAS_SE_FRACTION.powi(2) * oi.coasting_bias[a].powi(2)
+                        } else {
+                            0.0
+                        };
+                        exp_cov[(parts * i + a, parts * j + b)] +=
+                            C * C * oi.coasting_bias[a] * oj.coasting_bias[b] - own;
+                    }
+                }
+            }
+        }
+    }
     let all: Vec<usize> = (0..n).collect();
     let campaign = Campaign {
         obs: rides,
@@ -374,6 +400,10 @@ pub fn diagnose(
     targeted_test(&mut d);
     d.significant = d.campaign_p_value < SIGNIFICANCE;
     d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
+    if !d.significant {
+        let tried = d.ranking.iter().filter(|r| r.effects.len() == 1).count();
+        d.detection_limits = significance::detection_limits(&campaign, tried);
+    }
     if d.significant {
         d.tied = tied(&d.ranking);
         d.next_rides = next_rides(&campaign, &exp_cov, model, &d.ranking, &d.tied);

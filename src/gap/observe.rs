@@ -34,6 +34,10 @@ pub struct Observation {
     /// The window's length (s) and the bicycle's forward acceleration over it (m/s²).
     pub window_s: f64,
     pub window_accel_mps2: f64,
+    /// The correction taken off a coasting ride's eigenvalue for its changing mode shape
+    /// (1/s, `[re, im]`; [`crate::ride::dynamic::coasting_bias`]), 0 otherwise: its error is
+    /// common to the campaign's rides.
+    pub coasting_bias: [f64; 2],
 }
 
 impl Observation {
@@ -55,6 +59,7 @@ impl Observation {
             shape_phase_rad: t.fit.shape.phase_rad,
             window_s: t.fit.end_s - t.fit.start_s,
             window_accel_mps2: t.speed.sources.window_accel_mps2,
+            coasting_bias: t.coasting_bias,
             window: {
                 let rows: Vec<&[f64; 3]> = t
                     .trace
@@ -101,6 +106,7 @@ impl Observation {
             window: None,
             window_s: b - a,
             window_accel_mps2: 0.0,
+            coasting_bias: [0.0, 0.0],
         })
     }
 }

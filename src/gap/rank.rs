@@ -18,6 +18,9 @@ pub struct Ranked {
     pub params: Vec<f64>,
     pub params_se: Vec<f64>,
     pub units: Vec<&'static str>,
+    /// Each parameter at its search bound, or within its standard error of it
+    /// ([`at_bound`]): then the rides bound it on one side only, and it is shown as a bound.
+    pub at_bound: Vec<bool>,
     /// χ² of the fit to every ride, its degrees of freedom and the BIC `χ² + k ln(2N)`.
     pub chi2: f64,
     pub bic: f64,
@@ -39,8 +42,12 @@ pub struct Ranked {
     #[serde(skip)]
     pub heldout_params: Vec<Vec<f64>>,
     /// Every fitted value inside its plausible range, or within [`PLAUSIBLE_SE`] of its
-    /// standard errors of it.
+    /// standard errors of it, and none at a bound.
     pub plausible: bool,
+    /// A pair whose held-out prediction the rides left out cannot tell from the best single
+    /// effect's (the tie test, [`super::ties::distinguishable`]): listed after it, never named
+    /// ahead of it.
+    pub not_needed: bool,
 }
 
 /// Held-out residual of each ride for a candidate, whitened ([`Campaign::ride_whitened`];
@@ -122,6 +129,37 @@ fn plausible(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
     p + margin >= spec.plausible.0 && p - margin <= spec.plausible.1
 }
 
+/// Whether a fitted value `p` (standard error `se`) sits at its search's bound: within its
+/// standard error of it, or within a thousandth of the range where it has none. The rides then
+/// tell one side of the value only (and the curvature at the edge is no standard error).
+pub fn at_bound(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
+    let tol = if se.is_finite() {
+        se.max(1e-6 * (spec.hi - spec.lo))
+    } else {
+        1e-3 * (spec.hi - spec.lo)
+    };
+    p - spec.lo <= tol || spec.hi - p <= tol
+}
+
+impl Ranked {
+    /// Each parameter in words, with its unit: `0.092 ± 0.061 kg·m²`, or a bound for one at
+    /// the search's edge ([`super::verdict::param_text`]).
+    pub fn param_texts(&self) -> Vec<String> {
+        effects::specs(&self.effects)
+            .iter()
+            .enumerate()
+            .map(|(k, spec)| {
+                let (p, se) = (self.params[k], self.params_se[k]);
+                if self.at_bound.get(k).copied().unwrap_or(false) {
+                    super::verdict::bound_text(spec, p, se)
+                } else {
+                    super::verdict::param_text(p, se, spec.unit)
+                }
+            })
+            .collect()
+    }
+}
+
 /// Fits and tests every effect, then pairs of the best ones; sorted by held-out RMS.
 pub(super) fn rank(
     campaign: &Campaign<'_>,
@@ -162,12 +200,21 @@ pub(super) fn rank(
             .map(|e| e.name())
             .collect::<Vec<_>>()
             .join(" + ");
+        let specs = effects::specs(&effects);
+        let bounded: Vec<bool> = specs
+            .iter()
+            .zip(f.params.iter().zip(&se))
+            .map(|(spec, (&p, &se))| at_bound(spec, p, se))
+            .collect();
         Some(Ranked {
             effect: name,
-            plausible: effects::specs(&effects)
-                .iter()
-                .zip(f.params.iter().zip(&se))
-                .all(|(spec, (&p, &se))| plausible(spec, p, se)),
+            plausible: !bounded.contains(&true)
+                && specs
+                    .iter()
+                    .zip(f.params.iter().zip(&se))
+                    .all(|(spec, (&p, &se))| plausible(spec, p, se)),
+            at_bound: bounded,
+            not_needed: false,
             units: effects::specs(&effects).iter().map(|p| p.unit).collect(),
             effects,
             bic: f.chi2 + f.params.len() as f64 * (parts as f64).ln(),
@@ -224,9 +271,13 @@ pub(super) fn rank(
         }
     }
     let best_single = ranked.first().cloned();
-    for r in over(&pairs) {
+    for mut r in over(&pairs) {
         if let Some(b) = &best_single {
             if b.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2 && r.bic < b.bic {
+                // Parsimony: a pair goes ahead of the best single only when the rides left
+                // out tell it from the single (the tie test); otherwise it is listed after it,
+                // as not needed.
+                r.not_needed = !super::ties::distinguishable(&r, b);
                 ranked.push(r);
             }
         }
@@ -236,11 +287,12 @@ pub(super) fn rank(
 }
 
 /// Plausible candidates first (a value no real bicycle or lab would have explains nothing,
-/// however well it fits), each group by held-out RMS.
+/// however well it fits), pairs not needed after the rest, each group by held-out RMS.
 fn sort(ranked: &mut [Ranked]) {
     ranked.sort_by(|a, b| {
         b.plausible
             .cmp(&a.plausible)
+            .then(a.not_needed.cmp(&b.not_needed))
             .then_with(|| a.heldout_rms_after.total_cmp(&b.heldout_rms_after))
             .then_with(|| a.effect.cmp(&b.effect))
     });

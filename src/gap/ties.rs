@@ -275,7 +275,7 @@ pub(super) fn tied(ranked: &[Ranked]) -> Vec<String> {
     };
     let t: Vec<String> = ranked
         .iter()
-        .filter(|r| r.plausible == best.plausible && !distinguishable(best, r))
+        .filter(|r| r.plausible == best.plausible && !r.not_needed && !distinguishable(best, r))
         .map(|r| r.effect.clone())
         .collect();
     if t.len() > 1 {

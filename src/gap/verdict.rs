@@ -58,7 +58,8 @@ fn where_left(d: &Diagnosis) -> String {
 
 /// The diagnosis in words.
 pub(super) fn verdict(d: &Diagnosis) -> String {
-    let mut v = String::new();
+    let mut v = headline(d);
+    v.push('\n');
     let part = |name: &str, unit: &str, sel: &dyn Fn(&RideResidual) -> (f64, f64, f64)| {
         let beyond = d.residuals.iter().filter(|r| sel(r).2.abs() > 2.0).count();
         let m = weighted_mean(d.residuals.iter().map(|r| {
@@ -111,20 +112,17 @@ pub(super) fn verdict(d: &Diagnosis) -> String {
     }
     let _ = write!(
         v,
-        "; the campaign's test, either of the two: {}: ",
+        "; the campaign's test, either of the two: {}.",
         stats::p_is(d.campaign_p_value)
     );
     if !d.significant {
-        v.push_str(if d.parameters_could_explain {
-            "no significant gap; without the parameters' uncertainty there would be one, so it is within what the inertia measurements allow."
-        } else {
-            "no significant gap."
-        });
+        if !d.detection_limits.is_empty() {
+            v.push('\n');
+            v.push_str(&super::significance::detection_text(&d.detection_limits));
+        }
         return v;
     }
-    v.push_str(
-        "a significant gap, which the measured parameters' own uncertainty cannot explain.\n",
-    );
+    v.push('\n');
     let Some(best) = d.ranking.first() else {
         v.push_str("Which: no candidate could be fitted.");
         return v;
@@ -136,21 +134,21 @@ pub(super) fn verdict(d: &Diagnosis) -> String {
         .collect();
     let params: Vec<String> = named
         .iter()
-        .zip(best.params.iter().zip(&best.params_se))
-        .map(|((e, spec), (p, se))| {
-            format!(
-                "{} {} = {}",
-                e.name(),
-                spec.name,
-                param_text(*p, *se, spec.unit)
-            )
+        .zip(best.param_texts())
+        .map(|((e, spec), text)| {
+            let sep = if text.starts_with(['≤', '≥']) {
+                " "
+            } else {
+                " = "
+            };
+            format!("{} {}{sep}{text}", e.name(), spec.name)
         })
         .collect();
     let shrink = 1.0 - best.heldout_rms_after / best.heldout_rms_before;
     if !d.explained {
         let _ = write!(
             v,
-            "Which: no candidate of the library explains it; the closest is {} ({}).\nHow far: it leaves the rides left out at an RMS of {:.2} standard errors (from {:.2}; an explanation brings it to about 1, at most {EXPLAINED_HELDOUT_RMS}), and its fit to every ride gives χ² = {:.1} ({}).\n",
+            "Which: the closest candidate is {} ({}).\nHow far: with it, the rides left out lie at an RMS of {:.2} standard errors from their predictions (from {:.2}), and its fit to every ride gives χ² = {:.1} ({}).\n",
             best.effect,
             params.join(", "),
             best.heldout_rms_after,
@@ -195,6 +193,66 @@ pub(super) fn verdict(d: &Diagnosis) -> String {
     }
     v.push_str(&next_rides_text(d));
     v
+}
+
+/// The verdict's first sentence: whether the gap is explained, and why, with the numbers of
+/// the test that decides it (the campaign's test; then the best candidate's held-out RMS
+/// against [`EXPLAINED_HELDOUT_RMS`] and its χ² test at the significance level).
+fn headline(d: &Diagnosis) -> String {
+    let test = format!(
+        "the campaign's test gives {}",
+        stats::p_is(d.campaign_p_value)
+    );
+    if !d.significant {
+        return format!(
+            "No significant gap: {test}, above the {} level{}.",
+            super::SIGNIFICANCE,
+            if d.parameters_could_explain {
+                "; without the measured parameters' uncertainty there would be one, so the rides part from the model by no more than the inertia measurements allow"
+            } else {
+                ""
+            }
+        );
+    }
+    let Some(best) = d.ranking.first() else {
+        return format!(
+            "Not explained: a significant gap ({test}), and no candidate could be fitted."
+        );
+    };
+    let dof = d.dof.saturating_sub(best.params.len()).max(1);
+    let rms = format!(
+        "the rides left out lie at an RMS of {:.2} standard errors from its predictions (from {:.2} without it; an explanation reaches {EXPLAINED_HELDOUT_RMS} or less)",
+        best.heldout_rms_after, best.heldout_rms_before
+    );
+    let chi2 = format!(
+        "its fit to every ride gives χ² = {:.1} on {dof} degrees of freedom ({})",
+        best.chi2,
+        stats::p_is(d.best_fit_p_value)
+    );
+    if d.explained {
+        return format!(
+            "Explained: a significant gap ({test}) that {} accounts for: {rms}, and {chi2}, which passes at the {} level.",
+            best.effect,
+            super::SIGNIFICANCE
+        );
+    }
+    let mut fails = Vec::new();
+    if best.heldout_rms_after > EXPLAINED_HELDOUT_RMS
+        || best.heldout_rms_after >= best.heldout_rms_before
+    {
+        fails.push(format!("the held-out test ({rms})"));
+    }
+    if d.best_fit_p_value < super::SIGNIFICANCE {
+        fails.push(format!(
+            "the χ² test at the {} level ({chi2})",
+            super::SIGNIFICANCE
+        ));
+    }
+    format!(
+        "Not explained: a significant gap ({test}) that no candidate of the library accounts for; the closest, {}, fails {}.",
+        best.effect,
+        fails.join(" and ")
+    )
 }
 
 /// The next rides in words (empty when none are recommended).
@@ -323,13 +381,7 @@ impl Diagnosis {
             "effect", "parameters", "before", "after", "plausible"
         );
         for r in &self.ranking {
-            let params: Vec<String> = r
-                .params
-                .iter()
-                .zip(&r.params_se)
-                .zip(&r.units)
-                .map(|((p, se), u)| param_text(*p, *se, u))
-                .collect();
+            let params = r.param_texts();
             let _ = writeln!(
                 out,
                 "  {:<28} {:>30} {:>8.2} {:>8.2} {:>9}",
@@ -351,8 +403,33 @@ impl Diagnosis {
     }
 }
 
-/// A fitted parameter with its standard error and unit, `0.092 ± 0.061 kg·m²`; one the fit left
-/// at the edge of its search range (or could not identify) has no standard error, and says so.
+/// A parameter at its search's edge ([`super::rank::at_bound`]) as the bound the rides put on
+/// it: at the lower edge `lo`, "≤ p + SE"; at the upper, "≥ p − SE"; without a standard error,
+/// the edge alone. Never an estimate ± SE, which would read as a measurement.
+pub fn bound_text(spec: &super::effects::ParamSpec, p: f64, se: f64) -> String {
+    let unit = if spec.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {}", spec.unit)
+    };
+    let lower = p - spec.lo <= spec.hi - p;
+    let edge = if lower { spec.lo } else { spec.hi };
+    match (se.is_finite(), lower) {
+        (true, true) => format!(
+            "≤ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
+            p + se
+        ),
+        (true, false) => format!(
+            "≥ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
+            p - se
+        ),
+        (false, true) => format!("≤ {edge:.3}{unit} (at the search's edge, no SE)"),
+        (false, false) => format!("≥ {edge:.3}{unit} (at the search's edge, no SE)"),
+    }
+}
+
+/// A fitted parameter with its standard error and unit, `0.092 ± 0.061 kg·m²`; one the fit
+/// could not identify has no standard error, and says so.
 pub fn param_text(value: f64, se: f64, unit: &str) -> String {
     let unit = if unit.is_empty() {
         String::new()
@@ -362,6 +439,6 @@ pub fn param_text(value: f64, se: f64, unit: &str) -> String {
     if se.is_finite() {
         format!("{value:.3} ± {se:.3}{unit}")
     } else {
-        format!("{value:.3}{unit} (no standard error: at a bound or not identified)")
+        format!("{value:.3}{unit} (no standard error: not identified)")
     }
 }

@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 /// `reports/gap.md`: the campaign's gap diagnosis — residuals against speed, the ranking of the
 /// candidate effects, the held-out gap before and after.
 pub(super) fn gap_report(
+    data: &std::path::Path,
     campaign: &RideCampaign,
     progress: &mut dyn FnMut(&str),
     files: &mut Files,
@@ -38,6 +39,7 @@ pub(super) fn gap_report(
          at most 2 (and lower than before) and its fit to every ride passes the χ² test at 1 %.\n\n",
     );
     let _ = writeln!(md, "## Verdict\n\n{}\n", verdict_list(&d.verdict));
+    quiet_campaign(data, &mut md)?;
     if !d.conclusive {
         files.push(("gap.md".into(), md.into_bytes()));
         return Ok(());
@@ -160,13 +162,7 @@ pub(super) fn gap_report(
     }
     md.push_str("\n## Which\n\n| rank | effect | what | parameters | plausible | BIC | held-out RMS before | after |\n|---|---|---|---|---|---|---|---|\n");
     for (k, r) in d.ranking.iter().enumerate() {
-        let params: Vec<String> = r
-            .params
-            .iter()
-            .zip(&r.params_se)
-            .zip(&r.units)
-            .map(|((p, se), u)| crate::gap::param_text(*p, *se, u))
-            .collect();
+        let params: Vec<String> = r.param_texts();
         let _ = writeln!(
             md,
             "| {} | {} | {} | {} | {} | {:.1} | {:.2} | {:.2} |",
@@ -299,5 +295,38 @@ pub(super) fn gap_report(
         md.push_str("\n![residuals against speed, before and after](gap/residuals.svg)\n");
     }
     files.push(("gap.md".into(), md.into_bytes()));
+    Ok(())
+}
+
+/// The section on `data/quiet_campaign/`: a campaign with nothing withheld, its verdict and
+/// what it rules out (each candidate's smallest size these rides would have detected).
+fn quiet_campaign(data: &std::path::Path, md: &mut String) -> Result<()> {
+    let dir = data.join("quiet_campaign");
+    let manifest = crate::ride::dynamic::RideManifest::load(&dir.join("rides.toml"))?;
+    let model = manifest.model(None)?;
+    let d = crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {})?;
+    let _ = writeln!(
+        md,
+        "## A quiet campaign: what it rules out\n\n`bikeproc gap data/quiet_campaign/rides.toml`: 14 coasting rides with the speedometer's reading\nnoted at the release, on a bicycle that differs from the measured one only within its measurement errors\n(nothing withheld; see `data/README.md`). \"No significant gap\" says nothing by itself; the sizes below\nare what these rides would have seen.\n\n{}\n",
+        verdict_list(&d.verdict)
+    );
+    if !d.detection_limits.is_empty() {
+        md.push_str("| candidate | parameter | detected beyond (80 % power) | on the bicycle |\n|---|---|---|---|\n");
+        for l in &d.detection_limits {
+            let sign = if l.one_sided { "+" } else { "±" };
+            let _ = writeln!(
+                md,
+                "| {} | {} ({}; none = {}) | {sign} {:.3} | {} |",
+                l.effect,
+                l.param,
+                l.unit,
+                l.none,
+                l.size,
+                l.absolute
+                    .map_or("—".to_string(), |(a, u)| format!("{sign} {a:.4} {u}"))
+            );
+        }
+        md.push('\n');
+    }
     Ok(())
 }

@@ -41,7 +41,7 @@ pub fn build(data: &Path, reference: &Path, progress: &mut dyn FnMut(&str)) -> R
     progress("dynamic: the rides' eigenvalues");
     let campaign = RideCampaign::analyse(data)?;
     dynamic_report(&campaign, progress, &mut files)?;
-    gap_report(&campaign, progress, &mut files)?;
+    gap_report(data, &campaign, progress, &mut files)?;
     let root = data.parent().unwrap_or(Path::new("."));
     let recordings = real_report(reference, root, progress, &mut files)?;
     let measured = bicycleparameters_report(reference, progress, &mut files)?;

@@ -385,13 +385,7 @@ pub(super) fn controlled_section(
         }
         match d.ranking.first() {
             Some(best) => {
-                let params: Vec<String> = best
-                    .params
-                    .iter()
-                    .zip(&best.params_se)
-                    .zip(&best.units)
-                    .map(|((p, se), u)| crate::gap::param_text(*p, *se, u))
-                    .collect();
+                let params: Vec<String> = best.param_texts();
                 let _ = write!(
                     verdicts,
                     "Best candidate: {} ({}), the segments left out predicted at an RMS of {:.2}\n\

@@ -9,6 +9,7 @@
 //! ([`crate::spectral`], [`crate::fit`]) or the analysis model: a test that recovers what the
 //! simulator put in then proves something.
 
+pub mod calibration;
 pub mod campaign;
 pub mod draw;
 pub mod imu;
