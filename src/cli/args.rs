@@ -122,7 +122,16 @@ pub enum Command {
         "  bikeproc gap fixtures/real/balanceassist_gain6.toml\n\n",
         "JSON (--json): {\"significant\", \"explained\", \"chi2\", \"dof\", \"p_value\", ",
         "\"residuals\", \"ranking\": [{\"effect\", \"params\", \"params_se\", ",
-        "\"heldout_rms_before\", \"heldout_rms_after\", \"plausible\"}, …], \"verdict\"}.\n\n",
+        "\"heldout_rms_before\", \"heldout_rms_after\", \"plausible\", \"at_bound\", ",
+        "\"not_needed\"}, …], \"detection_limits\", \"verdict\"}.\n\n",
+        "Ranking: plausible candidates first, then by the held-out RMS normalized residual. A ",
+        "pair is tried only when no single effect brings it within 2, kept only when it beats the ",
+        "best single on the rides left out by 6.63 in χ² and by the BIC, and named ahead of the ",
+        "single only when the tie test tells the two apart (the held-out χ² difference beyond ",
+        "2 and beyond 2 of its standard deviations); otherwise it is listed after it, not needed. ",
+        "A parameter within its standard error of its search's edge is shown as a bound, never as ",
+        "plausible. With no significant gap the verdict gives, per candidate, the smallest size ",
+        "these rides would have detected (80 % power).\n\n",
         "Exit codes: 0 done; 2 the manifest is malformed or no ride could be analysed; 1 ",
         "anything else."
     ))]

@@ -372,7 +372,7 @@ impl Diagnosis {
         }
         let _ = writeln!(
             out,
-            "Which: candidates fitted on {} by held-out RMS normalized residual (in standard errors;\n  pairs of effects are listed only where they beat the best single one on the rides left out)",
+            "Which: candidates fitted on {} by held-out RMS normalized residual (in standard errors;\n  pairs of effects are listed only where they beat the best single one on the rides left out,\n  and named ahead of it only where the tie test tells them apart; otherwise after it)",
             decided_on(self.parts_per_ride)
         );
         let _ = writeln!(

@@ -30,7 +30,9 @@ pub(super) fn gap_report(
          with physical parameters and bounds) fitted to all rides by generalized least squares on the\n\
          eigenvalue *and* the mode shape, then each ride predicted by the effect refitted without it (leave one\n\
          ride out); plausible values first, then by the held-out RMS normalized residual; pairs when no single\n\
-         effect brings the held-out residual within 2; ties when, ride by ride, the best is not better by 2\n\
+         effect brings the held-out residual within 2, named ahead of the best single only when the tie test tells\n\
+         them apart (otherwise listed after it, not needed); a parameter within its standard error of its search's\n\
+         edge shown as a bound; ties when, ride by ride, the best is not better by 2\n\
          standard errors. The mode shape is what decides between effects that move the eigenvalue alike (tyres\n\
          and a frame inertia, a mass and a speedometer's scale): on 110 blind campaigns of the two designs of\n\
          `tests/gap.rs` (ten effects and the control, five seeds each) the ranking on the eigenvalue alone\n\

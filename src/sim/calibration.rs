@@ -352,3 +352,22 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
 pub fn bike_text(path: &Path) -> std::io::Result<String> {
     std::fs::read_to_string(path)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// "Within 30 % of the truth's deviation from no effect": a damper of 0.3 N·m·s/rad is
+    /// right from 0.21 to 0.39; a factor of 1.4 from 1.28 to 1.52; tyres (no effect at an
+    /// infinite cornering stiffness) within 30 % of the truth itself.
+    #[test]
+    fn the_size_is_judged_against_the_deviation_from_no_effect() {
+        assert!(size_right(Effect::SteerDamping, &[0.38], &[0.3]));
+        assert!(!size_right(Effect::SteerDamping, &[0.40], &[0.3]));
+        assert!(size_right(Effect::FrontIzz, &[1.29], &[1.4]));
+        assert!(!size_right(Effect::FrontIzz, &[1.27], &[1.4]));
+        assert!(size_right(Effect::Tyres, &[12.5, 0.1], &[10.0, 0.2]));
+        assert!(!size_right(Effect::Tyres, &[13.5, 0.2], &[10.0, 0.2]));
+        assert!(!size_right(Effect::Trail, &[], &[1.1]));
+    }
+}
