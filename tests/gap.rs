@@ -501,6 +501,9 @@ fn effect_free_campaigns_are_quiet() {
         })
         .collect();
     let fired = ps.iter().filter(|&&p| p < 0.01).count();
-    println!("p-values by tenths: {bins:?}; {fired} of {} below 0.01", ps.len());
+    println!(
+        "p-values by tenths: {bins:?}; {fired} of {} below 0.01",
+        ps.len()
+    );
     assert!(fired <= 2, "{fired} of {} below 0.01", ps.len());
 }

@@ -407,11 +407,7 @@ impl Diagnosis {
 /// it: at the lower edge `lo`, "≤ p + SE"; at the upper, "≥ p − SE"; without a standard error,
 /// the edge alone. Never an estimate ± SE, which would read as a measurement.
 pub fn bound_text(spec: &super::effects::ParamSpec, p: f64, se: f64) -> String {
-    let unit = if spec.unit.is_empty() {
-        String::new()
-    } else {
-        format!(" {}", spec.unit)
-    };
+    let unit = spaced(spec.unit);
     let lower = p - spec.lo <= spec.hi - p;
     let edge = if lower { spec.lo } else { spec.hi };
     match (se.is_finite(), lower) {
@@ -431,14 +427,19 @@ pub fn bound_text(spec: &super::effects::ParamSpec, p: f64, se: f64) -> String {
 /// A fitted parameter with its standard error and unit, `0.092 ± 0.061 kg·m²`; one the fit
 /// could not identify has no standard error, and says so.
 pub fn param_text(value: f64, se: f64, unit: &str) -> String {
-    let unit = if unit.is_empty() {
-        String::new()
-    } else {
-        format!(" {unit}")
-    };
+    let unit = spaced(unit);
     if se.is_finite() {
         format!("{value:.3} ± {se:.3}{unit}")
     } else {
         format!("{value:.3}{unit} (no standard error: not identified)")
+    }
+}
+
+/// A unit with its leading space (`" kg"`), or nothing.
+fn spaced(unit: &str) -> String {
+    if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
     }
 }
