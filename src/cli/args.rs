@@ -405,6 +405,10 @@ pub enum SimCommand {
         /// (`NAME.json`).
         #[arg(long)]
         out: PathBuf,
+        /// Render the Markdown from this JSON of every campaign's result (a run's own, made by
+        /// the same options) instead of running the campaigns again.
+        #[arg(long)]
+        results: Option<PathBuf>,
     },
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
     #[command(after_help = "Example:\n  bikeproc simulate campaign --out /tmp/campaign")]

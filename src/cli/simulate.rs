@@ -57,7 +57,8 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             only,
             bike,
             out,
-        } => return gap_calibration(campaigns, controls, &only, &bike, &out),
+            results,
+        } => return gap_calibration(campaigns, controls, &only, &bike, &out, results.as_deref()),
         SimCommand::RideFaults { out } => {
             let bike = LabBike::load(Path::new("data/lab_bike.toml"))?;
             return write_generated(&out, &campaign::ride_fault_fixtures(&bike)?);
@@ -171,9 +172,26 @@ fn gap_calibration(
     only: &[String],
     bike: &Path,
     out: &Path,
+    rendered_from: Option<&Path>,
 ) -> Result<()> {
     use campaign::Withheld;
     use sim::calibration;
+    let mut command =
+        format!("bikeproc simulate gap-calibration --campaigns {campaigns} --controls {controls}");
+    if !only.is_empty() {
+        command += &format!(" --only {}", only.join(","));
+    }
+    command += &format!(" --out {}", out.display());
+    if let Some(json) = rendered_from {
+        let text =
+            std::fs::read_to_string(json).with_context(|| format!("reading {}", json.display()))?;
+        let results: Vec<calibration::CaseResult> = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a calibration's results", json.display()))?;
+        let md = calibration::markdown(&results, &[], &command);
+        write_atomic(out, md.as_bytes())?;
+        eprintln!("wrote {} from {}", out.display(), json.display());
+        return Ok(());
+    }
     for o in only {
         if Withheld::from_label(o).is_none() {
             anyhow::bail!("--only: unknown effect `{o}`");
@@ -212,12 +230,6 @@ fn gap_calibration(
             )),
         }
     }
-    let mut command =
-        format!("bikeproc simulate gap-calibration --campaigns {campaigns} --controls {controls}");
-    if !only.is_empty() {
-        command += &format!(" --only {}", only.join(","));
-    }
-    command += &format!(" --out {}", out.display());
     let md = calibration::markdown(&results, &failures, &command);
     write_atomic(out, md.as_bytes())?;
     let json = serde_json::to_string_pretty(&results)?;

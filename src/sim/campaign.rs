@@ -717,7 +717,7 @@ pub enum Draws {
 }
 
 /// How a blind campaign's speeds are taken.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BlindDesign {
     /// 12 rides, `Sync` on every other one, no resistance to the coast.
