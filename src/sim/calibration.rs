@@ -200,7 +200,7 @@ fn pct(a: usize, b: usize) -> String {
     if b == 0 {
         "–".into()
     } else {
-        format!("{a}/{b} ({:.0} %)", 100.0 * a as f64 / b as f64)
+        format!("{a}/{b} ({:.1} %)", 100.0 * a as f64 / b as f64)
     }
 }
 
