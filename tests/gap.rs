@@ -6,7 +6,8 @@ use bikeproc::gap::{diagnose_campaign, ride_contrasts, Diagnosis};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::model::uncertain;
 use bikeproc::ride::dynamic::RideManifest;
-use bikeproc::sim::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Draws, Withheld};
+use bikeproc::sim::calibration::{diagnose_blind, run_case, Case};
+use bikeproc::sim::campaign::{BlindDesign, BlindTruth, Draws, Withheld};
 use common::root;
 use std::path::PathBuf;
 
@@ -33,32 +34,13 @@ fn blind_plus(
 ) -> (Diagnosis, BlindTruth) {
     let bike_path = root().join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();
-    let (files, truth) = blind_campaign_plus(
-        &lab,
-        "bike.toml",
+    let text = std::fs::read_to_string(&bike_path).unwrap();
+    let case = Case {
         withheld,
         design,
         seed,
-        extra,
-        Draws::Suite,
-    )
-    .unwrap();
-    let dir = scratch(&format!(
-        "{}_{design:?}_{seed}_{}",
-        withheld.label(),
-        extra.len()
-    ));
-    for (p, text) in &files {
-        if p.as_os_str() != "truth.json" {
-            std::fs::write(dir.join(p), text).unwrap();
-        }
-    }
-    std::fs::copy(&bike_path, dir.join("bike.toml")).unwrap();
-    let manifest = RideManifest::load(&dir.join("rides.toml")).unwrap();
-    let model = uncertain::load(&dir.join("bike.toml")).unwrap();
-    let d = diagnose_campaign(&manifest, &model, &|_, _, _| {}).unwrap();
-    std::fs::remove_dir_all(&dir).ok();
-    (d, truth)
+    };
+    diagnose_blind(&lab, &text, case, extra, Draws::Suite).unwrap()
 }
 
 /// The diagnosis found the withheld effect: a significant gap, and the effect first or among
@@ -477,7 +459,6 @@ fn blind_noted_campaigns() {
 /// acceptance's bar) 3 or more happen 4.6 % of the time. The p-values' histogram is printed.
 #[test]
 fn effect_free_campaigns_are_quiet() {
-    use bikeproc::sim::calibration::{run_case, Case};
     let bike_path = root().join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();
     let text = std::fs::read_to_string(&bike_path).unwrap();

@@ -199,7 +199,7 @@ fn gap_calibration(
     }
     let lab = LabBike::load(bike)?;
     let text =
-        calibration::bike_text(bike).with_context(|| format!("reading {}", bike.display()))?;
+        std::fs::read_to_string(bike).with_context(|| format!("reading {}", bike.display()))?;
     let cases: Vec<calibration::Case> = calibration::cases(campaigns, controls)
         .into_iter()
         .filter(|c| only.is_empty() || only.iter().any(|o| o == c.withheld.label()))

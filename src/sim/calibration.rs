@@ -9,12 +9,11 @@
 //! alone (`gap::diagnose_campaign`, as `bikeproc gap` does), and only then compared with its
 //! sealed truth.
 
-use super::campaign::{blind_campaign_plus, BlindDesign, Draws, Withheld};
+use super::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Draws, Withheld};
 use crate::gap::effects::Effect;
 use crate::gap::Diagnosis;
 use crate::inertia::bike::LabBike;
 use std::fmt::Write as _;
-use std::path::Path;
 
 /// One blind campaign to run.
 #[derive(Debug, Clone, Copy)]
@@ -79,27 +78,37 @@ pub fn size_right(effect: Effect, fitted: &[f64], truth: &[f64]) -> bool {
     (f - t).abs() <= 0.3 * scale
 }
 
-/// Simulates one blind campaign into a scratch folder, diagnoses it, and compares.
-pub fn run_case(lab: &LabBike, bike_text: &str, case: Case) -> Result<CaseResult, String> {
+/// Simulates a blind campaign ([`blind_campaign_plus`]: `extra_speeds_mps` rides after its
+/// own, `draws` its sizes) into a scratch folder beside the measured bicycle's text, and
+/// diagnoses it from the logs and the manifest alone, as `bikeproc gap` does; the sealed
+/// truth is not written there. The folder is removed afterwards.
+pub fn diagnose_blind(
+    lab: &LabBike,
+    bike_text: &str,
+    case: Case,
+    extra_speeds_mps: &[f64],
+    draws: Draws,
+) -> Result<(Diagnosis, BlindTruth), String> {
     let (files, truth) = blind_campaign_plus(
         lab,
         "bike.toml",
         case.withheld,
         case.design,
         case.seed,
-        &[],
-        Draws::Broad,
+        extra_speeds_mps,
+        draws,
     )
     .map_err(|e| e.to_string())?;
     let dir = std::env::temp_dir().join(format!(
-        "bikeproc_calibration_{}_{}_{:?}_{}",
+        "bikeproc_blind_{}_{}_{:?}_{}_{}_{draws:?}",
         std::process::id(),
         case.withheld.label(),
         case.design,
-        case.seed
+        case.seed,
+        extra_speeds_mps.len()
     ));
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let result = (|| {
+    let diagnosis = (|| {
         for (p, text) in &files {
             if p.as_os_str() != "truth.json" {
                 std::fs::write(dir.join(p), text).map_err(|e| e.to_string())?;
@@ -113,7 +122,12 @@ pub fn run_case(lab: &LabBike, bike_text: &str, case: Case) -> Result<CaseResult
         crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}).map_err(|e| e.to_string())
     })();
     std::fs::remove_dir_all(&dir).ok();
-    let d = result?;
+    Ok((diagnosis?, truth))
+}
+
+/// One campaign of the calibration: simulated with [`Draws::Broad`], diagnosed, compared.
+pub fn run_case(lab: &LabBike, bike_text: &str, case: Case) -> Result<CaseResult, String> {
+    let (d, truth) = diagnose_blind(lab, bike_text, case, &[], Draws::Broad)?;
     Ok(compare(&d, case, truth.params))
 }
 
@@ -364,11 +378,6 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
         }
     }
     md
-}
-
-/// The bicycle file's text, for the scratch folders.
-pub fn bike_text(path: &Path) -> std::io::Result<String> {
-    std::fs::read_to_string(path)
 }
 
 #[cfg(test)]
