@@ -9,13 +9,14 @@
 //! on Rosenbrock's function from (−1.2, 1) it reaches f = 1.2e-12 in 12.2 µs against argmin's
 //! 8.0e-13 in 36.2 µs (medians).
 
-use super::effects::{linear_bike, predict_weave, specs, Effect};
+use super::effects::{linear_bike_assuming, predict_weave, specs, Assumed, Effect};
 use super::Observation;
 use crate::model::Benchmark;
 use nalgebra::{Complex, DMatrix, DVector};
 
 /// A campaign ready to fit: the rides, the measured bicycle, each ride's unextended weave (the
 /// branch to follow) and the covariance of the residuals.
+#[derive(Clone)]
 pub struct Campaign<'a> {
     pub obs: &'a [Observation],
     pub base: &'a Benchmark,
@@ -29,6 +30,9 @@ pub struct Campaign<'a> {
     pub cov: DMatrix<f64>,
     /// Its inverse, made on the first leave-one-out subset ([`Campaign::leave_one_out`]).
     pub inverse: std::sync::OnceLock<Option<DMatrix<f64>>>,
+    /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
+    /// fits owe to them, [`assumed_se`]).
+    pub assumed: Assumed,
 }
 
 /// χ² of a subset of rides.
@@ -63,7 +67,7 @@ impl<'a> Campaign<'a> {
         params: &[f64],
         rides: &[usize],
     ) -> Option<DVector<f64>> {
-        let bike = linear_bike(self.base, &self.control, effects, params);
+        let bike = linear_bike_assuming(self.base, &self.control, effects, params, self.assumed);
         let p = self.parts;
         let mut r = DVector::zeros(p * rides.len());
         for (k, &i) in rides.iter().enumerate() {
@@ -564,6 +568,39 @@ pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) ->
             })
             .collect(),
         None => vec![f64::NAN; n],
+    }
+}
+
+/// The standard errors that `fit`'s parameters owe to what the library assumes (the tyres'
+/// camber stiffness, for candidates with [`Effect::Tyres`]; zeros for the others): refitted
+/// with the camber one standard deviation ([`super::effects::CAMBER_SE_PER_RAD`]) either side,
+/// half the parameters' change. Added in quadrature to [`param_se`] they make the error of a
+/// parameter fitted in place of an unknown one (Gauss's propagation through the fit's
+/// implicit function, by a central difference a standard deviation wide).
+pub fn assumed_se(campaign: &Campaign<'_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
+    let n = fit.params.len();
+    if !effects.contains(&Effect::Tyres) {
+        return vec![0.0; n];
+    }
+    let (lo, hi) = bounds(effects);
+    let step: Vec<f64> = (0..n).map(|i| 0.05 * (hi[i] - lo[i])).collect();
+    let refit = |sign: f64| -> Option<Vec<f64>> {
+        let shifted = Campaign {
+            assumed: Assumed {
+                camber_per_rad: campaign.assumed.camber_per_rad
+                    + sign * super::effects::CAMBER_SE_PER_RAD,
+            },
+            inverse: std::sync::OnceLock::new(),
+            ..campaign.clone()
+        };
+        let subset = shifted.subset((0..campaign.obs.len()).collect())?;
+        let cache = ResidualCache::new(&shifted, effects);
+        let f = refit_near(&subset, &cache, &fit.params, &step);
+        f.chi2.is_finite().then_some(f.params)
+    };
+    match (refit(1.0), refit(-1.0)) {
+        (Some(up), Some(down)) => (0..n).map(|i| 0.5 * (up[i] - down[i]).abs()).collect(),
+        _ => vec![f64::NAN; n],
     }
 }
 

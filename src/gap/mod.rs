@@ -347,6 +347,7 @@ pub fn diagnose(
         parts,
         cov: &exp_cov + &model_cov,
         inverse: std::sync::OnceLock::new(),
+        assumed: effects::Assumed::NOMINAL,
     };
     d.parts_per_ride = parts;
     d.dof = parts * n;

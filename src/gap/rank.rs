@@ -5,7 +5,7 @@
 //! order the verdict names them ([`Ranked`]).
 
 use super::effects::{self, Effect};
-use super::fit::{fit_effects, param_se, refit_near, Campaign, ResidualCache};
+use super::fit::{assumed_se, fit_effects, param_se, refit_near, Campaign, ResidualCache};
 use super::{linear, GapError, Observation, CLOSED_RMS, PAIR_GAIN_CHI2, PAIR_POOL, PLAUSIBLE_SE};
 use nalgebra::Complex;
 
@@ -178,7 +178,11 @@ pub(super) fn rank(
         let effects = effects.to_vec();
         let full = campaign.subset((0..n).collect())?;
         let f = fit_effects(&full, &effects);
-        let se = param_se(&full, &effects, &f);
+        let se: Vec<f64> = param_se(&full, &effects, &f)
+            .iter()
+            .zip(assumed_se(campaign, &effects, &f))
+            .map(|(s, a)| s.hypot(a))
+            .collect();
         let (whitened, heldout_params) = heldout(campaign, &effects, &f.params);
         let per_ride: Vec<f64> = whitened
             .iter()

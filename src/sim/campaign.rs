@@ -668,7 +668,8 @@ pub enum Withheld {
     None,
     /// Viscous steer damping 0.2–0.5 N·m·s/rad.
     SteerDamping,
-    /// Compliant tyres: cornering 8–14 /rad, camber 0.6 /rad, relaxation 0.1–0.25 m.
+    /// Compliant tyres: cornering 8–14 /rad, camber 0.6 /rad, relaxation 0.1–0.25 m
+    /// ([`Draws::Broad`]: 6–16 /rad, 0.5–1 /rad, 0.05–0.3 m).
     Tyres,
     /// 1.5–3 kg at the front frame's centre of mass.
     FrontMass,
@@ -847,14 +848,20 @@ pub fn blind_campaign_plus(
             vec![c]
         }
         Withheld::Tyres => {
-            let (ca, sigma) = if broad {
-                (rng.range(6.0, 16.0), rng.range(0.05, 0.3))
+            let (ca, sigma, camber) = if broad {
+                // Real tyres' camber stiffness spans 0.5–1 /rad (drum tests); the diagnosis
+                // assumes one value and must carry the others in its errors.
+                (
+                    rng.range(6.0, 16.0),
+                    rng.range(0.05, 0.3),
+                    rng.range(0.5, 1.0),
+                )
             } else {
-                (rng.range(8.0, 14.0), rng.range(0.1, 0.25))
+                (rng.range(8.0, 14.0), rng.range(0.1, 0.25), 0.6)
             };
             effects.tyres = Some(TyreModel {
                 cornering_per_rad: ca,
-                camber_per_rad: 0.6,
+                camber_per_rad: camber,
                 relaxation_length_m: sigma,
             });
             vec![ca, sigma]
