@@ -324,8 +324,8 @@ pub fn diagnose(
         use crate::ride::dynamic::{COASTING_BIAS_COMMON_FRACTION as C, COASTING_BIAS_SE_FRACTION};
         for (i, oi) in rides.iter().enumerate() {
             for (j, oj) in rides.iter().enumerate() {
-                for a in 0..2 {
-                    for b in 0..2 {
+                for a in 0..parts {
+                    for b in 0..parts {
                         let own = if i == j && a == b {
                             COASTING_BIAS_SE_FRACTION.powi(2) * oi.coasting_bias[a].powi(2)
                         } else {

@@ -34,10 +34,10 @@ pub struct Observation {
     /// The window's length (s) and the bicycle's forward acceleration over it (m/s²).
     pub window_s: f64,
     pub window_accel_mps2: f64,
-    /// The correction taken off a coasting ride's eigenvalue for its changing mode shape
-    /// (1/s, `[re, im]`; [`crate::ride::dynamic::coasting_bias`]), 0 otherwise: its error is
-    /// common to the campaign's rides.
-    pub coasting_bias: [f64; 2],
+    /// The correction taken off a coasting ride's eigenvalue and mode shape for its changing
+    /// speed (`[re, im]` in 1/s, `[|γ/θ|, arg]`; [`crate::ride::dynamic::DynamicTest`]), 0
+    /// otherwise: its error is common to the campaign's rides.
+    pub coasting_bias: [f64; 4],
 }
 
 impl Observation {
@@ -106,7 +106,7 @@ impl Observation {
             window: None,
             window_s: b - a,
             window_accel_mps2: 0.0,
-            coasting_bias: [0.0, 0.0],
+            coasting_bias: [0.0; 4],
         })
     }
 }
