@@ -804,6 +804,13 @@ pub fn continuation_svg(
             color: b.color,
             mark: Mark::Dashed,
         });
+        // Below the merge speed the weave is two real roots: both drawn.
+        series.push(Series {
+            name: String::new(),
+            points: pick(1, &|z, _| z.re),
+            color: b.color,
+            mark: Mark::Line,
+        });
         series.push(Series {
             name: label("capsize and castor, real parts"),
             points: pick(2, &|z, _| z.re),
@@ -816,9 +823,9 @@ pub fn continuation_svg(
             color: b.color_real,
             mark: Mark::Line,
         });
-        for k in [0, 2, 3] {
+        for k in [0, 1, 2, 3] {
             for sign in [-2.0, 2.0] {
-                let c = if k == 0 { b.color } else { b.color_real };
+                let c = if k < 2 { b.color } else { b.color_real };
                 series.push(Series {
                     name: String::new(),
                     points: pick(k, &|z, se| z.re + sign * se.0),

@@ -93,8 +93,11 @@ pub enum Command {
         "JSON (--json): {\"bike\", \"weave_speed_mps\", \"weave_speed_se_mps\", ",
         "\"capsize_speed_mps\", \"capsize_speed_se_mps\", \"stable_ranges_mps\", ",
         "\"eigenvalues\": [{\"speed_mps\", \"weave\": {\"re\", \"im\", \"re_se\", \"im_se\"}, ",
-        "\"capsize\", \"castor\", \"weave_steer_over_roll\", \"weave_steer_phase_deg\"}, …]} ",
-        "(eigenvalues in 1/s).\n\n",
+        "\"weave_second\", \"capsize\", \"castor\", \"all\": [{\"re\", \"im\"} ×4], ",
+        "\"weave_steer_over_roll\", \"weave_steer_phase_deg\"}, …]} (eigenvalues in 1/s). ",
+        "Every speed carries all four eigenvalues (`all`); the named ones are the weave's two (a ",
+        "complex pair, or below the merge speed two real roots), capsize and castor (at low speed ",
+        "possibly one complex pair).\n\n",
         "Exit codes: 0 done; 2 the bicycle file is malformed or gives no dynamics; 1 anything else."
     ))]
     Stability(StabilityArgs),

@@ -4,17 +4,34 @@ use super::uncertain::{Bands, SpeedsWithSe};
 use serde::Serialize;
 use std::fmt::Write as _;
 
-/// One speed's eigenvalues, named.
+/// One speed's eigenvalues, named, and all four.
 #[derive(Debug, Clone, Serialize)]
 pub struct EigenRow {
     pub speed_mps: f64,
+    /// The weave: the eigenvalue with ω > 0 where the weave oscillates; below the speed where
+    /// its two real roots merge ([`StabilityReport::weave_merge_speed_mps`]), the larger of them.
     pub weave: Part,
+    /// The weave's other eigenvalue: its conjugate where it oscillates, the other real root
+    /// below the merge speed.
+    pub weave_second: Part,
+    /// The capsize mode's eigenvalue (real; where capsize and castor form a complex pair at
+    /// low speed, one of that pair, and `castor` the other).
     pub capsize: Part,
     pub castor: Part,
+    /// Every eigenvalue of the model at this speed (four), by decreasing real part, then
+    /// decreasing imaginary part: the named ones above, in another order.
+    pub all: Vec<Eigenvalue>,
     /// The weave's mode shape: |δ/φ| and the phase of steer ahead of roll (deg); absent where
     /// the weave is not oscillatory.
     pub weave_steer_over_roll: Option<f64>,
     pub weave_steer_phase_deg: Option<f64>,
+}
+
+/// An eigenvalue (1/s).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Eigenvalue {
+    pub re: f64,
+    pub im: f64,
 }
 
 /// A complex eigenvalue with the standard errors of its parts (1/s).
@@ -102,11 +119,18 @@ impl StabilityReport {
                         .flatten()
                         .filter(|m| m[0].norm() > 0.0);
                     let ratio = shape.map(|m| m[1] / m[0]);
+                    let mut all: Vec<Eigenvalue> = b.sweep.eigenvalues[i]
+                        .iter()
+                        .map(|z| Eigenvalue { re: z.re, im: z.im })
+                        .collect();
+                    all.sort_by(|a, b| b.re.total_cmp(&a.re).then(b.im.total_cmp(&a.im)));
                     EigenRow {
                         speed_mps: v,
                         weave: part(i, 0),
+                        weave_second: part(i, 1),
                         capsize: part(i, 2),
                         castor: part(i, 3),
+                        all,
                         weave_steer_over_roll: ratio.map(|r| r.norm()),
                         weave_steer_phase_deg: ratio.map(|r| r.arg().to_degrees()),
                     }
@@ -157,31 +181,33 @@ impl StabilityReport {
         }
         let _ = writeln!(
             s,
-            "\n  {:>8}  {:>26}  {:>12}  {:>12}",
-            "v (m/s)", "weave (1/s)", "capsize", "castor"
+            "\n  {:>8}  {:>26}  {:>26}",
+            "v (m/s)", "weave (1/s)", "capsize, castor (1/s)"
         );
         let every = (self.eigenvalues.len() / 20).max(1);
         for r in self.eigenvalues.iter().step_by(every) {
             let _ = writeln!(
                 s,
-                "  {:>8.3}  {:>12.5} {:>+12.5}i  {:>12.5}{}  {:>12.5}{}",
+                "  {:>8.3}  {:>26}  {:>26}",
                 r.speed_mps,
-                r.weave.re,
-                r.weave.im,
-                r.capsize.re,
-                if r.capsize.im.abs() > 1e-9 {
-                    format!(" {:+.3}i", r.capsize.im)
-                } else {
-                    String::new()
-                },
-                r.castor.re,
-                if r.castor.im.abs() > 1e-9 {
-                    format!(" {:+.3}i", r.castor.im)
-                } else {
-                    String::new()
-                },
+                pair_text(&r.weave, &r.weave_second),
+                pair_text(&r.capsize, &r.castor),
             );
         }
+        let _ = writeln!(
+            s,
+            "\n  A pair is two real roots (a, b) or one complex pair (a ± bi): below the weave's \
+             merge speed its two real roots; at low speed capsize and castor may join in a pair."
+        );
         s
+    }
+}
+
+/// Two eigenvalues as text: `re ± im i` when they are a complex pair, `a, b` when real.
+fn pair_text(a: &Part, b: &Part) -> String {
+    if a.im.abs() > 1e-9 {
+        format!("{:.5} ± {:.5}i", a.re, a.im.abs())
+    } else {
+        format!("{:.5}, {:.5}", a.re.max(b.re), a.re.min(b.re))
     }
 }
