@@ -247,3 +247,25 @@ fn every_subcommand_help_has_an_example_and_the_exit_codes() {
         "{out}"
     );
 }
+
+/// Issue 31 item 2: a noted speed the log's own measure contradicts (14, ride_03's 3.9 m/s
+/// noted in km/h; 9, another ride's) is refused with exit 2 and a hint; the right reading is
+/// taken. The kinematic speed's error is a tenth of the speed, so 10 combined errors is a
+/// reading about twice the speed.
+#[test]
+fn a_noted_speed_the_log_contradicts_is_refused_with_a_hint() {
+    let ride = root().join("data/ride_03.log");
+    let ride = ride.to_str().unwrap();
+    let (code, _, err) = bikeproc(&["dynamic", ride, "--speed", "14"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("ride_03.log") && err.contains("km/h? 14 km/h is 3.89 m/s"),
+        "{err}"
+    );
+    let (code, _, err) = bikeproc(&["dynamic", ride, "--speed", "9"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("this ride's reading"), "{err}");
+    let (code, out, err) = bikeproc(&["dynamic", ride, "--speed", "4.1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.contains("DISAGREE"), "{out}");
+}

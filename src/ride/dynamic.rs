@@ -129,6 +129,9 @@ pub fn dynamic_test(
         steer_axis_tilt_rad: nominal.lambda,
     };
     let sources = SpeedSources::collect(&signals, &fit, options.noted, geometry);
+    if let Some(why) = sources.contradicted_reading() {
+        return Err(ride_err(path, why));
+    }
     let Some((source, best)) = sources.best(options.prefer_sync) else {
         return Err(ride_err(
             path,

@@ -29,6 +29,13 @@ use super::read::{sync_speed, RideSignals};
 /// Sources further apart than this many combined standard errors are reported.
 pub const DISAGREEMENT_SIGMAS: f64 = 3.0;
 
+/// A noted reading further than this many combined standard errors from every speed the log
+/// itself measures (`Sync`, the kinematic speed) is refused: not a speedometer's error but a
+/// reading in another unit or of another ride. The kinematic speed's error holds a tenth of
+/// the speed for tyre slip ([`SLIP_FRACTION`]), so a reading 10 of them off is off by about
+/// twice the speed.
+pub const NOTED_CONTRADICTION_SIGMAS: f64 = 10.0;
+
 /// The kinematic speed's systematic standard error from tyre slip, as a fraction of the speed.
 /// Measured on 100 simulated coasting rides with compliant tyres (cornering 11 /rad, camber
 /// 0.6 /rad, relaxation 0.18 m) and steer damping: the kinematic speed came out 9.9 % ± 4.1 %
@@ -229,6 +236,46 @@ impl SpeedSources {
             }
         }
         out
+    }
+
+    /// Why the noted reading cannot be this ride's speed in m/s: the log's own measure (the
+    /// closest to it) lies more than [`NOTED_CONTRADICTION_SIGMAS`] combined standard errors
+    /// away; with a hint (a reading in km/h, a ride mixed up). `None` when it agrees or nothing
+    /// measures it.
+    pub fn contradicted_reading(&self) -> Option<String> {
+        let noted = self.noted?;
+        let (name, measured, z) = [
+            (SpeedSource::Sync, self.sync),
+            (SpeedSource::Kinematic, self.kinematic),
+        ]
+        .into_iter()
+        .filter_map(|(n, e)| {
+            let e = e?;
+            let z =
+                (noted.estimate.speed_mps - e.speed_mps) / noted.estimate.se_mps.hypot(e.se_mps);
+            Some((n.name(), e, z))
+        })
+        .min_by(|a, b| a.2.abs().total_cmp(&b.2.abs()))?;
+        if z.abs() <= NOTED_CONTRADICTION_SIGMAS || !z.is_finite() {
+            return None;
+        }
+        let reading = noted.reading.speed_mps;
+        let ratio = noted.estimate.speed_mps / measured.speed_mps;
+        let hint = if (ratio / 3.6 - 1.0).abs() < 0.2 {
+            format!(
+                "was the reading in km/h? {reading} km/h is {:.2} m/s; give --speed in m/s",
+                reading / 3.6
+            )
+        } else {
+            "is it this ride's reading (rides mixed up, or the speedometer's of another run)?"
+                .to_string()
+        };
+        Some(format!(
+            "the noted speed {reading} m/s (carried to the kick: {:.3} ± {:.3} m/s) is {z:+.1} \
+             combined standard errors from the {name} speed the log measures, {:.3} ± {:.3} m/s: \
+             {hint}",
+            noted.estimate.speed_mps, noted.estimate.se_mps, measured.speed_mps, measured.se_mps
+        ))
     }
 
     /// The sources present, by name, best first.
