@@ -1358,6 +1358,18 @@ impl Oscillation {
     }
 }
 
+/// `value ± se` with at least `decimals` decimals, and more where the standard error needs
+/// them to show two significant digits (ζ = 0.005800 ± 0.0000021, not 0.00580 ± 0.00000).
+fn with_se(value: f64, se: f64, decimals: usize) -> String {
+    let needed = if se.is_finite() && se > 0.0 {
+        (1.0 - se.log10().floor()).max(0.0) as usize
+    } else {
+        0
+    };
+    let d = decimals.max(needed.min(12));
+    format!("{value:.d$} ± {se:.d$}")
+}
+
 impl OscillationSummary {
     /// The plain-text form printed by `bikeproc period`.
     pub fn to_text(&self, source: &std::path::Path) -> String {
@@ -1378,14 +1390,16 @@ impl OscillationSummary {
         format!(
             "{}: {}\n\
              free decay       {:.2} – {:.2} s ({} samples{})\n\
-             damped period    T  = {:.6} ± {:.6} s\n\
-             damped freq      f_d = {:.6} ± {:.6} Hz\n\
-             natural freq     f_n = {:.6} ± {:.6} Hz\n\
-             damping ratio    ζ  = {:.5} ± {:.5}\n\
+             damped period    T  = {} s\n\
+             damped freq      f_d = {} Hz\n\
+             natural freq     f_n = {} Hz\n\
+             damping ratio    ζ  = {}\n\
              amplitude        {:.5} ± {:.5}{unit} at the segment's start\n\
              residual RMS     {:.3e}{unit}\n\
              FFT peak         {:.5} Hz (bin {:.5} Hz)\n\
-             secondary peaks  {peaks}\n",
+             secondary peaks  {peaks}\n\
+             errors           this recording's noise alone; repeats of a set-up scatter more \
+             (`bikeproc inertia` takes their spread)\n",
             source.display(),
             self.signal,
             self.segment_s[0],
@@ -1396,14 +1410,10 @@ impl OscillationSummary {
             } else {
                 ""
             },
-            self.period_s,
-            self.period_se_s,
-            self.freq_hz,
-            self.freq_se_hz,
-            self.natural_freq_hz,
-            self.natural_freq_se_hz,
-            self.damping_ratio,
-            self.damping_ratio_se,
+            with_se(self.period_s, self.period_se_s, 6),
+            with_se(self.freq_hz, self.freq_se_hz, 6),
+            with_se(self.natural_freq_hz, self.natural_freq_se_hz, 6),
+            with_se(self.damping_ratio, self.damping_ratio_se, 5),
             self.amplitude,
             self.amplitude_se,
             self.residual_rms,
@@ -1451,6 +1461,14 @@ pub fn crb_omega_variance(amplitude: f64, sigma: f64, dt_s: f64, n: usize, noise
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_value_shows_its_standard_error_to_two_digits() {
+        assert_eq!(with_se(0.0058048, 4.4e-6, 5), "0.0058048 ± 0.0000044");
+        assert_eq!(with_se(1.25, 0.01, 2), "1.250 ± 0.010");
+        assert_eq!(with_se(1.25, 0.2, 6), "1.250000 ± 0.200000");
+        assert_eq!(with_se(1.25, f64::NAN, 3), "1.250 ± NaN");
+    }
 
     #[test]
     fn trials_group_by_their_set_up() {

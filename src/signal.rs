@@ -216,10 +216,13 @@ pub struct CsvTable {
 }
 
 impl CsvTable {
-    /// Reads a CSV with a header row; every row must have the header's number of fields.
+    /// Reads a CSV with a header row; every row must have the header's number of fields. A
+    /// first row of numbers only is no header but the first sample: the columns are then named
+    /// `column 1`, `column 2`, … (a file written without its header row loses no sample and
+    /// gets no number for a name).
     pub fn read<R: std::io::Read>(reader: R, path: &Path) -> Result<CsvTable, SignalError> {
         let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(true)
+            .has_headers(false)
             .trim(csv::Trim::All)
             .from_reader(reader);
         let err = |line: u64, column: usize, message: String| SignalError::Csv {
@@ -228,14 +231,24 @@ impl CsvTable {
             column,
             message,
         };
-        let headers: Vec<String> = rdr
-            .headers()
-            .map_err(|e| err(1, 1, e.to_string()))?
-            .iter()
-            .map(str::to_string)
-            .collect();
-        let mut rows = Vec::new();
-        for rec in rdr.records() {
+        let mut records = rdr.records();
+        let first = match records.next() {
+            Some(r) => r.map_err(|e| err(1, 1, e.to_string()))?,
+            None => csv::StringRecord::new(),
+        };
+        let numbers_only = !first.is_empty()
+            && first
+                .iter()
+                .all(|f| f.parse::<f64>().is_ok_and(|x| x.is_finite()));
+        let (headers, mut rows): (Vec<String>, Vec<(u64, csv::StringRecord)>) = if numbers_only {
+            (
+                (1..=first.len()).map(|k| format!("column {k}")).collect(),
+                vec![(first.position().map_or(1, |p| p.line()), first)],
+            )
+        } else {
+            (first.iter().map(str::to_string).collect(), Vec::new())
+        };
+        for rec in records {
             let rec = rec.map_err(|e| {
                 let line = e.position().map_or(0, |p| p.line());
                 err(line, 1, e.to_string())

@@ -269,3 +269,28 @@ fn a_noted_speed_the_log_contradicts_is_refused_with_a_hint() {
     assert_eq!(code, 0, "{err}");
     assert!(!out.contains("DISAGREE"), "{out}");
 }
+
+/// Issue 31: a CSV written without its header row is read from its first row: the same
+/// period as with the header, every sample kept (1,001), the value column named by position.
+#[test]
+fn a_csv_without_its_header_row_loses_no_sample() {
+    let with =
+        root().join("../shared/reference/signals/resonance_wheel_radial_torsional_500hz.csv");
+    let text = std::fs::read_to_string(&with).unwrap();
+    let dir = std::env::temp_dir().join(format!("bikeproc_nohdr_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let without = dir.join("no_header.csv");
+    std::fs::write(&without, text.split_once('\n').unwrap().1).unwrap();
+    let json = |p: &Path| {
+        let (code, out, err) = bikeproc(&["period", p.to_str().unwrap(), "--json"]);
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str::<serde_json::Value>(&out).unwrap()
+    };
+    let (a, b) = (json(&with), json(&without));
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(a["period_s"], b["period_s"]);
+    assert_eq!(a["samples"], b["samples"]);
+    let (code, out, _) = bikeproc(&["period", with.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(out.contains("(1001 samples"), "{out}");
+}
