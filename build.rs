@@ -13,12 +13,21 @@ fn main() {
         .map(|s| format!("commit {}", s.trim()))
         .unwrap_or_else(|| "unknown commit".into());
     println!("cargo:rustc-env=BIKEPROC_BUILD={describe}");
-    // Rebuilt when the checkout moves to another commit.
-    println!("cargo:rerun-if-changed=.git/HEAD");
-    println!("cargo:rerun-if-changed=.git/packed-refs");
+    // Rebuilt when the checkout moves to another commit. Only files that exist are named: cargo
+    // reruns a build script on every build while a file it names is missing (a fresh clone
+    // often has no `.git/packed-refs`, or its branch only there), and with no file named at
+    // all, on any change in the package.
+    println!("cargo:rerun-if-changed=build.rs");
+    let watch = |path: &str| {
+        if std::path::Path::new(path).exists() {
+            println!("cargo:rerun-if-changed={path}");
+        }
+    };
+    watch(".git/HEAD");
+    watch(".git/packed-refs");
     if let Ok(head) = std::fs::read_to_string(".git/HEAD") {
         if let Some(r) = head.trim().strip_prefix("ref: ") {
-            println!("cargo:rerun-if-changed=.git/{r}");
+            watch(&format!(".git/{r}"));
         }
     }
 }
