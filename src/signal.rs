@@ -223,6 +223,7 @@ impl CsvTable {
     pub fn read<R: std::io::Read>(reader: R, path: &Path) -> Result<CsvTable, SignalError> {
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(false)
+            .flexible(true)
             .trim(csv::Trim::All)
             .from_reader(reader);
         let err = |line: u64, column: usize, message: String| SignalError::Csv {
@@ -236,6 +237,15 @@ impl CsvTable {
             Some(r) => r.map_err(|e| err(1, 1, e.to_string()))?,
             None => csv::StringRecord::new(),
         };
+        if first.len() == 1 && first.get(0).is_some_and(|f| f.contains(';')) {
+            return Err(err(
+                1,
+                1,
+                "fields separated by ';' (a spreadsheet's export for decimal commas?): bikeproc \
+                 reads comma-separated values with a point as the decimal mark"
+                    .into(),
+            ));
+        }
         let numbers_only = !first.is_empty()
             && first
                 .iter()
@@ -255,10 +265,16 @@ impl CsvTable {
             })?;
             let line = rec.position().map_or(0, |p| p.line());
             if rec.len() != headers.len() {
+                let hint = if rec.len() > headers.len() {
+                    " (decimal commas? bikeproc reads a point as the decimal mark and a comma \
+                     between fields)"
+                } else {
+                    ""
+                };
                 return Err(err(
                     line,
                     1,
-                    format!("{} fields, expected {}", rec.len(), headers.len()),
+                    format!("{} fields, expected {}{hint}", rec.len(), headers.len()),
                 ));
             }
             rows.push((line, rec));

@@ -294,3 +294,76 @@ fn a_csv_without_its_header_row_loses_no_sample() {
     assert_eq!(code, 0);
     assert!(out.contains("(1001 samples"), "{out}");
 }
+
+/// Issue 31 item 3: an input given to a command that does not read its kind is recognised by
+/// its content and told what it is and which command reads it, with exit code 2.
+#[test]
+fn inputs_of_the_wrong_kind_are_named_with_the_command_that_reads_them() {
+    let cases: [(&[&str], &str); 12] = [
+        (&["inertia", "data/ride_03.log"], "a ride's IMU log"),
+        (
+            &["gap", "data/ride_03.log"],
+            "use `bikeproc dynamic data/ride_03.log`",
+        ),
+        (
+            &["stability", "--bike", "data/rides.toml"],
+            "use `bikeproc gap data/rides.toml`",
+        ),
+        (
+            &[
+                "stability",
+                "--bike",
+                "data/lab_bike.toml",
+                "--controller",
+                "data/rides.toml",
+            ],
+            "without a [controller] table",
+        ),
+        (&["dynamic", "data/"], "this is a folder"),
+        (
+            &["dynamic", "data/frame_torsion/frame_torsion_1a.log"],
+            "use `bikeproc period data/frame_torsion/frame_torsion_1a.log`",
+        ),
+        (
+            &["dynamic", "data/ride_03_cal.log"],
+            "use `bikeproc dynamic data/ride_03.log`",
+        ),
+        (
+            &["calibrate-bar", "data/frame_torsion"],
+            "use `bikeproc inertia data/frame_torsion`",
+        ),
+        (
+            &["inertia", "data/bar_calibration"],
+            "use `bikeproc calibrate-bar`",
+        ),
+        (&["measured", "data/lab_bike.toml"], "a lab bicycle file"),
+        (
+            &["period", "fixtures/bad/semicolons.csv"],
+            "separated by ';'",
+        ),
+        (
+            &["period", "fixtures/bad/decimal_commas.csv"],
+            "decimal commas?",
+        ),
+    ];
+    for (args, want) in cases {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .args(args)
+            .current_dir(root())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+    }
+    // `report` away from a checkout says where to run it.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+        .arg("report")
+        .current_dir(std::env::temp_dir())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("in the checkout's top folder"), "{err}");
+}

@@ -2,7 +2,9 @@
 model's eigenvalues against speed (real parts, and the weave's imaginary part), the self-stable
 range shaded, and each ride's measured weave eigenvalue with its standard errors at its speed.
 
-Everything computed comes from bikeproc's core; this script only draws. Runs without a display:
+Everything computed comes from bikeproc's core; this script only draws. Needs matplotlib
+(``pip install './python[examples]'``). Runs without a display and writes OUT.png, by default
+``continuation.png`` in the folder it is run from:
 
     python python/examples/continuation.py [OUT.png]
 """
@@ -19,7 +21,7 @@ import numpy as np  # noqa: E402
 import bikeproc  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
-out = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "continuation.png")
+out = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "continuation.png").resolve()
 
 bike = bikeproc.Bicycle.from_file(DATA / "lab_bike.toml")
 speeds = np.linspace(0.0, 10.0, 2001)

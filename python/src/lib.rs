@@ -319,6 +319,59 @@ impl Bicycle {
         to_python(py, &report)
     }
 
+    /// ``stability`` as arrays for a notebook: a dict of ``speeds_mps`` (n,), ``eigenvalues``
+    /// (n, 4) complex, its columns named by ``modes`` (all four at every speed: below the weave's
+    /// merge speed its two real roots), ``re_se`` and ``im_se`` (n, 4) their standard errors
+    /// from the parameters', and the weave and capsize speeds with their standard errors and the
+    /// stable ranges as ``stability`` gives them (searched to ``end`` at 0.01 m/s or ``step``).
+    #[pyo3(signature = (start=0.0, end=10.0, step=0.01))]
+    fn stability_table<'py>(
+        &self,
+        py: Python<'py>,
+        start: f64,
+        end: f64,
+        step: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        check_grid((start, end, step))?;
+        let speeds: Vec<f64> = (0..=((end - start) / step).round() as usize)
+            .map(|i| start + i as f64 * step)
+            .collect();
+        let (bands, s) = py
+            .detach(|| {
+                Ok::<_, bikeproc::model::ParamError>((
+                    self.model.bands(&speeds)?,
+                    self.model.speeds(end, step.min(0.01))?,
+                ))
+            })
+            .map_err(err)?;
+        let n = speeds.len();
+        let table = |f: &dyn Fn(usize, usize) -> f64| -> PyResult<Bound<'py, PyArray2<f64>>> {
+            let flat: Vec<f64> = (0..n).flat_map(|i| (0..4).map(move |k| (i, k))).map(|(i, k)| f(i, k)).collect();
+            Ok(Array2::from_shape_vec((n, 4), flat).map_err(err)?.into_pyarray(py))
+        };
+        let eigen: Vec<Complex64> = bands
+            .sweep
+            .eigenvalues
+            .iter()
+            .flat_map(|row| row.iter().map(|z| Complex64::new(z.re, z.im)))
+            .collect();
+        let d = PyDict::new(py);
+        d.set_item("speeds_mps", numpy::PyArray1::from_vec(py, speeds.clone()))?;
+        d.set_item(
+            "eigenvalues",
+            Array2::from_shape_vec((n, 4), eigen).map_err(err)?.into_pyarray(py),
+        )?;
+        d.set_item("re_se", table(&|i, k| bands.se[i][k].0)?)?;
+        d.set_item("im_se", table(&|i, k| bands.se[i][k].1)?)?;
+        d.set_item("modes", self.modes()?)?;
+        d.set_item("weave_speed_mps", s.stability.weave_speed_mps)?;
+        d.set_item("weave_speed_se_mps", s.weave_speed_se_mps)?;
+        d.set_item("capsize_speed_mps", s.stability.capsize_speed_mps)?;
+        d.set_item("capsize_speed_se_mps", s.capsize_speed_se_mps)?;
+        d.set_item("stable_ranges_mps", s.stability.stable_ranges_mps.clone())?;
+        Ok(d)
+    }
+
     /// The speed ranges (m/s) where the bicycle is self-stable, searched to ``end`` at 0.01
     /// m/s: a list of dicts ``low_mps``, ``high_mps`` (None when still stable at ``end``).
     #[pyo3(signature = (end=10.0))]

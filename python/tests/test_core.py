@@ -101,6 +101,21 @@ def test_bicycle_stability_is_the_commands(cli, bike):
     assert b.stable_range() == [
         {"low_mps": lo, "high_mps": hi} for lo, hi in report["stable_ranges_mps"]
     ]
+    # The same as arrays: every eigenvalue and standard error of the command's rows.
+    table = b.stability_table(0.0, 10.0, 0.5)
+    rows = report["eigenvalues"]
+    assert table["speeds_mps"].tolist() == [r["speed_mps"] for r in rows]
+    assert table["eigenvalues"].shape == (len(rows), 4)
+    named = dict(zip(table["modes"], range(4)))
+    for i, r in enumerate(rows):
+        got = sorted(table["eigenvalues"][i].tolist(), key=lambda z: (-z.real, -z.imag))
+        assert got == [complex(e["re"], e["im"]) for e in r["all"]]
+        weave = named["Weave"]
+        assert table["eigenvalues"][i, weave] == complex(r["weave"]["re"], r["weave"]["im"])
+        assert table["re_se"][i, weave] == r["weave"]["re_se"]
+        assert table["im_se"][i, named["Capsize"]] == r["capsize"]["im_se"]
+    assert table["weave_speed_mps"] == report["weave_speed_mps"]
+    assert [list(x) for x in table["stable_ranges_mps"]] == [list(x) for x in report["stable_ranges_mps"]]
     assert b.weave_speed() == {"value": report["weave_speed_mps"], "se": report["weave_speed_se_mps"]}
     assert b.capsize_speed() == {
         "value": report["capsize_speed_mps"],

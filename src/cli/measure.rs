@@ -6,6 +6,7 @@ use super::io::{advance, emit, progress, write_atomic};
 use anyhow::{bail, Context, Result};
 use bikeproc::fit::{self, FitOptions, PeriodBatch};
 use bikeproc::inertia::{self, text};
+use bikeproc::kind::{self, Kind};
 use bikeproc::signal::Extract;
 use bikeproc::uncertainty::Measured;
 use std::path::{Path, PathBuf};
@@ -92,6 +93,11 @@ fn trial_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
 }
 
 pub fn calibrate_bar(a: CalibrateArgs) -> Result<()> {
+    kind::expect(
+        &a.dir,
+        &|k| matches!(k, Kind::TestFolder(t) | Kind::TestManifest(t) if t == "bar_calibration" || t == "empty_fixture"),
+        "a bar-calibration folder",
+    )?;
     let cal = inertia::calibrate_bar(&a.dir)?;
     let out = a.dir.join(inertia::CALIBRATION_FILE);
     write_atomic(&out, cal.to_toml().as_bytes())?;
@@ -118,6 +124,16 @@ pub fn inertia(a: InertiaArgs) -> Result<()> {
         return Ok(());
     }
     let dir = a.dir.unwrap_or_default();
+    kind::expect(
+        &dir,
+        &|k| {
+            matches!(
+                k,
+                Kind::TestFolder(_) | Kind::TestManifest(_) | Kind::Folder
+            )
+        },
+        "a pendulum test folder",
+    )?;
     let r = inertia::analyse_folder(&dir, &a.orientations)?;
     for w in r.warnings() {
         eprintln!("warning: {w}");
@@ -126,6 +142,11 @@ pub fn inertia(a: InertiaArgs) -> Result<()> {
 }
 
 pub fn measured(a: MeasuredArgs) -> Result<()> {
+    kind::expect(
+        &a.file,
+        &|k| matches!(k, Kind::MeasuredBicycle),
+        "a bicycle's raw measurements",
+    )?;
     let bike = inertia::measured::MeasuredBicycle::load(&a.file)?;
     let report = bike.report(10.0, 0.01)?;
     if let Some(out) = &a.out {

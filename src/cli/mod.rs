@@ -45,6 +45,15 @@ fn run(cli: Cli) -> Result<()> {
         Command::Gap(a) => ride::gap(a),
         Command::Simulate(s) => simulate::simulate(s),
         Command::Report(r) => {
+            if !r.data.join("rides.toml").is_file() {
+                return Err(bikeproc::kind::WrongKind(format!(
+                    "{}: no lab data here (its rides.toml is missing): run `bikeproc report` in \
+                     the checkout's top folder, or name the folders with --data, --reference \
+                     and --out",
+                    r.data.display()
+                ))
+                .into());
+            }
             let written = bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| {
                 eprintln!("{m}")
             })?;
@@ -68,5 +77,6 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             || c.is::<bikeproc::ride::RideError>()
             || c.is::<bikeproc::model::control::ControlError>()
             || c.is::<NoRideAnalysed>()
+            || c.is::<bikeproc::kind::WrongKind>()
     })
 }

@@ -6,12 +6,18 @@ use super::io::{advance, emit, progress};
 use super::model::load_model;
 use super::NoRideAnalysed;
 use anyhow::Result;
+use bikeproc::kind::{self, Kind};
 use bikeproc::ride::csv::{self, KickReport};
 use bikeproc::ride::dynamic::{self, DynamicOptions, RideManifest};
 use bikeproc::ride::modal::ModalOptions;
 use bikeproc::ride::speed::NotedReading;
 
 pub fn gap(a: GapArgs) -> Result<()> {
+    kind::expect(
+        &a.file,
+        &|k| matches!(k, Kind::RideManifest),
+        "a campaign of rides",
+    )?;
     let manifest = RideManifest::load(&a.file)?;
     let model = manifest.model(a.bike.as_deref())?;
     let bar = progress(a.json);
@@ -31,6 +37,11 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
         resamples: a.resamples as usize,
         ..ModalOptions::default()
     };
+    kind::expect(
+        &a.file,
+        &|k| matches!(k, Kind::RideAngles | Kind::RideManifest | Kind::Table),
+        "a ride (its angles log, a CSV of its signals, or a campaign's rides manifest)",
+    )?;
     let extension = a.file.extension().and_then(|e| e.to_str());
     if extension.is_some_and(|e| e.eq_ignore_ascii_case("csv")) {
         return csv_ride(&a, &modal);

@@ -304,11 +304,23 @@ impl Diagnosis {
             }
             return out;
         }
+        let rides = if self.rides_failed.is_empty() {
+            format!("{} rides", self.rides_used)
+        } else {
+            format!(
+                "{} of {} rides; {} not analysed",
+                self.rides_used,
+                self.rides_used + self.rides_failed.len(),
+                self.rides_failed.len()
+            )
+        };
         let _ = writeln!(
             out,
-            "Where: experiment − model, in combined standard errors ({} rides)",
-            self.rides_used
+            "Where: experiment − model, in combined standard errors ({rides})"
         );
+        for f in &self.rides_failed {
+            let _ = writeln!(out, "  not analysed: {f}");
+        }
         let _ = writeln!(
             out,
             "  {:<10} {:>9} {:>18} {:>6} {:>18} {:>6} {:>18} {:>6} {:>16} {:>6}",
@@ -391,9 +403,6 @@ impl Diagnosis {
                 r.heldout_rms_after,
                 if r.plausible { "yes" } else { "no" }
             );
-        }
-        for f in &self.rides_failed {
-            let _ = writeln!(out, "  not analysed: {f}");
         }
         let _ = writeln!(out, "Verdict:");
         for line in self.verdict.lines() {

@@ -1,0 +1,280 @@
+//! What an input is, recognised by its content, never by its name: so that a file given to the
+//! wrong command is told what it is and which command reads it, instead of meeting another
+//! format's parser.
+//!
+//! In: a path (a file or a folder). Out: [`Kind`], with [`Kind::describe`] (what it is, in
+//! words) and [`Kind::command`] (the command that reads it). Only the first few kilobytes of a
+//! file are read; a kind not recognised is [`Kind::Unknown`], and the command's own reader then
+//! says what is wrong.
+
+use std::io::Read as _;
+use std::path::{Path, PathBuf};
+
+/// An input given to a command that does not read its kind: what it is and which command
+/// does, in one line.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct WrongKind(pub String);
+
+/// What an input is.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Kind {
+    /// An IMU log of the frame and handlebar sensors: a ride's angles (orientations) file.
+    RideAngles,
+    /// A ride's calibrated file (`Output mode: Calibrated`, two sensors), read beside its
+    /// angles file.
+    RideCalibrated,
+    /// An IMU log of one sensor: a pendulum recording.
+    PendulumLog,
+    /// A pendulum test manifest (`kind = "torsion"`, `"compound"`, `"bar_calibration"`, …).
+    TestManifest(String),
+    /// A folder holding a pendulum test manifest of that kind.
+    TestFolder(String),
+    /// A campaign of rides (`[[ride]]` tables).
+    RideManifest,
+    /// A lab bicycle (a TOML with a `[geometry]` table).
+    LabBike,
+    /// Benchmark parameters in BicycleParameters' text (`IBxx = 0.53+/-0.002` …) or TOML.
+    Benchmark,
+    /// BicycleParameters' raw measurements (`*Measured.txt`: periods, angles, masses).
+    MeasuredBicycle,
+    /// A steer controller (a `[controller]` table and no rides).
+    Controller,
+    /// A table of named columns (CSV).
+    Table,
+    /// A folder holding none of the above's manifests.
+    Folder,
+    /// Not recognised.
+    Unknown,
+}
+
+impl Kind {
+    /// What it is, in words.
+    pub fn describe(&self) -> String {
+        match self {
+            Kind::RideAngles => "a ride's IMU log (the frame and handlebar sensors' angles)".into(),
+            Kind::RideCalibrated => {
+                "a ride's calibrated IMU log (rates and accelerations), the companion of its \
+                 angles file"
+                    .into()
+            }
+            Kind::PendulumLog => "an IMU log of one sensor (a pendulum recording)".into(),
+            Kind::TestManifest(k) => format!("a pendulum test manifest (kind = \"{k}\")"),
+            Kind::TestFolder(k) => format!("a pendulum test folder (kind = \"{k}\")"),
+            Kind::RideManifest => "a campaign of rides (a rides manifest)".into(),
+            Kind::LabBike => "a lab bicycle file (it has a [geometry] table)".into(),
+            Kind::Benchmark => "a bicycle's benchmark parameters".into(),
+            Kind::MeasuredBicycle => "a bicycle's raw measurements (BicycleParameters)".into(),
+            Kind::Controller => "a steer controller (a [controller] table)".into(),
+            Kind::Table => "a table of time series (CSV)".into(),
+            Kind::Folder => "a folder".into(),
+            Kind::Unknown => "a file of a kind bikeproc does not know".into(),
+        }
+    }
+
+    /// The command that reads it, as the user types it.
+    pub fn command(&self, path: &Path) -> Option<String> {
+        let p = path.display();
+        Some(match self {
+            Kind::RideAngles => format!("bikeproc dynamic {p}"),
+            Kind::RideCalibrated => {
+                let angles = angles_beside(path);
+                format!("bikeproc dynamic {}", angles.display())
+            }
+            Kind::PendulumLog => format!("bikeproc period {p}"),
+            Kind::TestManifest(k) | Kind::TestFolder(k) => {
+                let folder = match self {
+                    Kind::TestManifest(_) => path.parent().unwrap_or(path).display().to_string(),
+                    _ => p.to_string(),
+                };
+                if k == "bar_calibration" || k == "empty_fixture" {
+                    format!("bikeproc calibrate-bar {folder}")
+                } else {
+                    format!("bikeproc inertia {folder}")
+                }
+            }
+            Kind::RideManifest => format!("bikeproc gap {p}"),
+            Kind::LabBike | Kind::Benchmark | Kind::MeasuredBicycle => {
+                format!("bikeproc stability --bike {p}")
+            }
+            Kind::Controller => format!("bikeproc stability --bike BIKE --controller {p}"),
+            Kind::Table => format!("bikeproc period {p}"),
+            Kind::Folder => {
+                let rides = path.join("rides.toml");
+                if rides.is_file() {
+                    format!("bikeproc gap {}", rides.display())
+                } else {
+                    return None;
+                }
+            }
+            Kind::Unknown => return None,
+        })
+    }
+}
+
+/// A ride's angles file beside its calibrated one (`ride_03_cal.log` → `ride_03.log`).
+pub fn angles_beside(calibrated: &Path) -> PathBuf {
+    let stem = calibrated
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let stem = stem.strip_suffix("_cal").unwrap_or(&stem);
+    let mut name = stem.to_string();
+    if let Some(ext) = calibrated.extension() {
+        name = format!("{name}.{}", ext.to_string_lossy());
+    }
+    calibrated.with_file_name(name)
+}
+
+/// How much of a file is read to recognise it.
+const SNIFF_BYTES: u64 = 16 * 1024;
+
+/// What `path` is (see [`Kind`]); [`Kind::Unknown`] when it cannot be read.
+pub fn recognise(path: &Path) -> Kind {
+    if path.is_dir() {
+        return folder_kind(path);
+    }
+    let Ok(file) = std::fs::File::open(path) else {
+        return Kind::Unknown;
+    };
+    let mut head = Vec::new();
+    if file.take(SNIFF_BYTES).read_to_end(&mut head).is_err() {
+        return Kind::Unknown;
+    }
+    let text = String::from_utf8_lossy(&head);
+    let lines: Vec<&str> = text.lines().map(str::trim).collect();
+    if lines.iter().any(|l| l.starts_with("// Sample rate")) {
+        let sensors = lines.iter().filter(|l| l.starts_with("// Sensor ")).count();
+        let calibrated = lines
+            .iter()
+            .any(|l| l.starts_with("// Output mode") && l.contains("Calibrated"));
+        return match (sensors >= 2, calibrated) {
+            (true, true) => Kind::RideCalibrated,
+            (true, false) => Kind::RideAngles,
+            (false, _) => Kind::PendulumLog,
+        };
+    }
+    let key = |k: &str| {
+        lines
+            .iter()
+            .any(|l| l.split_once('=').is_some_and(|(name, _)| name.trim() == k))
+    };
+    if lines.iter().any(|l| *l == "[[ride]]") {
+        return Kind::RideManifest;
+    }
+    if lines.iter().any(|l| *l == "[geometry]") {
+        return Kind::LabBike;
+    }
+    if let Some(k) = lines.iter().find_map(|l| test_kind(l)) {
+        return Kind::TestManifest(k);
+    }
+    if lines.iter().any(|l| *l == "[controller]") {
+        return Kind::Controller;
+    }
+    if key("IBxx") || key("mB") && key("xB") {
+        return Kind::Benchmark;
+    }
+    if key("TcB1") || key("TxB1") || key("alphaB1") || key("mB") {
+        return Kind::MeasuredBicycle;
+    }
+    if lines
+        .first()
+        .is_some_and(|l| l.contains(',') || l.contains(';'))
+    {
+        return Kind::Table;
+    }
+    Kind::Unknown
+}
+
+/// The `kind = "…"` of a test manifest's line.
+fn test_kind(line: &str) -> Option<String> {
+    let (name, value) = line.split_once('=')?;
+    if name.trim() != "kind" {
+        return None;
+    }
+    let v = value.trim().trim_matches('"').trim();
+    (!v.is_empty()).then(|| v.to_string())
+}
+
+/// A folder's kind: that of the test manifest in it, if any.
+fn folder_kind(path: &Path) -> Kind {
+    let Ok(entries) = std::fs::read_dir(path) else {
+        return Kind::Folder;
+    };
+    let mut tomls: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml") && p.is_file())
+        .collect();
+    tomls.sort();
+    tomls
+        .iter()
+        .find_map(|t| match recognise(t) {
+            Kind::TestManifest(k) => Some(Kind::TestFolder(k)),
+            _ => None,
+        })
+        .unwrap_or(Kind::Folder)
+}
+
+/// The message for `path` given where `wanted` (in words) is expected: what it is, and the
+/// command that reads it. `None` when its kind is among `accepted` or not recognised (the
+/// reader then speaks).
+pub fn mismatch(path: &Path, accepted: &dyn Fn(&Kind) -> bool, wanted: &str) -> Option<String> {
+    let kind = recognise(path);
+    if kind == Kind::Unknown || accepted(&kind) {
+        return None;
+    }
+    let mut message = format!(
+        "{}: this is {}, not {wanted}",
+        path.display(),
+        kind.describe()
+    );
+    if let Some(c) = kind.command(path) {
+        message += &format!("; use `{c}`");
+    } else if kind == Kind::Folder {
+        message += "; give the file itself";
+    }
+    Some(message)
+}
+
+/// `Err(WrongKind)` from [`mismatch`].
+pub fn expect(
+    path: &Path,
+    accepted: &dyn Fn(&Kind) -> bool,
+    wanted: &str,
+) -> Result<(), WrongKind> {
+    match mismatch(path, accepted, wanted) {
+        Some(m) => Err(WrongKind(m)),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data(p: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(p)
+    }
+
+    #[test]
+    fn the_checked_in_inputs_are_recognised() {
+        assert_eq!(recognise(&data("ride_03.log")), Kind::RideAngles);
+        assert_eq!(recognise(&data("ride_03_cal.log")), Kind::RideCalibrated);
+        assert_eq!(
+            recognise(&data("frame_torsion/frame_torsion_1a.log")),
+            Kind::PendulumLog
+        );
+        assert_eq!(
+            recognise(&data("frame_torsion")),
+            Kind::TestFolder("torsion".into())
+        );
+        assert_eq!(
+            recognise(&data("bar_calibration")),
+            Kind::TestFolder("bar_calibration".into())
+        );
+        assert_eq!(recognise(&data("rides.toml")), Kind::RideManifest);
+        assert_eq!(recognise(&data("lab_bike.toml")), Kind::LabBike);
+        assert_eq!(recognise(&data("")), Kind::Folder);
+        assert_eq!(angles_beside(&data("ride_03_cal.log")), data("ride_03.log"));
+    }
+}
