@@ -159,16 +159,16 @@ pub fn recognise(path: &Path) -> Kind {
             .iter()
             .any(|l| l.split_once('=').is_some_and(|(name, _)| name.trim() == k))
     };
-    if lines.iter().any(|l| *l == "[[ride]]") {
+    if lines.contains(&"[[ride]]") {
         return Kind::RideManifest;
     }
-    if lines.iter().any(|l| *l == "[geometry]") {
+    if lines.contains(&"[geometry]") {
         return Kind::LabBike;
     }
     if let Some(k) = lines.iter().find_map(|l| test_kind(l)) {
         return Kind::TestManifest(k);
     }
-    if lines.iter().any(|l| *l == "[controller]") {
+    if lines.contains(&"[controller]") {
         return Kind::Controller;
     }
     if key("IBxx") || key("mB") && key("xB") {
