@@ -57,8 +57,10 @@ pub struct Series {
     pub mark: Mark,
 }
 
-/// A shaded range of x (a stable speed range, a fitted window), labelled in the plot and the
-/// legend.
+/// A shaded range of x (a stable speed range, a fitted window), labelled in the legend. A chart
+/// with one label's shades fills them over its height; with several (two bicycles' stable
+/// ranges), each label's are a strip along the top, one row per label, so that no overlap makes
+/// a colour of its own.
 #[derive(Debug, Clone)]
 pub struct Shade {
     pub from: f64,
@@ -88,6 +90,8 @@ pub struct Chart<'a> {
     /// The y axis' range; curves leaving it are clipped at the frame, not flattened along it.
     /// Without it, the range of the data.
     pub y_range: Option<(f64, f64)>,
+    /// The x axis' range (panels stacked over one x axis share it); without it, the data's.
+    pub x_range: Option<(f64, f64)>,
 }
 
 /// A tick label without "-0.000" and without trailing zeros ("2.5", not "2.500").
@@ -191,8 +195,22 @@ pub fn clip(points: &[(f64, f64)], (y0, y1): (f64, f64)) -> Vec<Vec<(f64, f64)>>
     runs
 }
 
-/// Width of the legend panel at the right of every figure (px): the legend never covers data.
+/// Least width of the legend panel at the right of every figure (px): the legend never covers
+/// data.
 const LEGEND_WIDTH: u32 = 250;
+
+/// The legend panel's width for these entries: the longest label's at 7 px a character (the
+/// 12 px font's widest average) after the 42 px of its swatch, so that no label is cut.
+fn legend_width(series: &[Series], shades: &[Shade]) -> u32 {
+    series
+        .iter()
+        .map(|s| s.name.chars().count())
+        .chain(shades.iter().map(|s| s.label.chars().count()))
+        .map(|n| 42 + 7 * n as u32 + 8)
+        .max()
+        .unwrap_or(0)
+        .max(LEGEND_WIDTH)
+}
 
 /// The data's bounds: x from every series, y from `y_range` or the series.
 fn bounds(c: &Chart) -> (f64, f64, f64, f64) {
@@ -209,6 +227,9 @@ fn bounds(c: &Chart) -> (f64, f64, f64, f64) {
             y0 = y0.min(y);
             y1 = y1.max(y);
         }
+    }
+    if let Some(r) = c.x_range {
+        (x0, x1) = r;
     }
     if x0.partial_cmp(&x1) != Some(std::cmp::Ordering::Less) {
         (x0, x1) = (0.0, 1.0);
@@ -278,15 +299,35 @@ where
         let mut chart = builder
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| err(&e))?;
+        let mut labels: Vec<&str> = Vec::new();
+        for sh in c.shades {
+            if !labels.contains(&sh.label.as_str()) {
+                labels.push(&sh.label);
+            }
+        }
+        let strip = if labels.len() > 1 {
+            // 10 px per label's row, in data units.
+            let rows_px = area.dim_in_pixel().1.saturating_sub(44 + 24).max(1) as f64;
+            Some(10.0 * (y1 - y0) / rows_px)
+        } else {
+            None
+        };
         for sh in c.shades {
             let (a, b) = (sh.from.max(x0), sh.to.min(x1));
             if a >= b {
                 continue;
             }
+            let (lo, hi, alpha) = match strip {
+                Some(h) => {
+                    let row = labels.iter().position(|l| *l == sh.label).unwrap_or(0) as f64;
+                    (y1 - (row + 1.0) * h, y1 - row * h, 0.55)
+                }
+                None => (y0, y1, 0.12),
+            };
             chart
                 .draw_series(std::iter::once(Rectangle::new(
-                    [(a, y0), (b, y1)],
-                    sh.color.mix(0.12).filled(),
+                    [(a, lo), (b, hi)],
+                    sh.color.mix(alpha).filled(),
                 )))
                 .map_err(|e| err(&e))?;
         }
@@ -302,20 +343,8 @@ where
             };
             draw_marks(&mut chart, s, runs)?;
         }
-        // Labels of the shaded ranges, at their top left, and the events.
+        // The events (the shaded ranges are named in the legend).
         let font = (FONT_NAME, 12).into_font();
-        for sh in c.shades.iter().filter(|sh| !sh.label.is_empty()) {
-            let a = sh.from.max(x0);
-            if a < sh.to.min(x1) {
-                let pos = chart.backend_coord(&(a, y1));
-                area.draw(&Text::new(
-                    sh.label.clone(),
-                    (pos.0 + 4, pos.1 + 4),
-                    font.clone().color(&sh.color.mix(0.9)),
-                ))
-                .map_err(|e| err(&e))?;
-            }
-        }
         for ev in c.events.iter().filter(|e| e.at >= x0 && e.at <= x1) {
             chart
                 .draw_series(DashedLineSeries::new(
@@ -504,14 +533,40 @@ where
 /// A figure: the chart at the left, its legend in a panel at the right.
 pub fn chart_svg(c: &Chart) -> Result<String, PlotError> {
     register_font();
+    stacked_svg(&[(HEIGHT, c.clone())])
+}
+
+/// Charts stacked over one x axis (each `(height in px, chart)`): the x range is the union of
+/// theirs, so that a time or a speed lies at the same place in every panel, and one legend at
+/// the right holds every panel's entries.
+pub fn stacked_svg(panels: &[(u32, Chart<'_>)]) -> Result<String, PlotError> {
+    register_font();
+    let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (_, c) in panels {
+        let (a, b, _, _) = bounds(c);
+        x0 = x0.min(a);
+        x1 = x1.max(b);
+    }
+    let series: Vec<Series> = panels.iter().flat_map(|(_, c)| c.series.to_vec()).collect();
+    let shades: Vec<Shade> = panels.iter().flat_map(|(_, c)| c.shades.to_vec()).collect();
+    let legend_w = legend_width(&series, &shades);
+    let height: u32 = panels.iter().map(|(h, _)| h).sum();
     let mut svg = String::new();
     {
         let root =
-            SVGBackend::with_string(&mut svg, (WIDTH + LEGEND_WIDTH, HEIGHT)).into_drawing_area();
+            SVGBackend::with_string(&mut svg, (WIDTH + legend_w, height)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let (plot, legend) = root.split_horizontally(WIDTH);
-        plot_into(&plot, c)?;
-        legend_into(&legend, c.series, c.shades)?;
+        let (mut plot, legend) = root.split_horizontally(WIDTH);
+        for (h, c) in panels {
+            let (this, rest) = plot.split_vertically(*h);
+            let c = Chart {
+                x_range: Some((x0, x1)),
+                ..c.clone()
+            };
+            plot_into(&this, &c)?;
+            plot = rest;
+        }
+        legend_into(&legend, &series, &shades)?;
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
@@ -595,22 +650,15 @@ pub fn fit_svg(signal: &Signal, osc: &Oscillation, title: &str) -> Result<String
         Series {
             name: "residual, measured − fitted".into(),
             points: residual,
-            color: grey,
+            color: RGBColor(30, 60, 200),
             mark: Mark::Dots,
         },
         zero,
     ];
-    let mut svg = String::new();
-    {
-        let height = HEIGHT + HEIGHT / 2;
-        let root =
-            SVGBackend::with_string(&mut svg, (WIDTH + LEGEND_WIDTH, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let (plot, legend) = root.split_horizontally(WIDTH);
-        let (top, bottom) = plot.split_vertically(HEIGHT);
-        plot_into(
-            &top,
-            &Chart {
+    stacked_svg(&[
+        (
+            HEIGHT,
+            Chart {
                 title,
                 x_label: "time (s)",
                 y_label: &y_label,
@@ -618,22 +666,17 @@ pub fn fit_svg(signal: &Signal, osc: &Oscillation, title: &str) -> Result<String
                 shades: &shades,
                 ..Chart::default()
             },
-        )?;
-        plot_into(
-            &bottom,
-            &Chart {
+        ),
+        (
+            HEIGHT / 2,
+            Chart {
                 x_label: "time (s)",
                 y_label: &residual_label,
                 series: &residual_series,
                 ..Chart::default()
             },
-        )?;
-        let mut all = series.to_vec();
-        all.push(residual_series[0].clone());
-        legend_into(&legend, &all, &shades)?;
-        root.present().map_err(|e| err(&e))?;
-    }
-    Ok(svg)
+        ),
+    ])
 }
 
 /// The Hann spectrum of the fitted segment up to 4× the main frequency, with the peaks marked.
@@ -649,10 +692,15 @@ pub fn spectrum_svg(sig: &Signal, osc: &Oscillation, title: &str) -> Result<Stri
         .collect();
     let mut marks = vec![(osc.fit.freq_hz().value, osc.main_peak.magnitude)];
     marks.extend(osc.secondary_peaks.iter().map(|p| (p.freq_hz, p.magnitude)));
+    let y_label = if sig.unit.is_empty() {
+        "amplitude (the signal's unit)".to_string()
+    } else {
+        format!("amplitude ({})", sig.unit)
+    };
     chart(
         title,
         "frequency (Hz)",
-        "amplitude",
+        &y_label,
         &[
             Series {
                 name: "Hann-windowed spectrum of the fitted segment".into(),
@@ -669,6 +717,11 @@ pub fn spectrum_svg(sig: &Signal, osc: &Oscillation, title: &str) -> Result<Stri
         ],
         true,
     )
+}
+
+/// A colour at half its brightness (castor beside capsize).
+fn darker(c: RGBColor) -> RGBColor {
+    RGBColor(c.0 / 2, c.1 / 2, c.2 / 2)
 }
 
 /// One bicycle's continuation diagram: the named eigenvalues against speed, with ±2 standard
@@ -707,20 +760,21 @@ pub fn error_bars(points: &[(f64, f64, f64, f64)], color: RGBColor, name: &str) 
     out
 }
 
-/// A ride's roll and steer (degrees) against time: the measured angles as dots, the fitted
-/// modes over the fitted window (shaded) as lines, the kick marked. `measured` and `fitted`
-/// rows are (t s, θ rad, γ rad).
+/// A ride's roll and steer (mrad, as the text's noise and residuals) against time: the measured
+/// angles as dots, the fitted modes over the fitted window (shaded) as lines, the `events`
+/// (the kick, the catch: time s and name) marked where they fall in the plot. `measured` and
+/// `fitted` rows are (t s, θ rad, γ rad).
 pub fn ride_svg(
     title: &str,
     measured: &[[f64; 3]],
     fitted: &[[f64; 3]],
     window_s: (f64, f64),
-    kick_s: f64,
+    events: &[(f64, &str)],
 ) -> Result<String, PlotError> {
     let (blue, red) = (RGBColor(30, 80, 200), RGBColor(200, 40, 40));
     let (pale_blue, pale_red) = (RGBColor(140, 165, 230), RGBColor(235, 150, 150));
     let column = |rows: &[[f64; 3]], k: usize| -> Vec<(f64, f64)> {
-        rows.iter().map(|r| (r[0], r[k].to_degrees())).collect()
+        rows.iter().map(|r| (r[0], 1e3 * r[k])).collect()
     };
     let series = [
         (
@@ -747,7 +801,7 @@ pub fn ride_svg(
     chart_svg(&Chart {
         title,
         x_label: "time in the log (s)",
-        y_label: "angle (degrees)",
+        y_label: "angle (mrad)",
         series: &series,
         shades: &[Shade {
             from: window_s.0,
@@ -755,10 +809,13 @@ pub fn ride_svg(
             color: RGBColor(120, 120, 120),
             label: "fitted window".into(),
         }],
-        events: &[Event {
-            at: kick_s,
-            label: "kick".into(),
-        }],
+        events: &events
+            .iter()
+            .map(|&(at, label)| Event {
+                at,
+                label: label.into(),
+            })
+            .collect::<Vec<_>>(),
         ..Chart::default()
     })
 }
@@ -811,21 +868,22 @@ pub fn continuation_svg(
             color: b.color,
             mark: Mark::Line,
         });
+        let castor = darker(b.color_real);
         series.push(Series {
-            name: label("capsize and castor, real parts"),
+            name: label("capsize, real part"),
             points: pick(2, &|z, _| z.re),
             color: b.color_real,
             mark: Mark::Line,
         });
         series.push(Series {
-            name: String::new(),
+            name: label("castor, real part"),
             points: pick(3, &|z, _| z.re),
-            color: b.color_real,
+            color: castor,
             mark: Mark::Line,
         });
         for k in [0, 1, 2, 3] {
             for sign in [-2.0, 2.0] {
-                let c = if k < 2 { b.color } else { b.color_real };
+                let c = [b.color, b.color, b.color_real, castor][k];
                 series.push(Series {
                     name: String::new(),
                     points: pick(k, &|z, se| z.re + sign * se.0),
@@ -847,7 +905,7 @@ pub fn continuation_svg(
     chart_svg(&Chart {
         title,
         x_label: "speed (m/s)",
-        y_label: "eigenvalue (1/s)",
+        y_label: "eigenvalue: real part (1/s), imaginary (rad/s)",
         series: &series,
         shades: &shades,
         y_range: Some(y_range),

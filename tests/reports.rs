@@ -40,3 +40,65 @@ fn checked_in_reports_match_a_fresh_regeneration() {
         "reports/ is out of date; run `cargo run --release -- report` and commit.\nstale: {stale:?}\nnot generated any more: {extra:?}"
     );
 }
+
+/// Issue 31: no text of a figure leaves its canvas (the legends were cut at the right edge).
+/// Each `<text>` without a rotation is measured at 0.6 em a character (DejaVu Sans' average
+/// advance is 0.55–0.6 em for the labels' letters) from its anchor.
+#[test]
+fn no_figure_text_leaves_its_canvas() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("reports");
+    let mut stack = vec![root.clone()];
+    let mut checked = 0;
+    let attr = |tag: &str, name: &str| -> Option<f64> {
+        let key = format!(" {name}=\"");
+        let at = tag.find(&key)? + key.len();
+        tag[at..].split('"').next()?.parse().ok()
+    };
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+                continue;
+            }
+            if p.extension().is_none_or(|x| x != "svg") {
+                continue;
+            }
+            let svg = std::fs::read_to_string(&p).unwrap();
+            let width = attr(&svg[..svg.find('>').unwrap()], "width").unwrap();
+            let mut rest = svg.as_str();
+            while let Some(start) = rest.find("<text ") {
+                let tag_end = start + rest[start..].find('>').unwrap();
+                let tag = &rest[start..tag_end];
+                let close = tag_end + rest[tag_end..].find("</text>").unwrap();
+                let content = rest[tag_end + 1..close]
+                    .trim()
+                    .replace("&apos;", "'")
+                    .replace("&amp;", "&")
+                    .replace("&lt;", "<")
+                    .replace("&gt;", ">");
+                rest = &rest[close..];
+                if tag.contains("transform") {
+                    continue;
+                }
+                let (x, size) = (attr(tag, "x").unwrap(), attr(tag, "font-size").unwrap());
+                let w = 0.6 * size * content.chars().count() as f64;
+                let left = if tag.contains("text-anchor=\"middle\"") {
+                    x - w / 2.0
+                } else if tag.contains("text-anchor=\"end\"") {
+                    x - w
+                } else {
+                    x
+                };
+                assert!(
+                    left >= -1.0 && left + w <= width + 1.0,
+                    "{}: \"{content}\" spans {left:.0}–{:.0} px of {width} px",
+                    p.display(),
+                    left + w
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked} texts checked");
+}

@@ -130,7 +130,7 @@ pub(super) fn dynamic_report(
             "\n## On the continuation diagram\n\nThe model's weave (real part solid, imaginary dashed, ±2 standard errors thin, stable range shaded)\n\
              with each ride's σ (black) and ω (green) at its speed, bars at ±2 standard errors.\n\n\
              ![continuation](dynamic/continuation.svg)\n\n## Each ride\n\n\
-             θ and γ as measured (dots) and the fitted modes over the window (lines, window shaded; the kick marked).\n\n",
+             θ and γ (mrad) as measured (dots) and the fitted modes over the window (lines, window shaded; the kick and, where it falls in the plot, the catch marked).\n\n",
         );
         for r in results {
             let Some(t) = r.test() else { continue };
@@ -145,13 +145,25 @@ pub(super) fn dynamic_report(
                 })
                 .collect();
             let title = format!(
-                "{name}: weave {:.3} ± {:.3} {:+.3} ± {:.3} i 1/s at {:.2} m/s",
-                f.weave.re, f.weave.re_se, f.weave.im, f.weave.im_se, t.speed.speed_mps
+                "{name}: weave {:.3} ± {:.3} {:+.3} ± {:.3} i 1/s at {:.2} ± {:.2} m/s",
+                f.weave.re,
+                f.weave.re_se,
+                f.weave.im,
+                f.weave.im_se,
+                t.speed.speed_mps,
+                t.speed.speed_se_mps
             );
             let file = format!("dynamic/{name}.svg");
             files.push((
                 file.clone().into(),
-                ride_svg(&title, &t.trace, &fitted, (f.start_s, f.end_s), t.kick_s)?.into_bytes(),
+                ride_svg(
+                    &title,
+                    &t.trace,
+                    &fitted,
+                    (f.start_s, f.end_s),
+                    &[(t.kick_s, "kick"), (t.catch_s, "catch")],
+                )?
+                .into_bytes(),
             ));
             let _ = writeln!(md, "- [{name}]({file})");
         }

@@ -232,67 +232,86 @@ pub(super) fn gap_report(
     }
     #[cfg(feature = "plot")]
     {
-        use crate::plot::{chart, error_bars, Mark, Series};
+        use crate::plot::{error_bars, Mark, Series};
         use plotters::style::RGBColor;
         progress("gap: plots");
-        let bars = |rs: &[crate::gap::RideResidual], im: bool| -> Vec<(f64, f64, f64, f64)> {
-            rs.iter()
-                .map(|r| {
-                    if im {
-                        (r.speed_mps, r.im, 0.0, r.im_se)
-                    } else {
-                        (r.speed_mps, r.re, 0.0, r.re_se)
-                    }
-                })
-                .collect()
-        };
+        // One panel per quantity (each in its own unit), the model as it is (black) and with
+        // the best candidate (red) side by side at each ride's speed, bars ±2 SE.
+        type Part = fn(&crate::gap::RideResidual) -> (f64, f64);
+        let quantities: [(&str, Part); 4] = [
+            ("Δσ (1/s)", |r| (r.re, r.re_se)),
+            ("Δω (rad/s)", |r| (r.im, r.im_se)),
+            ("Δ|γ/θ| (rad/rad)", |r| (r.shape_ratio, r.shape_ratio_se)),
+            ("Δarg(γ/θ) (°)", |r| {
+                (
+                    r.shape_phase_rad.to_degrees(),
+                    r.shape_phase_se_rad.to_degrees(),
+                )
+            }),
+        ];
         let after_name = d
             .ranking
             .first()
             .map_or(String::new(), |b| format!("with {}", b.effect));
-        let mut series = Vec::new();
-        series.extend(error_bars(
-            &bars(&d.residuals, false),
-            RGBColor(0, 0, 0),
-            "Δσ, the model as it is",
-        ));
-        series.extend(error_bars(
-            &bars(&d.residuals, true),
-            RGBColor(20, 140, 60),
-            "Δω, the model as it is",
-        ));
-        series.extend(error_bars(
-            &bars(&d.residuals_after, false),
-            RGBColor(200, 40, 40),
-            &format!("Δσ, {after_name}"),
-        ));
-        series.extend(error_bars(
-            &bars(&d.residuals_after, true),
-            RGBColor(30, 80, 200),
-            &format!("Δω, {after_name}"),
-        ));
         let (lo, hi) = d
             .residuals
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
                 (a.min(r.speed_mps), b.max(r.speed_mps))
             });
-        series.push(Series {
-            name: String::new(),
-            points: vec![(lo - 0.1, 0.0), (hi + 0.1, 0.0)],
-            color: RGBColor(110, 110, 110),
-            mark: Mark::Thin,
-        });
+        let offset = 0.006 * (hi - lo).max(1.0);
+        let panels: Vec<(String, Vec<Series>)> = quantities
+            .iter()
+            .filter(|(_, f)| d.residuals.iter().all(|r| f(r).0.is_finite()))
+            .map(|(label, f)| {
+                let points =
+                    |rs: &[crate::gap::RideResidual], dx: f64| -> Vec<(f64, f64, f64, f64)> {
+                        rs.iter()
+                            .map(|r| {
+                                let (v, se) = f(r);
+                                (r.speed_mps + dx, v, 0.0, se)
+                            })
+                            .collect()
+                    };
+                let mut series = error_bars(
+                    &points(&d.residuals, -offset),
+                    RGBColor(0, 0, 0),
+                    "the model as it is",
+                );
+                series.extend(error_bars(
+                    &points(&d.residuals_after, offset),
+                    RGBColor(200, 40, 40),
+                    &after_name,
+                ));
+                series.push(Series {
+                    name: String::new(),
+                    points: vec![(lo - 0.1, 0.0), (hi + 0.1, 0.0)],
+                    color: RGBColor(110, 110, 110),
+                    mark: Mark::Thin,
+                });
+                (label.to_string(), series)
+            })
+            .collect();
+        let title = "experiment − model, before and after (bars ±2 combined standard errors)";
+        let charts: Vec<(u32, crate::plot::Chart<'_>)> = panels
+            .iter()
+            .enumerate()
+            .map(|(k, (label, series))| {
+                (
+                    if k == 0 { 260 } else { 220 },
+                    crate::plot::Chart {
+                        title: if k == 0 { title } else { "" },
+                        x_label: "speed (m/s)",
+                        y_label: label,
+                        series,
+                        ..crate::plot::Chart::default()
+                    },
+                )
+            })
+            .collect();
         files.push((
             "gap/residuals.svg".into(),
-            chart(
-                "experiment − model, before and after (bars ±2 combined standard errors)",
-                "speed (m/s)",
-                "residual: Δσ (1/s), Δω (rad/s)",
-                &series,
-                false,
-            )?
-            .into_bytes(),
+            crate::plot::stacked_svg(&charts)?.into_bytes(),
         ));
         md.push_str("\n![residuals against speed, before and after](gap/residuals.svg)\n");
     }

@@ -211,7 +211,9 @@ pub fn dynamic_test(
         .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[3]);
     let model = model_weave(path, model, &speed, &fit.weave)?;
     let rate = signals.sample_rate_hz;
-    let (from, to) = (signals.kick_s - 0.5, fit.end_s + 0.5);
+    // From before the kick to past the window, and the catch when it follows within 5 s.
+    let to = (fit.end_s + 0.5).max((signals.catch_s + 0.3).min(fit.end_s + 5.0));
+    let (from, to) = (signals.kick_s - 0.5, to);
     let trace = signals
         .index
         .iter()
