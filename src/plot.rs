@@ -881,12 +881,29 @@ pub fn continuation_svg(
             color: castor,
             mark: Mark::Line,
         });
+        // The bands at ±2 standard errors, left out where a pair of roots is within them of
+        // each other: at a double root (the weave's merge, capsize meeting castor) the
+        // eigenvalue is not differentiable in the parameters and the linear propagation's error
+        // is not one (it shot up to a spike there).
         for k in [0, 1, 2, 3] {
+            let partner = k ^ 1;
             for sign in [-2.0, 2.0] {
                 let c = [b.color, b.color, b.color_real, castor][k];
+                let points = sw
+                    .speeds_mps
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &v)| {
+                        let (z, w) = (sw.eigenvalues[i][k], sw.eigenvalues[i][partner]);
+                        let (se, se_w) = (b.bands.se[i][k], b.bands.se[i][partner]);
+                        let reach = 2.0 * (se.0.hypot(se.1) + se_w.0.hypot(se_w.1));
+                        let near_double = z != w.conj() && (z - w).norm() < reach;
+                        (v, if near_double { f64::NAN } else { z.re + sign * se.0 })
+                    })
+                    .collect();
                 series.push(Series {
                     name: String::new(),
-                    points: pick(k, &|z, se| z.re + sign * se.0),
+                    points,
                     color: c,
                     mark: Mark::Thin,
                 });
