@@ -296,14 +296,15 @@ pub fn diagnose(
             _ => [0.0; 4],
         };
         // The shape drifts as the bicycle slows over the window (the fit holds it constant):
-        // the model's change over the whole window's slowing. Near the weave speed the shape
-        // changes fast with speed: without this, rides there made effect-free campaigns
-        // "significant". Over half the window (as the eigenvalue's drift when its own fit
-        // fails) was too little: the fit's constant shape is the decaying oscillation's
-        // amplitude-weighted one, whose time is not the eigenvalue's t_ref, and on effect-free
-        // coasting campaigns the shape's parts alone gave χ² ≈ 60 for 28 degrees of freedom
-        // (the eigenvalue's 18–34), 5 of 186 campaigns below p = 0.01.
-        let window_change_mps = o.window_accel_mps2.abs() * o.window_s.max(0.0);
+        // the model's change over half the window's slowing (as the eigenvalue's drift when its
+        // own fit fails). Near the weave speed the shape changes fast with speed: without this,
+        // rides there made effect-free campaigns "significant". Before a coasting ride's shape
+        // was corrected for the slowing (`ride::dynamic::COASTING_SHAPE_APPLIED`) it took the
+        // whole window's change to keep 200 effect-free noted campaigns' χ² from rejecting;
+        // with the correction that made the χ² test conservative (a third of them in its last
+        // p bin, none below 0.05 of the targeted test's), and half the window gives it back its
+        // uniform histogram (0.5 % below 0.01, docs/gap-calibration.md).
+        let window_change_mps = 0.5 * o.window_accel_mps2.abs() * o.window_s.max(0.0);
         for a in 2..parts {
             exp_cov[(parts * i + a, parts * i + a)] += (per_mps[a] * window_change_mps).powi(2);
         }
