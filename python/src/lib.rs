@@ -323,7 +323,7 @@ impl Bicycle {
     /// (n, 4) complex, its columns named by ``modes`` (all four at every speed: below the weave's
     /// merge speed its two real roots), ``re_se`` and ``im_se`` (n, 4) their standard errors
     /// from the parameters', and the weave and capsize speeds with their standard errors and the
-    /// stable ranges as ``stability`` gives them (searched to ``end`` at 0.01 m/s or ``step``).
+    /// stable ranges as ``stability`` gives them (searched to ``end`` at 0.01 m/s, then refined).
     #[pyo3(signature = (start=0.0, end=10.0, step=0.01))]
     fn stability_table<'py>(
         &self,
@@ -340,7 +340,7 @@ impl Bicycle {
             .detach(|| {
                 Ok::<_, bikeproc::model::ParamError>((
                     self.model.bands(&speeds)?,
-                    self.model.speeds(end, step.min(0.01))?,
+                    self.model.speeds(end, 0.01)?,
                 ))
             })
             .map_err(err)?;
