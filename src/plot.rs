@@ -898,7 +898,14 @@ pub fn continuation_svg(
                         let (se, se_w) = (b.bands.se[i][k], b.bands.se[i][partner]);
                         let reach = 2.0 * (se.0.hypot(se.1) + se_w.0.hypot(se_w.1));
                         let near_double = z != w.conj() && (z - w).norm() < reach;
-                        (v, if near_double { f64::NAN } else { z.re + sign * se.0 })
+                        (
+                            v,
+                            if near_double {
+                                f64::NAN
+                            } else {
+                                z.re + sign * se.0
+                            },
+                        )
                     })
                     .collect();
                 series.push(Series {

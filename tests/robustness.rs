@@ -198,6 +198,42 @@ fn a_closed_or_full_stdout_is_an_error_not_a_panic() {
     refused(&out, 1, "No space left on device");
 }
 
+/// Issue 33: a full standard error never panics (`eprintln!` did, exit 101): the error of a bad
+/// file keeps its exit 2; a command whose warnings could not be written ends with 1; `--help`
+/// into a full standard output ends with 1, not 0.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_stderr_or_help_into_a_full_stdout_is_no_panic() {
+    let full = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
+    let run = |args: &[&str], stdout_full: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_bikeproc"));
+        c.args(args).current_dir(root()).stderr(full());
+        if stdout_full {
+            c.stdout(full());
+        } else {
+            c.stdout(Stdio::null());
+        }
+        c.output().unwrap().status.code()
+    };
+    assert_eq!(run(&["period", "fixtures/bad/empty.log"], false), Some(2));
+    // frame_torsion_1a.log warns of its gaps and corrupt rows.
+    assert_eq!(
+        run(
+            &["period", "data/frame_torsion/frame_torsion_1a.log"],
+            false
+        ),
+        Some(1)
+    );
+    assert_eq!(run(&["--help"], true), Some(1));
+    assert_eq!(run(&["--version"], true), Some(1));
+    assert_eq!(run(&["no-such-command"], false), Some(2));
+}
+
 /// A ride log of 1 s, a `_cal` file of another ride or of half the ride, and one sensor's data
 /// written for both: each refused with its real cause, not a misleading one ("the frame sensor
 /// did not move", "too short … caught").

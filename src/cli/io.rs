@@ -24,8 +24,34 @@ pub fn emit<T: serde::Serialize>(
     }
 }
 
+/// Whether a message to standard error could not be written (a full disk, a closed or gone
+/// reader): the command then ends with exit code 1 ([`super::main`]).
+pub static STDERR_FAILED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Writes a line to standard error, never panicking (as `eprintln!` does when it cannot);
+/// a failure is remembered in [`STDERR_FAILED`].
+pub fn note_line(line: &str) {
+    use std::io::Write as _;
+    let mut stderr = std::io::stderr().lock();
+    if writeln!(stderr, "{line}")
+        .and_then(|()| stderr.flush())
+        .is_err()
+    {
+        STDERR_FAILED.store(true, std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+/// [`note_line`] with `format!` arguments.
+macro_rules! note {
+    ($($arg:tt)*) => {
+        $crate::cli::io::note_line(&format!($($arg)*))
+    };
+}
+pub(crate) use note;
+
 /// Writes to standard output: a reader that has gone (`bikeproc … | head`) or a full disk is
-/// an error (exit 1) naming standard output, never a panic.
+/// an error (exit 1) naming standard output, never a panic. (A standard stream closed at the
+/// start, `>&-`, is /dev/null to a Rust program: its runtime reopens it so.)
 pub fn out(text: &str) -> Result<()> {
     use std::io::Write as _;
     let mut stdout = std::io::stdout().lock();

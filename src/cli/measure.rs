@@ -2,7 +2,7 @@
 //! periods, the bar's stiffness, inertia tensors and a bicycle's benchmark parameters.
 
 use super::args::{CalibrateArgs, InertiaArgs, MeasuredArgs, PeriodArgs};
-use super::io::{advance, emit, progress, write_atomic};
+use super::io::{advance, emit, note, progress, write_atomic};
 use anyhow::{bail, Context, Result};
 use bikeproc::fit::{self, FitOptions, PeriodBatch};
 use bikeproc::inertia::{self, text};
@@ -24,7 +24,7 @@ pub fn period(a: PeriodArgs) -> Result<()> {
     let measure = |file: &Path| -> Result<fit::OscillationSummary> {
         let (summary, warnings) = fit::measure_file(file, &extract, a.sensor.as_deref(), &options)?;
         for w in &warnings {
-            eprintln!("warning: {w}");
+            note!("warning: {w}");
         }
         Ok(summary)
     };
@@ -48,7 +48,7 @@ pub fn period(a: PeriodArgs) -> Result<()> {
     let batch = PeriodBatch::new(&trials, failed);
     emit(a.json, &batch, || batch.to_text())?;
     for f in &batch.failed {
-        eprintln!("error: {f}");
+        note!("error: {f}");
     }
     if !batch.failed.is_empty() {
         bail!(
@@ -104,7 +104,7 @@ pub fn calibrate_bar(a: CalibrateArgs) -> Result<()> {
     emit(a.json, &text::calibration_json(&cal), || {
         text::calibration_text(&cal)
     })?;
-    eprintln!("wrote {}", out.display());
+    note!("wrote {}", out.display());
     Ok(())
 }
 
@@ -116,11 +116,11 @@ pub fn inertia(a: InertiaArgs) -> Result<()> {
             .map(Path::to_path_buf)
             .unwrap_or_default();
         for w in &bike.refresh(&dir)? {
-            eprintln!("warning: {w}");
+            note!("warning: {w}");
         }
         write_atomic(&bike_path, bike.to_toml().as_bytes())?;
         emit(a.json, &bike, || bike.to_toml())?;
-        eprintln!("refreshed the inertias of {}", bike_path.display());
+        note!("refreshed the inertias of {}", bike_path.display());
         return Ok(());
     }
     let dir = a.dir.unwrap_or_default();
@@ -136,7 +136,7 @@ pub fn inertia(a: InertiaArgs) -> Result<()> {
     )?;
     let r = inertia::analyse_folder(&dir, &a.orientations)?;
     for w in r.warnings() {
-        eprintln!("warning: {w}");
+        note!("warning: {w}");
     }
     emit(a.json, &r.json(), || r.text())
 }
@@ -151,7 +151,7 @@ pub fn measured(a: MeasuredArgs) -> Result<()> {
     let report = bike.report(10.0, 0.01)?;
     if let Some(out) = &a.out {
         write_atomic(out, bike.to_benchmark_text().as_bytes())?;
-        eprintln!("wrote {}", out.display());
+        note!("wrote {}", out.display());
     }
     emit(a.json, &report, || inertia::text::measured_text(&report))
 }

@@ -14,6 +14,7 @@ use anyhow::Result;
 use args::{Cli, Command};
 use bikeproc::{fit, inertia, signal};
 use clap::Parser;
+use io::note;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -25,13 +26,33 @@ struct NoRideAnalysed(PathBuf);
 /// Parses the arguments, runs the command, prints an error with its causes and maps it to the
 /// exit code.
 pub fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // `--help` and `--version` go to standard output, checked as every output is.
+        Err(e) if !e.use_stderr() => {
+            return match io::out(&e.render().to_string()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(_) => ExitCode::from(1),
+            };
+        }
+        Err(e) => {
+            io::note_line(e.render().to_string().trim_end());
+            return ExitCode::from(2);
+        }
+    };
+    let code = match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(if is_input_error(&e) { 2 } else { 1 })
+            io::note_line(&format!("error: {e:#}"));
+            return ExitCode::from(if is_input_error(&e) { 2 } else { 1 });
         }
+    };
+    // A warning or a "wrote …" line that standard error could not take: the user saw less than
+    // the command said.
+    if io::STDERR_FAILED.load(std::sync::atomic::Ordering::SeqCst) {
+        return ExitCode::from(1);
     }
+    code
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -54,10 +75,9 @@ fn run(cli: Cli) -> Result<()> {
                 ))
                 .into());
             }
-            let written = bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| {
-                eprintln!("{m}")
-            })?;
-            eprintln!("wrote {} files under {}", written.len(), r.out.display());
+            let written =
+                bikeproc::report::regenerate(&r.out, &r.data, &r.reference, &mut |m| note!("{m}"))?;
+            note!("wrote {} files under {}", written.len(), r.out.display());
             Ok(())
         }
     }

@@ -2,7 +2,7 @@
 //! blind campaigns, the failure fixtures). The only command that uses [`bikeproc::sim`].
 
 use super::args::{RideArgs, SimCommand};
-use super::io::{out, write_atomic};
+use super::io::{note, out, write_atomic};
 use anyhow::{Context, Result};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::log::Log;
@@ -112,7 +112,7 @@ pub fn simulate(s: SimCommand) -> Result<()> {
     write_atomic(&c.out, rec.angles_log.as_bytes())?;
     write_atomic(&cal, rec.cal_log.as_bytes())?;
     out(&(serde_json::to_string_pretty(&rec.truth)? + "\n"))?;
-    eprintln!("wrote {} and {}", c.out.display(), cal.display());
+    note!("wrote {} and {}", c.out.display(), cal.display());
     Ok(())
 }
 
@@ -144,7 +144,7 @@ fn simulate_ride(r: RideArgs) -> Result<()> {
     write_atomic(&Log::cal_path(&r.out), ride.cal_log.as_bytes())?;
     write_atomic(&truth, serde_json::to_string(&ride.truth)?.as_bytes())?;
     let t = &ride.truth;
-    eprintln!(
+    note!(
         "wrote {} (release {:.2} s, kick {:.2} s, catch {:.2} s; speedometer {:.2} m/s) and the truth {}",
         r.out.display(),
         t.release_s,
@@ -160,7 +160,7 @@ fn simulate_ride(r: RideArgs) -> Result<()> {
 fn write_generated(out: &Path, files: &campaign::Files) -> Result<()> {
     campaign::write_files(out, files)
         .with_context(|| format!("writing under {}", out.display()))?;
-    eprintln!("wrote {} files under {}", files.len(), out.display());
+    note!("wrote {} files under {}", files.len(), out.display());
     Ok(())
 }
 
@@ -189,7 +189,7 @@ fn gap_calibration(
             .with_context(|| format!("{}: not a calibration's results", json.display()))?;
         let md = calibration::markdown(&results, &[], &command);
         write_atomic(out, md.as_bytes())?;
-        eprintln!("wrote {} from {}", out.display(), json.display());
+        note!("wrote {} from {}", out.display(), json.display());
         return Ok(());
     }
     for o in only {
@@ -208,7 +208,7 @@ fn gap_calibration(
     for (k, case) in cases.iter().enumerate() {
         match calibration::run_case(&lab, &text, *case) {
             Ok(r) => {
-                eprintln!(
+                note!(
                     "[{}/{}] {} {:?} seed {}: p {:.2e}, best {}, named {}, right {}",
                     k + 1,
                     cases.len(),
@@ -234,6 +234,6 @@ fn gap_calibration(
     write_atomic(out, md.as_bytes())?;
     let json = serde_json::to_string_pretty(&results)?;
     write_atomic(&out.with_extension("json"), json.as_bytes())?;
-    eprintln!("wrote {} and its .json", out.display());
+    note!("wrote {} and its .json", out.display());
     Ok(())
 }
