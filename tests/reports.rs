@@ -102,3 +102,72 @@ fn no_figure_text_leaves_its_canvas() {
     }
     assert!(checked > 1000, "{checked} texts checked");
 }
+
+/// Every `<text>` of an SVG: (x, content).
+fn svg_texts(path: &Path) -> Vec<(f64, String)> {
+    let svg = std::fs::read_to_string(path).unwrap();
+    let mut out = Vec::new();
+    let mut rest = svg.as_str();
+    while let Some(start) = rest.find("<text ") {
+        let tag_end = start + rest[start..].find('>').unwrap();
+        let tag = &rest[start..tag_end];
+        let close = tag_end + rest[tag_end..].find("</text>").unwrap();
+        let x = tag
+            .split(" x=\"")
+            .nth(1)
+            .and_then(|v| v.split('"').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(f64::NAN);
+        out.push((x, rest[tag_end + 1..close].trim().replace("&apos;", "'")));
+        rest = &rest[close..];
+    }
+    out
+}
+
+/// Issue 31: the figures say what they show, as rendered and looked at: capsize and castor
+/// named apart and the imaginary parts' unit given; the shaded stable ranges named in the
+/// legend only (two bicycles' labels were printed over each other in the plot); the gap's
+/// residuals one panel per quantity in its unit; a ride's angles in mrad with the kick and
+/// the catch marked and its speed with its SE; a spectrum's amplitude in the signal's unit.
+#[test]
+fn figures_say_what_they_show() {
+    let reports = Path::new(env!("CARGO_MANIFEST_DIR")).join("reports");
+    let has = |file: &str, want: &str| {
+        let texts = svg_texts(&reports.join(file));
+        assert!(
+            texts.iter().any(|(_, t)| t.contains(want)),
+            "{file}: no text with {want:?}"
+        );
+    };
+    for want in [
+        "capsize, real part",
+        "castor, real part",
+        "imaginary (rad/s)",
+    ] {
+        has("model/lab_measured.svg", want);
+    }
+    let plot_width = 900.0;
+    for (x, t) in svg_texts(&reports.join("model/benchmark_vs_lab.svg")) {
+        if t.contains("stable") {
+            assert!(x >= plot_width, "\"{t}\" inside the plot at x = {x}");
+        }
+    }
+    for want in [
+        "Δσ (1/s)",
+        "Δω (rad/s)",
+        "Δ|γ/θ| (rad/rad)",
+        "Δarg(γ/θ) (°)",
+    ] {
+        has("gap/residuals.svg", want);
+    }
+    for want in ["angle (mrad)", "kick", "catch"] {
+        has("dynamic/ride_03.svg", want);
+    }
+    let title = svg_texts(&reports.join("dynamic/ride_03.svg"))
+        .into_iter()
+        .find(|(_, t)| t.starts_with("ride_03:"))
+        .unwrap()
+        .1;
+    assert_eq!(title.matches('±').count(), 3, "{title}");
+    has("inertia/frame_torsion_1_spectrum.svg", "amplitude (rad)");
+}
