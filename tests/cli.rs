@@ -367,3 +367,46 @@ fn inputs_of_the_wrong_kind_are_named_with_the_command_that_reads_them() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("in the checkout's top folder"), "{err}");
 }
+
+/// Issue 33: the simulator's physical arguments are checked where they are read (a NaN, a
+/// negative or zero inertia, an infinite stiffness: exit 2, no file written); a speed grid
+/// never reaches beyond its end.
+#[test]
+fn arguments_out_of_their_physical_range_are_refused() {
+    let dir = std::env::temp_dir().join(format!("bikeproc_args_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("s.log");
+    for bad in [
+        "--inertia-kgm2=nan",
+        "--inertia-kgm2=-1",
+        "--inertia-kgm2=0",
+        "--stiffness-nm-per-rad=inf",
+        "--damping-ratio=nan",
+        "--duration-s=0",
+    ] {
+        let (code, _, err) =
+            bikeproc(&["simulate", "torsion", "--out", out.to_str().unwrap(), bad]);
+        assert_eq!(code, 2, "{bad}: {err}");
+        assert!(err.contains("expected a number"), "{bad}: {err}");
+        assert!(!out.exists(), "{bad}: a file was written");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    let bike = root().join("data/lab_bike.toml");
+    let (code, json, err) = bikeproc(&[
+        "stability",
+        "--bike",
+        bike.to_str().unwrap(),
+        "--speeds",
+        "0:10:20",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let speeds: Vec<f64> = v["eigenvalues"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["speed_mps"].as_f64().unwrap())
+        .collect();
+    assert_eq!(speeds, vec![0.0]);
+}

@@ -333,9 +333,7 @@ impl Bicycle {
         step: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
         check_grid((start, end, step))?;
-        let speeds: Vec<f64> = (0..=((end - start) / step).round() as usize)
-            .map(|i| start + i as f64 * step)
-            .collect();
+        let speeds = bikeproc::model::report::speed_grid((start, end, step));
         let (bands, s) = py
             .detach(|| {
                 Ok::<_, bikeproc::model::ParamError>((

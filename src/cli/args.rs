@@ -471,28 +471,28 @@ pub struct RideArgs {
 #[derive(Args)]
 pub struct TorsionArgs {
     /// The body's inertia about the bar's axis (kg·m²).
-    #[arg(long, default_value_t = 1.8906)]
+    #[arg(long, default_value_t = 1.8906, value_parser = within(0.0, true, 1e6))]
     pub inertia_kgm2: f64,
     /// The bar's torsional stiffness (N·m/rad).
-    #[arg(long, default_value_t = 34.33)]
+    #[arg(long, default_value_t = 34.33, value_parser = within(0.0, true, 1e6))]
     pub stiffness_nm_per_rad: f64,
     /// Viscous damping ratio ζ (dimensionless).
-    #[arg(long, default_value_t = 0.004)]
+    #[arg(long, default_value_t = 0.004, value_parser = within(0.0, false, 0.99))]
     pub damping_ratio: f64,
     /// Dry (Coulomb) friction torque in the bearing (N·m).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = within(0.0, false, 1e3))]
     pub coulomb_nm: f64,
     /// Frequency of the Cardan joint's swing mode (Hz); no swing mode when absent.
-    #[arg(long)]
+    #[arg(long, value_parser = within(0.0, true, 1e3))]
     pub swing_freq_hz: Option<f64>,
     /// How strongly the swing mode couples into the torsion (dimensionless, 0–1).
-    #[arg(long, default_value_t = 0.03)]
+    #[arg(long, default_value_t = 0.03, value_parser = within(0.0, false, 1.0))]
     pub swing_coupling: f64,
     /// The swing mode's damping ratio (dimensionless).
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = 0.02, value_parser = within(0.0, false, 0.99))]
     pub swing_damping_ratio: f64,
     /// The swing mode's initial amplitude (degrees).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = within(0.0, false, 90.0))]
     pub swing_amplitude_deg: f64,
     #[command(flatten)]
     pub common: SimCommon,
@@ -501,19 +501,19 @@ pub struct TorsionArgs {
 #[derive(Args)]
 pub struct CompoundArgs {
     /// The body's mass (kg).
-    #[arg(long, default_value_t = 5.48)]
+    #[arg(long, default_value_t = 5.48, value_parser = within(0.0, true, 1e6))]
     pub mass_kg: f64,
     /// Distance from the pivot to the centre of gravity (m).
-    #[arg(long, default_value_t = 0.37)]
+    #[arg(long, default_value_t = 0.37, value_parser = within(0.0, true, 1e6))]
     pub pivot_to_cg_m: f64,
     /// Inertia about the pivot (kg·m²); eq. 79's frame: 0.8796 + 5.48·0.37².
-    #[arg(long, default_value_t = 1.62982)]
+    #[arg(long, default_value_t = 1.62982, value_parser = within(0.0, true, 1e6))]
     pub inertia_about_pivot_kgm2: f64,
     /// Viscous damping ratio ζ (dimensionless).
-    #[arg(long, default_value_t = 0.003)]
+    #[arg(long, default_value_t = 0.003, value_parser = within(0.0, false, 0.99))]
     pub damping_ratio: f64,
     /// Dry (Coulomb) friction torque in the pivot (N·m).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = within(0.0, false, 1e3))]
     pub coulomb_nm: f64,
     #[command(flatten)]
     pub common: SimCommon,
@@ -525,19 +525,19 @@ pub struct SimCommon {
     #[arg(long)]
     pub out: PathBuf,
     /// The release angle (degrees).
-    #[arg(long, default_value_t = 8.0)]
+    #[arg(long, default_value_t = 8.0, value_parser = within(0.0, true, 90.0))]
     pub amplitude_deg: f64,
     /// Rest before the hand turns the body (s).
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = within(0.0, false, 3600.0))]
     pub rest_s: f64,
     /// Time the hand takes to turn the body to the release angle (s).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = within(0.0, false, 3600.0))]
     pub ramp_s: f64,
     /// Time the body is held there before the release (s).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = within(0.0, false, 3600.0))]
     pub hold_s: f64,
     /// Length of the recording (s).
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, value_parser = within(0.0, true, 86400.0))]
     pub duration_s: f64,
     /// The sensor's orientation output: Euler angles, quaternion or rotation matrix.
     #[arg(long, value_enum, default_value_t = ModeArg::Euler)]
@@ -550,7 +550,7 @@ pub struct SimCommon {
     #[arg(long, value_enum, default_value_t = PrecisionArg::Sensor)]
     pub precision: PrecisionArg,
     /// White noise of the orientation output (deg, per axis).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = within(0.0, false, 90.0))]
     pub noise_deg: f64,
     /// A perfect link: no dropped packets, no corrupt rows, no clock jitter.
     #[arg(long)]
@@ -608,6 +608,27 @@ pub fn parse_speed(s: &str) -> Result<f64, String> {
 }
 
 /// A number from 0 to `max`.
+/// A number in `lo..=hi` (finite), for a physical argument: `lo_open` excludes `lo` itself (a
+/// mass, an inertia, a stiffness, a duration must be above zero).
+pub fn within(lo: f64, lo_open: bool, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let v: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{s}` is not a number"))?;
+        let above = if lo_open { v > lo } else { v >= lo };
+        if v.is_finite() && above && v <= hi {
+            Ok(v)
+        } else {
+            Err(if lo_open {
+                format!("{v}: expected a number above {lo} and at most {hi}")
+            } else {
+                format!("{v}: expected a number from {lo} to {hi}")
+            })
+        }
+    }
+}
+
 pub fn fraction_or_step(max: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
     move |s: &str| {
         let v: f64 = s

@@ -67,6 +67,14 @@ pub fn valid_speed_grid((start, end, step): (f64, f64, f64)) -> bool {
     start >= 0.0 && end > start && step > 0.0 && (end - start) / step <= 1e6
 }
 
+/// The speeds of a grid START:END:STEP: START, START + STEP, … up to END, never beyond it (a
+/// step that does not divide the range stops short; `0:10:20` is the one speed 0, not 0 and
+/// 20).
+pub fn speed_grid((lo, hi, step): (f64, f64, f64)) -> Vec<f64> {
+    let n = ((hi - lo) / step + 1e-9).floor() as usize;
+    (0..=n).map(|i| lo + i as f64 * step).collect()
+}
+
 impl StabilityReport {
     /// `bikeproc stability --speeds LO:HI:STEP`: the eigenvalues with their standard errors at
     /// LO, LO + STEP, … HI, and the weave and capsize speeds and stable ranges searched to HI
@@ -75,9 +83,7 @@ impl StabilityReport {
         p: &super::uncertain::Parametrized,
         (lo, hi, step): (f64, f64, f64),
     ) -> Result<StabilityReport, super::ParamError> {
-        let speeds: Vec<f64> = (0..=((hi - lo) / step).round() as usize)
-            .map(|i| lo + i as f64 * step)
-            .collect();
+        let speeds = speed_grid((lo, hi, step));
         let s = p.speeds(hi, step.min(0.01))?;
         let bands = p.bands(&speeds)?;
         Ok(StabilityReport::new(
