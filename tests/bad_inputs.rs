@@ -155,3 +155,61 @@ fn editor_habits_read_as_the_clean_file() {
     assert!(e.contains("(5000000 bytes)"), "{}", &e[..e.len().min(300)]);
     assert!(e.len() < 300, "{} bytes of message", e.len());
 }
+
+/// Issue 33: a bar calibration file edited to a number outside its range (a NaN or absurd
+/// standard error, a negative one, a correlation outside [−1, 1], a NaN fixture inertia) is
+/// refused where it is read, naming the file, the line and the key (exit 2); it gave every
+/// inertia ± 0.0000 or "k = 34.321 ± -0.075" before.
+#[test]
+fn a_bar_calibration_out_of_range_is_refused_with_its_key() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = std::env::temp_dir().join(format!("bikeproc_cal_{}", std::process::id()));
+    for sub in ["bar_calibration", "frame_torsion"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+        for e in std::fs::read_dir(root.join("data").join(sub))
+            .unwrap()
+            .flatten()
+        {
+            std::fs::copy(e.path(), dir.join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    let original =
+        std::fs::read_to_string(root.join("data/bar_calibration/calibration.toml")).unwrap();
+    let run = || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .arg("inertia")
+            .arg(dir.join("frame_torsion"))
+            .output()
+            .unwrap()
+    };
+    for (key, value, line) in [
+        ("stiffness_se_nm_per_rad", "nan", 5),
+        ("stiffness_se_nm_per_rad", "1e300", 5),
+        ("stiffness_se_nm_per_rad", "-0.075", 5),
+        ("stiffness_fixture_correlation", "nan", 8),
+        ("stiffness_fixture_correlation", "5", 8),
+        ("fixture_inertia_kgm2", "nan", 6),
+    ] {
+        let edited: String = original
+            .lines()
+            .map(|l| {
+                if l.split('=').next().is_some_and(|k| k.trim() == key) {
+                    format!("{key} = {value}\n")
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        std::fs::write(dir.join("bar_calibration/calibration.toml"), edited).unwrap();
+        let out = run();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{key} = {value}: {err}");
+        assert!(
+            err.contains("calibration.toml") && err.contains(&format!("line {line}: {key} = ")),
+            "{key} = {value}: {err}"
+        );
+    }
+    std::fs::write(dir.join("bar_calibration/calibration.toml"), &original).unwrap();
+    assert_eq!(run().status.code(), Some(0));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -429,12 +429,99 @@ impl BarCalibration {
                 .unwrap_or(0);
             invalid(format!("line {line}: {}", e.message().replace('\n', " ")))
         })?;
-        if f.version != 1
-            || f.stiffness_nm_per_rad.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-        {
-            return Err(invalid(
-                "not a version-1 calibration with a positive stiffness".into(),
-            ));
+        if f.version != 1 {
+            return Err(invalid(format!(
+                "version {}: this bikeproc reads version-1 calibrations",
+                f.version
+            )));
+        }
+        // Every number where it is read: finite, in its physical range, its standard error
+        // from 0 to the value's size (a calibration with an error larger than its value has
+        // measured nothing).
+        let line_of = |key: &str| {
+            text.lines()
+                .position(|l| l.split('=').next().is_some_and(|k| k.trim() == key))
+                .map_or(0, |i| i + 1)
+        };
+        let check = |key: &str, v: f64, ok: bool, expected: &str| -> Result<(), InertiaError> {
+            if v.is_finite() && ok {
+                Ok(())
+            } else {
+                let shown = if v != 0.0 && (v.abs() >= 1e6 || v.abs() < 1e-4) {
+                    format!("{v:e}")
+                } else {
+                    format!("{v}")
+                };
+                Err(invalid(format!(
+                    "line {}: {key} = {shown}: expected {expected}",
+                    line_of(key)
+                )))
+            }
+        };
+        let k = f.stiffness_nm_per_rad;
+        check(
+            "stiffness_nm_per_rad",
+            k,
+            k > 0.0 && k < 1e6,
+            "a stiffness above 0 N·m/rad",
+        )?;
+        let se_ok = |se: f64, v: f64| se >= 0.0 && se <= v.abs();
+        check(
+            "stiffness_se_nm_per_rad",
+            f.stiffness_se_nm_per_rad,
+            se_ok(f.stiffness_se_nm_per_rad, k),
+            "a standard error from 0 to the stiffness",
+        )?;
+        let rod = f.rod_inertia_kgm2;
+        check(
+            "rod_inertia_kgm2",
+            rod,
+            rod > 0.0,
+            "an inertia above 0 kg·m²",
+        )?;
+        check(
+            "rod_inertia_se_kgm2",
+            f.rod_inertia_se_kgm2,
+            se_ok(f.rod_inertia_se_kgm2, rod),
+            "a standard error from 0 to the rod's inertia",
+        )?;
+        check(
+            "fixture_inertia_kgm2",
+            f.fixture_inertia_kgm2,
+            f.fixture_inertia_kgm2.abs() <= rod,
+            "an inertia smaller than the rod's (the empty fixture's, near 0)",
+        )?;
+        check(
+            "fixture_inertia_se_kgm2",
+            f.fixture_inertia_se_kgm2,
+            se_ok(f.fixture_inertia_se_kgm2, rod),
+            "a standard error from 0 to the rod's inertia",
+        )?;
+        check(
+            "stiffness_fixture_correlation",
+            f.stiffness_fixture_correlation,
+            (-1.0..=1.0).contains(&f.stiffness_fixture_correlation),
+            "a correlation from −1 to 1",
+        )?;
+        check(
+            "freq_hz",
+            f.freq_hz,
+            f.freq_hz > 0.0,
+            "a frequency above 0 Hz",
+        )?;
+        check(
+            "freq_se_hz",
+            f.freq_se_hz,
+            se_ok(f.freq_se_hz, f.freq_hz),
+            "a standard error from 0 to the frequency",
+        )?;
+        if let Some(t) = f.theory_stiffness_nm_per_rad {
+            check(
+                "theory_stiffness_nm_per_rad",
+                t,
+                t > 0.0 && t < 1e6,
+                "a stiffness above 0 N·m/rad",
+            )?;
         }
         Ok(BarCalibration {
             stiffness_nm_per_rad: f.stiffness_nm_per_rad,
