@@ -493,3 +493,34 @@ fn stability_lists_every_eigenvalue_of_an_independent_model() {
         eprintln!("{name}: worst relative difference {worst:.1e}");
     }
 }
+
+/// Issue 33: a bicycle file whose rear frame's centre of mass lies below the ground
+/// (`zB = +0.538`, z pointing down) is refused naming the parameter (exit 2); it was accepted.
+#[test]
+fn a_centre_of_mass_below_the_ground_is_refused() {
+    let text = std::fs::read_to_string(reference("BrowserBenchmark.txt")).unwrap();
+    let bad: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("zB ") {
+                "zB = 0.538+/-0.002\n".to_string()
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let path =
+        std::env::temp_dir().join(format!("bikeproc_zb_{}Benchmark.txt", std::process::id()));
+    std::fs::write(&path, bad).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+        .args(["stability", "--bike", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    std::fs::remove_file(&path).ok();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("zB = 0.538 m") && err.contains("above the ground"),
+        "{err}"
+    );
+}

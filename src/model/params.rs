@@ -322,6 +322,30 @@ impl Benchmark {
                 return bad(format!("I{body}xx = {xx}, I{body}zz = {zz}, I{body}xz = {xz}: not positive semi-definite"));
             }
         }
+        // Centres of mass above the ground (z points down) and within a few metres of the
+        // rear contact; a trail shorter than the wheelbase.
+        for (name, m, x, z) in [
+            ("B", self.m_b, self.x_b, self.z_b),
+            ("H", self.m_h, self.x_h, self.z_h),
+        ] {
+            if m > 0.0 && !(z < 0.0 && z > -10.0) {
+                return bad(format!(
+                    "z{name} = {z} m: the centre of mass of a body with mass is above the ground \
+                     (z points down: expected from −10 m to below 0)"
+                ));
+            }
+            if x.abs() > 10.0 {
+                return bad(format!(
+                    "x{name} = {x} m: expected within 10 m of the rear contact"
+                ));
+            }
+        }
+        if self.c.abs() >= self.w {
+            return bad(format!(
+                "trail c = {} m: expected shorter than the wheelbase w = {} m",
+                self.c, self.w
+            ));
+        }
         for (name, v) in [
             ("IRxx", self.i_rxx),
             ("IRyy", self.i_ryy),
