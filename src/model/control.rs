@@ -34,6 +34,10 @@ use std::path::Path;
 /// The most speed points a controller's table may have.
 pub const MAX_POINTS: usize = 32;
 
+/// The largest gain a controller file may hold (N·m/rad or N·m·s/rad): a steer motor on a
+/// bicycle gives tens (the balance-assist bicycle's 28); 10⁴ leaves room for any real one.
+pub const MAX_GAIN: f64 = 1e4;
+
 /// The state the gains multiply, in the order of the model's state `(φ, δ, φ̇, δ̇)`.
 pub const GAIN_KEYS: [&str; 4] = [
     "roll_nm_per_rad",
@@ -128,17 +132,23 @@ impl SteerControl {
                 spec.speeds_mps
             )));
         }
-        let mut c = SteerControl {
-            points: n,
-            ..SteerControl::NONE
-        };
-        c.speeds_mps[..n].copy_from_slice(&spec.speeds_mps);
         let lists = [
             &spec.roll_nm_per_rad,
             &spec.steer_nm_per_rad,
             &spec.roll_rate_nms_per_rad,
             &spec.steer_rate_nms_per_rad,
         ];
+        if lists.iter().all(|l| l.is_none()) {
+            return Err(bad(format!(
+                "speeds and no gains: give at least one of {} (one value per speed)",
+                GAIN_KEYS.join(", ")
+            )));
+        }
+        let mut c = SteerControl {
+            points: n,
+            ..SteerControl::NONE
+        };
+        c.speeds_mps[..n].copy_from_slice(&spec.speeds_mps);
         for (j, (list, key)) in lists.iter().zip(GAIN_KEYS).enumerate() {
             let Some(list) = list else { continue };
             if list.len() != n {
@@ -147,8 +157,14 @@ impl SteerControl {
                     list.len()
                 )));
             }
-            if let Some(x) = list.iter().find(|x| !x.is_finite()) {
-                return Err(bad(format!("{key} holds {x}, not a gain")));
+            if let Some(x) = list
+                .iter()
+                .find(|x| !(x.is_finite() && x.abs() <= MAX_GAIN))
+            {
+                return Err(bad(format!(
+                    "{key} holds {x:e}, not a gain a steer motor gives (at most {MAX_GAIN:e} \
+                     in size, SI units)"
+                )));
             }
             for (k, &x) in list.iter().enumerate() {
                 c.gains[k][j] = x;
@@ -217,6 +233,26 @@ mod tests {
             roll_rate_nms_per_rad: Some(roll_rate),
             steer_rate_nms_per_rad: None,
         }
+    }
+
+    /// Issue 33: a gain no steer motor gives (1e300 gave eigenvalues of −2e299 and "stable
+    /// above 4.9965 m/s") and a table of speeds without gains (it acted as no controller) are
+    /// refused, naming the key.
+    #[test]
+    fn absurd_gains_and_a_table_without_gains_are_refused() {
+        let e = SteerControl::from_spec(
+            &spec(vec![0.0, 4.7, 20.0], vec![1e300, 0.0, 0.0]),
+            Path::new("c"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("roll_rate_nms_per_rad holds 1e300"), "{e}");
+        let mut none = spec(vec![0.0, 4.7], vec![]);
+        none.roll_rate_nms_per_rad = None;
+        let e = SteerControl::from_spec(&none, Path::new("c"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("speeds and no gains"), "{e}");
     }
 
     #[test]
