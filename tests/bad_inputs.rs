@@ -213,3 +213,42 @@ fn a_bar_calibration_out_of_range_is_refused_with_its_key() {
     assert_eq!(run().status.code(), Some(0));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 33: a ride listed twice in a campaign is refused (it was analysed as one more ride,
+/// its evidence counted twice, in `gap` and `dynamic`).
+#[test]
+fn a_ride_listed_twice_is_refused() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = std::env::temp_dir().join(format!("bikeproc_twice_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in [
+        "ride_01.log",
+        "ride_01_cal.log",
+        "ride_02.log",
+        "ride_02_cal.log",
+        "lab_bike.toml",
+    ] {
+        std::fs::copy(root.join("data").join(f), dir.join(f)).unwrap();
+    }
+    std::fs::write(
+        dir.join("rides.toml"),
+        "version = 1\nbike = \"lab_bike.toml\"\n\n[[ride]]\nlog = \"ride_01.log\"\nnoted_speed_mps = 3.5\n\n\
+         [[ride]]\nlog = \"ride_02.log\"\nnoted_speed_mps = 3.7\n\n\
+         [[ride]]\nlog = \"./ride_01.log\"\nnoted_speed_mps = 3.5\n",
+    )
+    .unwrap();
+    for command in ["gap", "dynamic"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .arg(command)
+            .arg(dir.join("rides.toml"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{command}: {err}");
+        assert!(
+            err.contains("ride_01.log is listed twice"),
+            "{command}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -834,6 +834,31 @@ impl RideManifest {
                 ));
             }
         }
+        // A ride twice (its log, and for a CSV its window) would count its evidence twice.
+        let mut seen: Vec<(std::path::PathBuf, Option<[u64; 2]>)> = Vec::new();
+        for r in &m.rides {
+            let file = m.dir.join(&r.log);
+            let key = (
+                std::fs::canonicalize(&file).unwrap_or(file),
+                r.window_s.map(|w| w.map(f64::to_bits)),
+            );
+            if seen.contains(&key) {
+                let name = r.log.display().to_string();
+                return Err(err(
+                    &name,
+                    format!(
+                        "{name} is listed twice{}: each ride once (its evidence would count \
+                         twice)",
+                        if r.window_s.is_some() {
+                            " with the same window"
+                        } else {
+                            ""
+                        }
+                    ),
+                ));
+            }
+            seen.push(key);
+        }
         if let Some(spec) = &m.controller {
             m.control = SteerControl::from_spec(spec, path).map_err(|e| ManifestError {
                 path: path.to_path_buf(),
