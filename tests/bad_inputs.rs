@@ -252,3 +252,46 @@ fn a_ride_listed_twice_is_refused() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 33: one recording twice in a torsion test (it gave f ± 0.00000 and a spread of 0.00 %)
+/// or in two tests (exit 0, only χ² 147 hinted) is refused, naming the test and the line.
+#[test]
+fn a_recording_in_two_places_is_refused() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = std::env::temp_dir().join(format!("bikeproc_duplog_{}", std::process::id()));
+    for sub in ["bar_calibration", "frame_torsion"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+        for e in std::fs::read_dir(root.join("data").join(sub))
+            .unwrap()
+            .flatten()
+        {
+            std::fs::copy(e.path(), dir.join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    let manifest = dir.join("frame_torsion/manifest.toml");
+    let original = std::fs::read_to_string(&manifest).unwrap();
+    for (from, to, want) in [
+        (
+            r#"logs = ["frame_torsion_1a.log", "frame_torsion_1b.log"]"#,
+            r#"logs = ["frame_torsion_1a.log", "frame_torsion_1a.log"]"#,
+            "manifest.toml:14: test \"1\" lists frame_torsion_1a.log twice",
+        ),
+        (
+            r#"logs = ["frame_torsion_2a.log", "frame_torsion_2b.log"]"#,
+            r#"logs = ["frame_torsion_1a.log", "frame_torsion_1b.log"]"#,
+            "manifest.toml:22: frame_torsion_1a.log is in test \"1\" and in test \"2\"",
+        ),
+    ] {
+        assert!(original.contains(from));
+        std::fs::write(&manifest, original.replacen(from, to, 1)).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .arg("inertia")
+            .arg(dir.join("frame_torsion"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(want), "{err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -301,6 +301,39 @@ impl Manifest {
                 });
             }
         }
+        // A recording in two places (twice in a test, or in two tests) would count as two
+        // repeats of one set-up, or give two set-ups the same period.
+        let folder = file.parent().unwrap_or(Path::new("."));
+        let mut logs: Vec<(PathBuf, &str)> = Vec::new();
+        for t in &self.tests {
+            for log in &t.logs {
+                let path = folder.join(log);
+                let key = std::fs::canonicalize(&path).unwrap_or(path);
+                if let Some((_, first)) = logs.iter().find(|(k, _)| *k == key) {
+                    let shown = log.display().to_string();
+                    return Err(ManifestError {
+                        path: file.to_path_buf(),
+                        line: text
+                            .match_indices(&shown)
+                            .nth(1)
+                            .map(|(i, _)| 1 + text[..i].matches('\n').count()),
+                        message: if *first == t.name {
+                            format!(
+                                "test \"{}\" lists {shown} twice: each recording once",
+                                t.name
+                            )
+                        } else {
+                            format!(
+                                "{shown} is in test \"{first}\" and in test \"{}\": each \
+                                 recording belongs to one test",
+                                t.name
+                            )
+                        },
+                    });
+                }
+                logs.push((key, &t.name));
+            }
+        }
         let non_negative = |key: &str, v: Option<f64>, test: &str| -> Result<(), ManifestError> {
             match v {
                 Some(x) if !(x.is_finite() && x >= 0.0) => Err(err(
