@@ -258,6 +258,19 @@ impl CsvTable {
         } else {
             (first.iter().map(str::to_string).collect(), Vec::new())
         };
+        for (j, h) in headers.iter().enumerate() {
+            if let Some(i) = headers[..j].iter().position(|g| g == h && !h.is_empty()) {
+                return Err(err(
+                    1,
+                    j + 1,
+                    format!(
+                        "column `{h}` twice (columns {} and {}): which one is meant is not known",
+                        i + 1,
+                        j + 1
+                    ),
+                ));
+            }
+        }
         for rec in records {
             let rec = rec.map_err(|e| {
                 let line = e.position().map_or(0, |p| p.line());
