@@ -204,6 +204,10 @@ fn dynamic<'py>(
     bike: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use bikeproc::ride::dynamic;
+    if let Some(v) = speed {
+        bikeproc::ride::speed::check_reading_mps(v)
+            .map_err(|e| BikeprocError::new_err(format!("speed: {e}")))?;
+    }
     let modal = bikeproc::ride::modal::ModalOptions::default();
     if path.extension().is_some_and(|e| e == "toml") {
         let manifest = dynamic::RideManifest::load(&path).map_err(err)?;

@@ -168,3 +168,10 @@ def test_a_bad_file_raises_with_its_file_and_line():
         bikeproc.fit_period(np.arange(10.0) * np.array([1, 1, 1, 0, 1, 1, 1, 1, 1, 1]), np.zeros(10))
     with pytest.raises(bikeproc.BikeprocError, match="START:END:STEP"):
         bikeproc.Bicycle.from_file(DATA / "lab_bike.toml").stability(5.0, 1.0, 0.1)
+
+
+@pytest.mark.parametrize("speed", [-1.0, 0.0, float("nan"), 1e9])
+def test_dynamic_refuses_a_speed_that_is_no_riding_speed(speed):
+    # Issue 33: speed=-1.0 returned speed_mps -1.20.
+    with pytest.raises(bikeproc.BikeprocError, match="speed: .* is not a riding speed"):
+        bikeproc.dynamic(DATA / "ride_03.log", speed=speed)
