@@ -295,3 +295,65 @@ fn a_recording_in_two_places_is_refused() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 33: manifest numbers beyond their physical range are refused naming the line and the
+/// key: a centre of gravity 5 m from the bar's axis (it gave −5.48e20 kg·m² and a warning that
+/// blamed the axes), a bar's shear modulus of 1e300 Pa (a theoretical stiffness of 4.9e299).
+#[test]
+fn manifest_numbers_beyond_their_physical_range_are_refused() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = std::env::temp_dir().join(format!("bikeproc_range_{}", std::process::id()));
+    for sub in ["bar_calibration", "empty_fixture", "frame_torsion"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+        for e in std::fs::read_dir(root.join("data").join(sub))
+            .unwrap()
+            .flatten()
+        {
+            std::fs::copy(e.path(), dir.join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    let edit = |file: &str, key: &str, value: &str| {
+        let path = dir.join(file);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut done = false;
+        let edited: String = text
+            .lines()
+            .map(|l| {
+                if !done && l.split('=').next().is_some_and(|k| k.trim() == key) {
+                    done = true;
+                    format!("{key} = {value}\n")
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        assert!(done, "{key} in {file}");
+        std::fs::write(path, edited).unwrap();
+    };
+    let run = |command: &str, sub: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .arg(command)
+            .arg(dir.join(sub))
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    edit("frame_torsion/manifest.toml", "cg_distance_m", "5");
+    let (code, err) = run("inertia", "frame_torsion");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("`cg_distance_m = 5`: expected at most 2"),
+        "{err}"
+    );
+    edit("bar_calibration/manifest.toml", "shear_modulus_pa", "1e300");
+    let (code, err) = run("calibrate-bar", "bar_calibration");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("manifest.toml:13: `shear_modulus_pa = 1e300`"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

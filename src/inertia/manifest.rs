@@ -344,6 +344,66 @@ impl Manifest {
                 _ => Ok(()),
             }
         };
+        // Upper bounds of the physical range: a lab's bodies, weights and distances, a metal
+        // bar's shear modulus (aluminium 26 GPa to steel 80 GPa, with room either side).
+        let at_most = |key: &str, v: Option<f64>, max: f64, test: Option<&str>| match v {
+            Some(x) if x > max => Err(err(
+                key,
+                test,
+                format!(
+                    "`{key} = {}`: expected at most {max} (SI units){}",
+                    number_text(x),
+                    test.map(|t| format!(" in test \"{t}\""))
+                        .unwrap_or_default()
+                ),
+            )),
+            _ => Ok(()),
+        };
+        at_most("mass_kg", self.mass_kg, 1000.0, None)?;
+        if let Some(rod) = &self.rod {
+            at_most("mass_kg", Some(rod.mass_kg), 1000.0, None)?;
+            at_most("diameter_m", Some(rod.diameter_m), 1.0, None)?;
+            at_most("length_m", Some(rod.length_m), 10.0, None)?;
+            for (key, v, max) in [
+                ("mass_se_kg", rod.mass_se_kg, rod.mass_kg.abs()),
+                ("dimension_se_m", rod.dimension_se_m, rod.diameter_m.abs()),
+            ] {
+                if let Some(x) = v {
+                    if !(x.is_finite() && (0.0..=max).contains(&x)) {
+                        return Err(err(
+                            key,
+                            None,
+                            format!(
+                                "`[rod] {key} = {}`: a standard error from 0 to {max}",
+                                number_text(x)
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        if let Some(bar) = &self.bar {
+            let g = bar.shear_modulus_pa;
+            if g.is_finite() && !(1e9..=2e11).contains(&g) {
+                return Err(err(
+                    "shear_modulus_pa",
+                    None,
+                    format!(
+                        "`shear_modulus_pa = {}`: a metal bar's is 1e9 to 2e11 Pa (steel 8e10)",
+                        number_text(g)
+                    ),
+                ));
+            }
+            at_most("diameter_m", Some(bar.diameter_m), 1.0, None)?;
+            at_most("length_m", Some(bar.length_m), 10.0, None)?;
+        }
+        for t in &self.tests {
+            let n = Some(t.name.as_str());
+            at_most("cg_distance_m", t.cg_distance_m, 2.0, n)?;
+            at_most("pivot_to_cg_m", t.pivot_to_cg_m, 3.0, n)?;
+            at_most("weights_kg", t.weights_kg, 100.0, n)?;
+            at_most("weights_distance_m", t.weights_distance_m, 2.0, n)?;
+        }
         match self.kind {
             Kind::BarCalibration => {
                 let rod = self.rod.as_ref().ok_or_else(|| {
