@@ -343,6 +343,26 @@ fn manifest_of(name: &str, logs: &[PathBuf]) -> RideManifest {
     m
 }
 
+/// `n` copies of a ride log with its `_cal` file, under other names in a scratch folder `name`
+/// (a campaign lists each file once): the same recording as `n` rides.
+fn copies(name: &str, log: &std::path::Path, n: usize) -> Vec<PathBuf> {
+    let dir = scratch(name);
+    let cal = log.with_file_name(format!(
+        "{}_cal.log",
+        log.file_stem().unwrap().to_string_lossy()
+    ));
+    (0..n)
+        .map(|k| {
+            let copy = dir.join(format!("copy_{k}.log"));
+            std::fs::copy(log, &copy).unwrap();
+            if cal.exists() {
+                std::fs::copy(&cal, dir.join(format!("copy_{k}_cal.log"))).unwrap();
+            }
+            copy
+        })
+        .collect()
+}
+
 fn inconclusive(m: &RideManifest) -> Diagnosis {
     let model = uncertain::load(&root().join("data/lab_bike.toml")).unwrap();
     let d = diagnose_campaign(m, &model, &|_, _, _| {}).unwrap();
@@ -360,8 +380,9 @@ fn campaigns_that_support_no_conclusion_say_why() {
     let ride = |k: usize| data.join(format!("ride_{k:02}.log"));
     let d = inconclusive(&manifest_of("three", &[ride(4), ride(8), ride(12)]));
     assert!(d.verdict.contains("3 usable rides"), "{}", d.verdict);
-    let d = inconclusive(&manifest_of("single", &vec![ride(6); 5]));
+    let d = inconclusive(&manifest_of("single", &copies("single_logs", &ride(6), 5)));
     assert!(d.verdict.contains("a single speed"), "{}", d.verdict);
+    std::fs::remove_dir_all(scratch("single_logs")).ok();
     let faults = root().join("fixtures/rides");
     let mut logs: Vec<PathBuf> = ["no_kick", "too_short", "sensors_swapped", "handlebar_still"]
         .iter()
@@ -371,18 +392,14 @@ fn campaigns_that_support_no_conclusion_say_why() {
     let d = inconclusive(&manifest_of("failed", &logs));
     assert_eq!(d.rides_failed.len(), 4);
     assert!(d.verdict.contains("3 usable rides"), "{}", d.verdict);
-    let logs: Vec<PathBuf> = [
-        "no_kick",
-        "too_short",
-        "sensors_swapped",
-        "handlebar_still",
-        "no_kick",
-    ]
-    .iter()
-    .map(|f| faults.join(format!("{f}.log")))
-    .chain([ride(2), ride(6), ride(10), ride(14)])
-    .collect();
+    let logs: Vec<PathBuf> = ["no_kick", "too_short", "sensors_swapped", "handlebar_still"]
+        .iter()
+        .map(|f| faults.join(format!("{f}.log")))
+        .chain(copies("failed_again", &faults.join("no_kick.log"), 1))
+        .chain([ride(2), ride(6), ride(10), ride(14)])
+        .collect();
     let d = inconclusive(&manifest_of("most_failed", &logs));
+    std::fs::remove_dir_all(scratch("failed_again")).ok();
     assert!(d.verdict.contains("5 of 9 rides failed"), "{}", d.verdict);
 }
 
