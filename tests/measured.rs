@@ -276,7 +276,7 @@ fn missing_and_malformed_measurements_are_refused() {
         (
             "zero mass",
             rigid.replace("mR = 4.90+/-0.01", "mR = 0+/-0.01"),
-            ":20: `mR`: the mass of the rear wheel must be above zero",
+            ":20:6: `mR = 0+/-0.01`: expected a mass above 0 and at most 1000 kg",
         ),
         (
             "no equals",
@@ -324,4 +324,60 @@ fn missing_and_malformed_measurements_are_refused() {
         "{e}"
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 33: a raw measurement outside its physical range is refused where it is read, naming
+/// the line, the column and the key (exit 2): an absurd standard error (1e308 made every
+/// propagated error 0; 500 on 9.86 kg is beyond the README's ten times the value plus one), a
+/// period of 1e-300 s (IByy came out −1.133 kg·m²), a head angle of 0° (a trail of 4.46e15 m),
+/// an angle of 1e308°.
+#[test]
+fn raw_measurements_outside_their_range_are_refused() {
+    let src = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../shared/reference/bicycleparameters/BrowserMeasured.txt"),
+    )
+    .unwrap();
+    let path =
+        std::env::temp_dir().join(format!("bikeproc_range_{}Measured.txt", std::process::id()));
+    for (line, want) in [
+        (
+            "mB = 9.86+/-1e308",
+            "a standard error from 0 to ten times the value plus one",
+        ),
+        (
+            "mB = 9.86+/-500",
+            "a standard error from 0 to ten times the value plus one",
+        ),
+        (
+            "TcB1 = 1e-300+/-0",
+            "a pendulum's period from 0.01 to 100 s",
+        ),
+        ("gamma = 0+/-0.2", "a head angle above 20°"),
+        ("alphaB1 = 1e308+/-0.2", "an angle within ±360°"),
+    ] {
+        let key = line.split(" =").next().unwrap();
+        let edited: String = src
+            .lines()
+            .map(|l| {
+                if l.split('=').next().is_some_and(|k| k.trim() == key) {
+                    format!("{line}\n")
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        std::fs::write(&path, edited).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .args(["measured", path.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{line}: {err}");
+        assert!(
+            err.contains(&format!("`{line}`: expected")) && err.contains(want),
+            "{line}: {err}"
+        );
+    }
+    std::fs::remove_file(&path).ok();
 }

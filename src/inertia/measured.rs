@@ -275,6 +275,16 @@ impl MeasuredFile {
                     })?,
                     None => 0.0,
                 };
+                if let Some(expected) = out_of_range(key, value, se) {
+                    return Err(err(
+                        item_col,
+                        format!(
+                            "`{key} = {}+/-{}`: expected {expected}",
+                            excerpt(v.trim()),
+                            s.map_or("0", |s| s.trim())
+                        ),
+                    ));
+                }
                 values.push((value, se));
             }
             entries.insert(
@@ -300,6 +310,34 @@ impl MeasuredFile {
             .unwrap_or_default();
         stem.strip_suffix("Measured").unwrap_or(&stem).to_string()
     }
+}
+
+/// What a measurement `key = value+/-se` should be when it is outside its physical range (the
+/// families a bicycle's measurements have: masses `m…` in kg, pendulum periods `T…` in s,
+/// angles `alpha…` and the head angle `gamma` in degrees), `None` when it is inside. Every
+/// standard error is at most ten times its value plus one (an error of 1e308 made every
+/// propagated error 0).
+fn out_of_range(key: &str, value: f64, se: f64) -> Option<&'static str> {
+    let family = |prefix: &str| {
+        key.strip_prefix(prefix)
+            .is_some_and(|rest| rest.starts_with(|c: char| c.is_ascii_uppercase()))
+    };
+    if !(se.is_finite() && se <= 10.0 * value.abs() + 1.0) {
+        return Some("a standard error from 0 to ten times the value plus one");
+    }
+    if family("m") && !(value > 0.0 && value <= 1000.0) {
+        return Some("a mass above 0 and at most 1000 kg");
+    }
+    if (family("Tc") || family("Tt") || family("T")) && !(0.01..=100.0).contains(&value) {
+        return Some("a pendulum's period from 0.01 to 100 s");
+    }
+    if family("alpha") && !(value.abs() <= 360.0) {
+        return Some("an angle within ±360°");
+    }
+    if key == "gamma" && !(value > 20.0 && value <= 90.0) {
+        return Some("a head angle above 20° and at most 90° (from the ground)");
+    }
+    None
 }
 
 /// At most 40 characters of `s`, for messages.
@@ -863,20 +901,7 @@ impl MeasuredBicycle {
                 }
             }
         }
-        for (key, e) in &file.entries {
-            if (key.starts_with('m') || key.starts_with("Tc") || key.starts_with("Tt"))
-                && c.index.contains_key(key)
-            {
-                if let Some(bad) = e.values.iter().find(|v| v.0 <= 0.0) {
-                    return Err(MeasuredError::Invalid {
-                        path: file.path.clone(),
-                        line: e.line,
-                        key: key.clone(),
-                        message: format!("{} must be above zero, not {}", describe(key), bad.0),
-                    });
-                }
-            }
-        }
+        // Masses and periods were checked where they were read (`out_of_range`).
         let mut inputs = c.inputs;
         if let GeometryLayout::Offsets { h, d, .. } = layout.geometry {
             // BicycleParameters' convention: λ is a quantity of its own, its standard error
