@@ -331,7 +331,7 @@ fn out_of_range(key: &str, value: f64, se: f64) -> Option<&'static str> {
     if (family("Tc") || family("Tt") || family("T")) && !(0.01..=100.0).contains(&value) {
         return Some("a pendulum's period from 0.01 to 100 s");
     }
-    if family("alpha") && !(value.abs() <= 360.0) {
+    if family("alpha") && !(-360.0..=360.0).contains(&value) {
         return Some("an angle within ±360°");
     }
     if key == "gamma" && !(value > 20.0 && value <= 90.0) {
