@@ -300,6 +300,28 @@ fn a_bad_csv_ride_is_named_where() {
     let e = read_csv_ride(&path, &cols).unwrap_err().to_string();
     assert!(e.contains("no column `gyro_x`"), "{e}");
     assert!("speed=x".parse::<Columns>().is_err());
+    // Issue 33: values outside their physical range, by line and column; a roll rate that never
+    // moves.
+    for (text, want) in [
+        (
+            "time_s,roll_rate_rad_per_s,rear_wheel_speed_m_per_s\n0.00,0.1,4\n0.01,0.2,-5\n",
+            "bad.csv:3:3: wheel_speed `rear_wheel_speed_m_per_s` = -5 m/s",
+        ),
+        (
+            "time_s,roll_rate_rad_per_s,rear_wheel_speed_m_per_s\n0.00,0.1,1e9\n0.01,0.2,4\n",
+            "bad.csv:2:3: wheel_speed `rear_wheel_speed_m_per_s` = 1000000000 m/s",
+        ),
+        (
+            "time_s,roll_rate_rad_per_s\n0.00,0.5\n0.01,0.5\n0.02,0.5\n",
+            "roll_rate `roll_rate_rad_per_s` is 0.5 in every row",
+        ),
+    ] {
+        std::fs::write(&path, text).unwrap();
+        let e = read_csv_ride(&path, &Columns::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{e}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -183,8 +183,48 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
         wheel_speed_mps: None,
         columns: found.iter().map(|f| (f.0, f.3.clone())).collect(),
     };
-    for ((q, _, factor, _), v) in found.iter().zip(values) {
+    let lines = table.lines();
+    for ((q, k, factor, name), v) in found.iter().zip(values) {
         let v: Vec<f64> = v.into_iter().map(|x| x * factor).collect();
+        // Each quantity in its physical range where it is read: a wheel speed from −1 m/s (an
+        // encoder's noise at a standstill) to a riding speed's most (−5 gave "speed −5.000",
+        // 1e9 a weave of −4.9e9); an angle within ±π, a rate within ±100 rad/s.
+        let range = match q {
+            Quantity::Time => None,
+            Quantity::WheelSpeed => Some((-1.0, super::speed::MAX_READING_MPS, "m/s")),
+            Quantity::Roll | Quantity::Steer => {
+                Some((-std::f64::consts::PI, std::f64::consts::PI, "rad"))
+            }
+            Quantity::RollRate | Quantity::SteerRate => Some((-100.0, 100.0, "rad/s")),
+        };
+        if let Some((lo, hi, unit)) = range {
+            if let Some(i) = v.iter().position(|x| !(lo..=hi).contains(x)) {
+                return Err(table
+                    .error(
+                        lines.get(i).copied().unwrap_or(0),
+                        k + 1,
+                        format!(
+                            "{} `{name}` = {} {unit}: expected from {lo:.4} to {hi} {unit}",
+                            q.key(),
+                            v[i]
+                        ),
+                    )
+                    .into());
+            }
+        }
+        if matches!(q, Quantity::Roll | Quantity::RollRate)
+            && v.len() > 1
+            && v.iter().all(|x| *x == v[0])
+        {
+            return Err(err(
+                path,
+                format!(
+                    "{} `{name}` is {} in every row: no motion was recorded",
+                    q.key(),
+                    v[0]
+                ),
+            ));
+        }
         match q {
             Quantity::Time => ride.time_s = v,
             Quantity::Roll => ride.roll_rad = Some(v),
