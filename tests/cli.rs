@@ -410,3 +410,17 @@ fn arguments_out_of_their_physical_range_are_refused() {
         .collect();
     assert_eq!(speeds, vec![0.0]);
 }
+
+/// Issue 33, weak messages: a reading of 1e-300 m/s is no riding speed (it gave "no weave at
+/// −0.202 m/s"); a window from NaN says so (it gave "END must be after START").
+#[test]
+fn absurd_readings_and_windows_are_named_for_what_they_are() {
+    let ride = root().join("data/ride_03.log");
+    let ride = ride.to_str().unwrap();
+    let (code, _, err) = bikeproc(&["dynamic", ride, "--speed", "1e-300"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("1e-300 m/s is not a riding speed"), "{err}");
+    let (code, _, err) = bikeproc(&["dynamic", ride, "--window", "nan:150"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("START and END must be finite"), "{err}");
+}

@@ -653,6 +653,11 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
         .trim()
         .parse()
         .map_err(|_| format!("`{b}` is not a number"))?;
+    if let Some(x) = [a, b].into_iter().find(|x| !x.is_finite()) {
+        return Err(format!(
+            "{x}: START and END must be finite times in seconds"
+        ));
+    }
     if b > a {
         Ok((a, b))
     } else {

@@ -53,13 +53,23 @@ const GRAVITY_MPS2: f64 = 9.81;
 /// bicycle's test.
 pub const MAX_READING_MPS: f64 = 30.0;
 
-/// Checks a speedometer reading: a number above zero and at most [`MAX_READING_MPS`].
+/// The slowest speed reading bikeproc accepts (m/s): a bicycle below 0.1 m/s stands (a reading
+/// of 1e-300 gave "no weave at −0.202 m/s" once carried over the coast).
+pub const MIN_READING_MPS: f64 = 0.1;
+
+/// Checks a speedometer reading: a number from [`MIN_READING_MPS`] to [`MAX_READING_MPS`].
 pub fn check_reading_mps(v: f64) -> Result<f64, String> {
-    if v.is_finite() && v > 0.0 && v <= MAX_READING_MPS {
+    if v.is_finite() && (MIN_READING_MPS..=MAX_READING_MPS).contains(&v) {
         Ok(v)
     } else {
+        let shown = if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e6) {
+            format!("{v:e}")
+        } else {
+            format!("{v}")
+        };
         Err(format!(
-            "{v} m/s is not a riding speed (expected above 0 and at most {MAX_READING_MPS} m/s)"
+            "{shown} m/s is not a riding speed (expected from {MIN_READING_MPS} to \
+             {MAX_READING_MPS} m/s)"
         ))
     }
 }
