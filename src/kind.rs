@@ -126,6 +126,83 @@ pub fn angles_beside(calibrated: &Path) -> PathBuf {
     calibrated.with_file_name(name)
 }
 
+/// The largest input bikeproc reads (bytes): a day of 100 Hz rows of two sensors is about
+/// 1.5 GB; beyond this a reader of a device or a runaway file would only fill the memory.
+pub const MAX_INPUT_BYTES: u64 = 4 << 30;
+
+/// How much of an input is looked at before it is read as text.
+const HEAD_BYTES: usize = 64 * 1024;
+
+/// Opens `path` as a line-based text input: its first 64 KiB must hold no NUL byte and (when
+/// more follows) a line break, and the whole is read to at most [`MAX_INPUT_BYTES`]. Refused
+/// with the reason otherwise: `/dev/zero` linked as a log read 4.2 GB before running out of
+/// memory, and 2 GiB of NUL bytes as a CSV became a 2 GiB error line.
+pub fn open_text(path: &Path) -> Result<impl std::io::Read, NotText> {
+    let io = |e: std::io::Error| NotText {
+        line: None,
+        message: format!("cannot read: {e}"),
+    };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut head = Vec::with_capacity(HEAD_BYTES);
+    (&mut file)
+        .take(HEAD_BYTES as u64)
+        .read_to_end(&mut head)
+        .map_err(io)?;
+    if let Some(at) = head.iter().position(|&b| b == 0) {
+        return Err(NotText {
+            line: Some(1 + head[..at].iter().filter(|&&b| b == b'\n').count() as u64),
+            message: format!(
+                "binary data (a NUL byte at byte {at}): not a text file of bikeproc's formats"
+            ),
+        });
+    }
+    if head.len() == HEAD_BYTES && !head.contains(&b'\n') {
+        return Err(NotText {
+            line: Some(1),
+            message: format!(
+                "no line break in the first {} KiB: not a line-based text file",
+                HEAD_BYTES / 1024
+            ),
+        });
+    }
+    let rest = file.take(MAX_INPUT_BYTES - head.len() as u64);
+    Ok(std::io::Cursor::new(head).chain(rest))
+}
+
+/// Why an input is not read as text: the line where that shows (when one does) and what.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NotText {
+    pub line: Option<u64>,
+    pub message: String,
+}
+
+impl std::fmt::Display for NotText {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+/// [`open_text`] read whole; refused beyond [`MAX_INPUT_BYTES`].
+pub fn read_text_bytes(path: &Path) -> Result<Vec<u8>, NotText> {
+    let mut bytes = Vec::new();
+    open_text(path)?
+        .read_to_end(&mut bytes)
+        .map_err(|e| NotText {
+            line: None,
+            message: format!("cannot read: {e}"),
+        })?;
+    if bytes.len() as u64 >= MAX_INPUT_BYTES {
+        return Err(NotText {
+            line: None,
+            message: format!(
+                "larger than {} GiB: split the recording",
+                MAX_INPUT_BYTES >> 30
+            ),
+        });
+    }
+    Ok(bytes)
+}
+
 /// How much of a file is read to recognise it.
 const SNIFF_BYTES: u64 = 16 * 1024;
 

@@ -318,11 +318,16 @@ pub struct Log {
 impl Log {
     /// Reads a log file from disk.
     pub fn open(path: &Path, options: &ReadOptions) -> Result<Log, LogError> {
-        let bytes = std::fs::read(path).map_err(|e| LogError {
+        let bytes = crate::kind::read_text_bytes(path).map_err(|e| LogError {
             path: path.to_path_buf(),
-            line: None,
+            line: e.line.map(|l| l as usize),
             column: None,
-            kind: LogErrorKind::Io(e.to_string()),
+            kind: LogErrorKind::Io(
+                e.message
+                    .strip_prefix("cannot read: ")
+                    .unwrap_or(&e.message)
+                    .to_string(),
+            ),
         })?;
         Log::parse(&bytes, path, options)
     }

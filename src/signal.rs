@@ -127,10 +127,10 @@ impl Signal {
     /// Reads a plain CSV `time_s,value` signal (a header row, then rows). The sampling must be
     /// uniform; the rate is taken from the median step, and a row off the grid is an error.
     pub fn from_csv(path: &Path) -> Result<Signal, SignalError> {
-        let file = std::fs::File::open(path).map_err(|e| SignalError::Invalid {
+        let file = crate::kind::open_text(path).map_err(|e| SignalError::Invalid {
             path: path.to_path_buf(),
-            line: 0,
-            message: format!("cannot read: {e}"),
+            line: e.line.unwrap_or(0) as usize,
+            message: e.message,
         })?;
         Signal::from_csv_reader(file, path)
     }

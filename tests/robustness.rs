@@ -289,3 +289,36 @@ fn a_rides_pair_that_is_not_one_recording_is_named_so() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Issue 33: an endless or binary input is refused at its first 64 KiB: `/dev/zero` linked as a
+/// log (it read 4.2 GB before running out of memory) and 8 MiB of NUL bytes as a CSV (a line of
+/// that size in the error), each in one short line with exit 2.
+#[cfg(target_os = "linux")]
+#[test]
+fn endless_or_binary_inputs_are_refused_at_their_head() {
+    let d = scratch("binary");
+    let zero = d.join("zero.log");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let nul = d.join("nul.csv");
+    std::fs::write(&nul, vec![0u8; 8 << 20]).unwrap();
+    for (args, want) in [
+        (
+            vec!["period", zero.to_str().unwrap()],
+            "zero.log:1: cannot read: binary data",
+        ),
+        (
+            vec!["period", nul.to_str().unwrap()],
+            "nul.csv:1: binary data",
+        ),
+        (vec!["dynamic", nul.to_str().unwrap()], "binary data"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want) && err.len() < 300, "{args:?}: {err}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

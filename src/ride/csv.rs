@@ -126,7 +126,10 @@ fn err(path: &Path, message: impl Into<String>) -> RideError {
 /// A time column is required and must advance; a named column that is missing is an error, an
 /// unnamed quantity without a recognised column is simply absent.
 pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError> {
-    let file = std::fs::File::open(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
+    let file = crate::kind::open_text(path).map_err(|e| {
+        let at = e.line.map_or(String::new(), |l| format!("line {l}: "));
+        err(path, format!("{at}{}", e.message))
+    })?;
     let table = CsvTable::read(file, path)?;
     let mut found: Vec<(Quantity, usize, f64, String)> = Vec::new();
     for q in Quantity::ALL {
