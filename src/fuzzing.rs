@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub type Target = fn(&[u8]);
 
 /// The fuzz targets by name: the folder names under `fuzz/seeds/` and `fuzz/fuzz_targets/`.
-pub const TARGETS: [(&str, Target); 8] = [
+pub const TARGETS: [(&str, Target); 9] = [
     ("log_file", log_file),
     ("csv_signal", csv_signal),
     ("bicycle_text", bicycle_text),
@@ -22,6 +22,7 @@ pub const TARGETS: [(&str, Target); 8] = [
     ("ride_manifest", ride_manifest),
     ("csv_ride", csv_ride),
     ("measured_file", measured_file),
+    ("controller_file", controller_file),
 ];
 
 /// Writes `bytes` to `name` in this process's fuzzing folder and gives its path.
@@ -112,5 +113,20 @@ pub fn measured_file(bytes: &[u8]) {
     };
     if let Ok(b) = MeasuredBicycle::from_file(&file) {
         let _ = b.report(10.0, 0.1);
+    }
+}
+
+/// A steer controller's file (a `[controller]` table): read, and the benchmark bicycle's
+/// eigenvalues with it closing the loop at a few speeds across its table.
+pub fn controller_file(bytes: &[u8]) {
+    use crate::model::{Benchmark, Canonical, SteerControl};
+    let Some(path) = as_file(bytes, "controller.toml") else {
+        return;
+    };
+    if let Ok((control, _)) = SteerControl::load(&path) {
+        let bike = Canonical::from_benchmark(&Benchmark::meijaard_2007()).with_control(control);
+        for v in [0.0, 1.0, 4.7, 10.0, 40.0] {
+            let _ = bike.eigenvalues(v);
+        }
     }
 }
