@@ -162,19 +162,10 @@ fn editor_habits_read_as_the_clean_file() {
 /// inertia ± 0.0000 or "k = 34.321 ± -0.075" before.
 #[test]
 fn a_bar_calibration_out_of_range_is_refused_with_its_key() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let dir = std::env::temp_dir().join(format!("bikeproc_cal_{}", std::process::id()));
-    for sub in ["bar_calibration", "frame_torsion"] {
-        std::fs::create_dir_all(dir.join(sub)).unwrap();
-        for e in std::fs::read_dir(root.join("data").join(sub))
-            .unwrap()
-            .flatten()
-        {
-            std::fs::copy(e.path(), dir.join(sub).join(e.file_name())).unwrap();
-        }
-    }
+    let dir = common::data_copy("cal", &["bar_calibration", "frame_torsion"]);
     let original =
-        std::fs::read_to_string(root.join("data/bar_calibration/calibration.toml")).unwrap();
+        std::fs::read_to_string(common::root().join("data/bar_calibration/calibration.toml"))
+            .unwrap();
     let run = || {
         std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
             .arg("inertia")
@@ -190,17 +181,11 @@ fn a_bar_calibration_out_of_range_is_refused_with_its_key() {
         ("stiffness_fixture_correlation", "5", 8),
         ("fixture_inertia_kgm2", "nan", 6),
     ] {
-        let edited: String = original
-            .lines()
-            .map(|l| {
-                if l.split('=').next().is_some_and(|k| k.trim() == key) {
-                    format!("{key} = {value}\n")
-                } else {
-                    format!("{l}\n")
-                }
-            })
-            .collect();
-        std::fs::write(dir.join("bar_calibration/calibration.toml"), edited).unwrap();
+        std::fs::write(
+            dir.join("bar_calibration/calibration.toml"),
+            common::with_key(&original, key, value),
+        )
+        .unwrap();
         let out = run();
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{key} = {value}: {err}");
@@ -257,17 +242,7 @@ fn a_ride_listed_twice_is_refused() {
 /// or in two tests (exit 0, only χ² 147 hinted) is refused, naming the test and the line.
 #[test]
 fn a_recording_in_two_places_is_refused() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let dir = std::env::temp_dir().join(format!("bikeproc_duplog_{}", std::process::id()));
-    for sub in ["bar_calibration", "frame_torsion"] {
-        std::fs::create_dir_all(dir.join(sub)).unwrap();
-        for e in std::fs::read_dir(root.join("data").join(sub))
-            .unwrap()
-            .flatten()
-        {
-            std::fs::copy(e.path(), dir.join(sub).join(e.file_name())).unwrap();
-        }
-    }
+    let dir = common::data_copy("duplog", &["bar_calibration", "frame_torsion"]);
     let manifest = dir.join("frame_torsion/manifest.toml");
     let original = std::fs::read_to_string(&manifest).unwrap();
     for (from, to, want) in [
@@ -301,34 +276,14 @@ fn a_recording_in_two_places_is_refused() {
 /// blamed the axes), a bar's shear modulus of 1e300 Pa (a theoretical stiffness of 4.9e299).
 #[test]
 fn manifest_numbers_beyond_their_physical_range_are_refused() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let dir = std::env::temp_dir().join(format!("bikeproc_range_{}", std::process::id()));
-    for sub in ["bar_calibration", "empty_fixture", "frame_torsion"] {
-        std::fs::create_dir_all(dir.join(sub)).unwrap();
-        for e in std::fs::read_dir(root.join("data").join(sub))
-            .unwrap()
-            .flatten()
-        {
-            std::fs::copy(e.path(), dir.join(sub).join(e.file_name())).unwrap();
-        }
-    }
+    let dir = common::data_copy(
+        "range",
+        &["bar_calibration", "empty_fixture", "frame_torsion"],
+    );
     let edit = |file: &str, key: &str, value: &str| {
         let path = dir.join(file);
         let text = std::fs::read_to_string(&path).unwrap();
-        let mut done = false;
-        let edited: String = text
-            .lines()
-            .map(|l| {
-                if !done && l.split('=').next().is_some_and(|k| k.trim() == key) {
-                    done = true;
-                    format!("{key} = {value}\n")
-                } else {
-                    format!("{l}\n")
-                }
-            })
-            .collect();
-        assert!(done, "{key} in {file}");
-        std::fs::write(path, edited).unwrap();
+        std::fs::write(path, common::with_key(&text, key, value)).unwrap();
     };
     let run = |command: &str, sub: &str| {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))

@@ -356,18 +356,8 @@ fn raw_measurements_outside_their_range_are_refused() {
         ("gamma = 0+/-0.2", "a head angle above 20°"),
         ("alphaB1 = 1e308+/-0.2", "an angle within ±360°"),
     ] {
-        let key = line.split(" =").next().unwrap();
-        let edited: String = src
-            .lines()
-            .map(|l| {
-                if l.split('=').next().is_some_and(|k| k.trim() == key) {
-                    format!("{line}\n")
-                } else {
-                    format!("{l}\n")
-                }
-            })
-            .collect();
-        std::fs::write(&path, edited).unwrap();
+        let (key, value) = line.split_once(" = ").unwrap();
+        std::fs::write(&path, common::with_key(&src, key, value)).unwrap();
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
             .args(["measured", path.to_str().unwrap()])
             .output()

@@ -270,24 +270,21 @@ impl Manifest {
                     )),
                 }
             };
-        for (key, v, max) in [
-            ("mass_se_kg", self.mass_se_kg, 10.0),
-            ("distance_se_m", self.distance_se_m, 1.0),
-            ("axis_angle_se_deg", self.axis_angle_se_deg, 45.0),
-        ] {
-            if let Some(x) = v {
-                if !(x.is_finite() && (0.0..=max).contains(&x)) {
-                    return Err(err(
-                        key,
-                        None,
-                        format!(
-                            "`{key} = {}`: a standard error from 0 to {max}",
-                            number_text(x)
-                        ),
-                    ));
-                }
-            }
-        }
+        // A standard error from 0 to `max`; `table` names the table the key is in.
+        let standard_error = |table: &str, key: &str, v: Option<f64>, max: f64| match v {
+            Some(x) if !(x.is_finite() && (0.0..=max).contains(&x)) => Err(err(
+                key,
+                None,
+                format!(
+                    "`{table}{key} = {}`: a standard error from 0 to {max}",
+                    number_text(x)
+                ),
+            )),
+            _ => Ok(()),
+        };
+        standard_error("", "mass_se_kg", self.mass_se_kg, 10.0)?;
+        standard_error("", "distance_se_m", self.distance_se_m, 1.0)?;
+        standard_error("", "axis_angle_se_deg", self.axis_angle_se_deg, 45.0)?;
         let mut names = std::collections::BTreeSet::new();
         for t in &self.tests {
             if !names.insert(t.name.as_str()) {
@@ -364,23 +361,13 @@ impl Manifest {
             at_most("mass_kg", Some(rod.mass_kg), 1000.0, None)?;
             at_most("diameter_m", Some(rod.diameter_m), 1.0, None)?;
             at_most("length_m", Some(rod.length_m), 10.0, None)?;
-            for (key, v, max) in [
-                ("mass_se_kg", rod.mass_se_kg, rod.mass_kg.abs()),
-                ("dimension_se_m", rod.dimension_se_m, rod.diameter_m.abs()),
-            ] {
-                if let Some(x) = v {
-                    if !(x.is_finite() && (0.0..=max).contains(&x)) {
-                        return Err(err(
-                            key,
-                            None,
-                            format!(
-                                "`[rod] {key} = {}`: a standard error from 0 to {max}",
-                                number_text(x)
-                            ),
-                        ));
-                    }
-                }
-            }
+            standard_error("[rod] ", "mass_se_kg", rod.mass_se_kg, rod.mass_kg.abs())?;
+            standard_error(
+                "[rod] ",
+                "dimension_se_m",
+                rod.dimension_se_m,
+                rod.diameter_m.abs(),
+            )?;
         }
         if let Some(bar) = &self.bar {
             let g = bar.shear_modulus_pa;

@@ -447,14 +447,10 @@ impl BarCalibration {
             if v.is_finite() && ok {
                 Ok(())
             } else {
-                let shown = if v != 0.0 && (v.abs() >= 1e6 || v.abs() < 1e-4) {
-                    format!("{v:e}")
-                } else {
-                    format!("{v}")
-                };
                 Err(invalid(format!(
-                    "line {}: {key} = {shown}: expected {expected}",
-                    line_of(key)
+                    "line {}: {key} = {}: expected {expected}",
+                    line_of(key),
+                    manifest::number_text(v)
                 )))
             }
         };

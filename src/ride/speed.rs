@@ -62,14 +62,10 @@ pub fn check_reading_mps(v: f64) -> Result<f64, String> {
     if v.is_finite() && (MIN_READING_MPS..=MAX_READING_MPS).contains(&v) {
         Ok(v)
     } else {
-        let shown = if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e6) {
-            format!("{v:e}")
-        } else {
-            format!("{v}")
-        };
         Err(format!(
-            "{shown} m/s is not a riding speed (expected from {MIN_READING_MPS} to \
-             {MAX_READING_MPS} m/s)"
+            "{} m/s is not a riding speed (expected from {MIN_READING_MPS} to \
+             {MAX_READING_MPS} m/s)",
+            crate::inertia::manifest::number_text(v)
         ))
     }
 }

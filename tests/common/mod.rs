@@ -45,6 +45,41 @@ where
     serde_json::from_slice(&out.stdout).expect("JSON on stdout")
 }
 
+/// A scratch copy of `data/`'s `folders` under a per-process folder named `name` (the copy's
+/// path): a test edits its files, `data/` stays as checked in.
+pub fn data_copy(name: &str, folders: &[&str]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bikeproc_{name}_{}", std::process::id()));
+    for sub in folders {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+        for e in std::fs::read_dir(root().join("data").join(sub))
+            .unwrap()
+            .flatten()
+        {
+            std::fs::copy(e.path(), dir.join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    dir
+}
+
+/// `text` (lines of `key = value`) with the first line that sets `key` setting it to `value`;
+/// panics when no line does.
+pub fn with_key(text: &str, key: &str, value: &str) -> String {
+    let mut done = false;
+    let out = text
+        .lines()
+        .map(|l| {
+            if !done && l.split('=').next().is_some_and(|k| k.trim() == key) {
+                done = true;
+                format!("{key} = {value}\n")
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert!(done, "no line sets `{key}`");
+    out
+}
+
 /// One simulated recording: its orientation log and its calibrated (`_cal`) log.
 pub struct TorsionLogs {
     /// "Euler, Tab", …
