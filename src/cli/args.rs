@@ -216,10 +216,10 @@ pub struct DynamicArgs {
     #[arg(long, value_parser = parse_speed, allow_hyphen_values = true)]
     pub speed: Option<f64>,
     /// The speedometer's display step (m/s): a reading is uniform within ± half of it.
-    #[arg(long, default_value_t = 0.1, value_parser = fraction_or_step(2.0))]
+    #[arg(long, default_value_t = 0.1, value_parser = within(0.0, false, 2.0))]
     pub speed_resolution: f64,
     /// The speedometer's random error per reading, as a fraction of the reading.
-    #[arg(long, default_value_t = 0.01, value_parser = fraction_or_step(0.5))]
+    #[arg(long, default_value_t = 0.01, value_parser = within(0.0, false, 0.5))]
     pub speed_se_fraction: f64,
     /// The bicycle (lab TOML or BicycleParameters file); campaigns default to their manifest's.
     #[arg(long)]
@@ -625,20 +625,6 @@ pub fn within(lo: f64, lo_open: bool, hi: f64) -> impl Fn(&str) -> Result<f64, S
             } else {
                 format!("{v}: expected a number from {lo} to {hi}")
             })
-        }
-    }
-}
-
-pub fn fraction_or_step(max: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
-    move |s: &str| {
-        let v: f64 = s
-            .trim()
-            .parse()
-            .map_err(|_| format!("`{s}` is not a number"))?;
-        if v.is_finite() && (0.0..=max).contains(&v) {
-            Ok(v)
-        } else {
-            Err(format!("{v}: expected a number from 0 to {max}"))
         }
     }
 }
