@@ -607,7 +607,6 @@ pub fn parse_speed(s: &str) -> Result<f64, String> {
     bikeproc::ride::speed::check_reading_mps(v)
 }
 
-/// A number from 0 to `max`.
 /// A number in `lo..=hi` (finite), for a physical argument: `lo_open` excludes `lo` itself (a
 /// mass, an inertia, a stiffness, a duration must be above zero).
 pub fn within(lo: f64, lo_open: bool, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
