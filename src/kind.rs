@@ -32,6 +32,8 @@ pub enum Kind {
     TestFolder(String),
     /// A campaign of rides (`[[ride]]` tables).
     RideManifest,
+    /// A study: several campaigns of one bicycle (`conditions = [...]`).
+    StudyManifest,
     /// A lab bicycle (a TOML with a `[geometry]` table).
     LabBike,
     /// Benchmark parameters in BicycleParameters' text (`IBxx = 0.53+/-0.002` …) or TOML.
@@ -62,6 +64,7 @@ impl Kind {
             Kind::TestManifest(k) => format!("a pendulum test manifest (kind = \"{k}\")"),
             Kind::TestFolder(k) => format!("a pendulum test folder (kind = \"{k}\")"),
             Kind::RideManifest => "a campaign of rides (a rides manifest)".into(),
+            Kind::StudyManifest => "a study of several campaigns (a study manifest)".into(),
             Kind::LabBike => "a lab bicycle file (it has a [geometry] table)".into(),
             Kind::Benchmark => "a bicycle's benchmark parameters".into(),
             Kind::MeasuredBicycle => "a bicycle's raw measurements (BicycleParameters)".into(),
@@ -93,7 +96,7 @@ impl Kind {
                     format!("bikeproc inertia {folder}")
                 }
             }
-            Kind::RideManifest => format!("bikeproc gap {p}"),
+            Kind::RideManifest | Kind::StudyManifest => format!("bikeproc gap {p}"),
             Kind::LabBike | Kind::Benchmark | Kind::MeasuredBicycle => {
                 format!("bikeproc stability --bike {p}")
             }
@@ -238,6 +241,9 @@ pub fn recognise(path: &Path) -> Kind {
     };
     if lines.contains(&"[[ride]]") {
         return Kind::RideManifest;
+    }
+    if key("conditions") {
+        return Kind::StudyManifest;
     }
     if lines.contains(&"[geometry]") {
         return Kind::LabBike;

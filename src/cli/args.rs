@@ -238,8 +238,10 @@ pub struct DynamicArgs {
 
 #[derive(Args)]
 pub struct GapArgs {
-    /// A campaign manifest (`rides.toml`).
-    pub file: PathBuf,
+    /// A campaign manifest (`rides.toml`); or several, one per condition of one bicycle (a
+    /// study); or a study manifest listing them.
+    #[arg(required = true, num_args = 1..)]
+    pub files: Vec<PathBuf>,
     /// The bicycle (lab TOML or BicycleParameters file); defaults to the manifest's.
     #[arg(long)]
     pub bike: Option<PathBuf>,
@@ -386,6 +388,28 @@ pub enum SimCommand {
         /// Seed of the random numbers: the same seed, the same campaign.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// The measured bicycle (copied beside the rides as bike.toml).
+        #[arg(long, default_value = "data/lab_bike.toml")]
+        bike: PathBuf,
+        /// Folder to write into.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// A blind study for `bikeproc gap`: the measured bicycle with a steer motor whose
+    /// reflected inertia and delivered gain are withheld, ridden unpowered and at three
+    /// controller gains (a campaign each, listed in OUT/study.toml), the truth sealed in
+    /// OUT/truth.json.
+    #[command(after_help = "Example:
+  bikeproc simulate blind-study --seed 3 --out /tmp/study
+  bikeproc gap /tmp/study/study.toml")]
+    BlindStudy {
+        /// Seed of the random numbers: the same seed, the same study.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// An effect-free study: the motor's rotor weightless, its torque as commanded (the
+        /// control the diagnosis must stay quiet on).
+        #[arg(long)]
+        effect_free: bool,
         /// The measured bicycle (copied beside the rides as bike.toml).
         #[arg(long, default_value = "data/lab_bike.toml")]
         bike: PathBuf,

@@ -11,23 +11,55 @@ use bikeproc::ride::csv::{self, KickReport};
 use bikeproc::ride::dynamic::{self, DynamicOptions, RideManifest};
 use bikeproc::ride::modal::ModalOptions;
 use bikeproc::ride::speed::NotedReading;
+use bikeproc::ride::study::Study;
 
 pub fn gap(a: GapArgs) -> Result<()> {
-    kind::expect(
-        &a.file,
-        &|k| matches!(k, Kind::RideManifest),
-        "a campaign of rides",
-    )?;
-    let manifest = RideManifest::load(&a.file)?;
-    let model = manifest.model(a.bike.as_deref())?;
     let bar = progress(a.json);
-    let d = bikeproc::gap::diagnose_campaign(&manifest, &model, &|what, done, total| {
-        advance(&bar, what, done, total)
-    })?;
+    let study_file = match &a.files[..] {
+        [one] => {
+            kind::expect(
+                one,
+                &|k| matches!(k, Kind::RideManifest | Kind::StudyManifest),
+                "a campaign of rides or a study of several",
+            )?;
+            (kind::recognise(one) == Kind::StudyManifest).then(|| one.clone())
+        }
+        many => {
+            for f in many {
+                kind::expect(
+                    f,
+                    &|k| matches!(k, Kind::RideManifest),
+                    "a campaign of rides (one per condition)",
+                )?;
+            }
+            None
+        }
+    };
+    let d = if let (None, [file]) = (&study_file, &a.files[..]) {
+        let manifest = RideManifest::load(file)?;
+        let model = manifest.model(a.bike.as_deref())?;
+        bikeproc::gap::diagnose_campaign(&manifest, &model, &|what, done, total| {
+            advance(&bar, what, done, total)
+        })?
+    } else {
+        let study = match &study_file {
+            Some(f) => Study::load(f)?,
+            None => Study::from_manifests(&a.files)?,
+        };
+        let bike = match &a.bike {
+            Some(b) => b.clone(),
+            None => study.bike_path()?,
+        };
+        let model = bikeproc::model::uncertain::load(&bike)?;
+        bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|what, done, total| {
+            advance(&bar, what, done, total)
+        })?
+    };
     bar.finish_and_clear();
     emit(a.json, &d, || d.to_text())?;
     if d.rides_used == 0 {
-        return Err(NoRideAnalysed(a.file.clone()).into());
+        let file = study_file.unwrap_or_else(|| a.files[0].clone());
+        return Err(NoRideAnalysed(file).into());
     }
     Ok(())
 }

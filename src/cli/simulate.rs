@@ -51,6 +51,21 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             files.push(("bike.toml".into(), text));
             return write_generated(&out, &files);
         }
+        SimCommand::BlindStudy {
+            seed,
+            effect_free,
+            bike,
+            out,
+        } => {
+            let lab = LabBike::load(&bike)?;
+            let motor = effect_free.then_some((0.0, 1.0));
+            let (mut files, _) =
+                bikeproc::sim::study::blind_study_with(&lab, "bike.toml", seed, motor)?;
+            let text = std::fs::read_to_string(&bike)
+                .with_context(|| format!("reading {}", bike.display()))?;
+            files.push(("bike.toml".into(), text));
+            return write_generated(&out, &files);
+        }
         SimCommand::GapCalibration {
             campaigns,
             controls,

@@ -147,6 +147,17 @@ impl Effect {
             .collect()
     }
 
+    /// Whether the effect belongs to a condition's own equipment rather than to the bicycle:
+    /// in a study of several conditions ([`super::conditions`]) the actuator's gain (per
+    /// controller), the speedometer's scale and the sensors' clock are fitted per condition;
+    /// the bicycle's effects are shared by all.
+    pub fn per_condition(self) -> bool {
+        matches!(
+            self,
+            Effect::ActuatorGain | Effect::SpeedScale | Effect::TimeScale
+        )
+    }
+
     /// The name used in reports and JSON.
     pub fn name(self) -> &'static str {
         match self {
@@ -260,9 +271,10 @@ impl Effect {
                 lo: 0.1,
                 hi: 3.0,
                 none: 1.0,
-                // A motor's torque constant, its driver's current loop and a gearbox's losses:
-                // within a third of the nominal.
-                plausible: (0.67, 1.5),
+                // A motor's torque constant, its driver's current loop and limit, and a
+                // gearbox's losses (a worm or planetary stage passes 50–90 % of the torque):
+                // from under a third of the nominal to half again.
+                plausible: (0.3, 1.5),
             },
             Effect::SteerInertia => ParamSpec {
                 name: "J",
@@ -270,8 +282,9 @@ impl Effect {
                 lo: 0.0,
                 hi: 1.0,
                 none: 0.0,
-                // A motor's rotor (~1e-4 kg·m²) through a 10–50:1 gearbox: up to ~0.25 kg·m².
-                plausible: (0.0, 0.3),
+                // A motor's rotor (1e-4 to 5e-4 kg·m²) through a 10–50:1 gearbox: its inertia
+                // times the ratio squared, up to ~0.5 kg·m², powered or not.
+                plausible: (0.0, 0.5),
             },
             Effect::Trail => TRAIL_FACTOR,
             Effect::FrameCgHeight | Effect::FrameCgX => LENGTH_FACTOR,

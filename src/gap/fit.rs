@@ -9,19 +9,22 @@
 //! on Rosenbrock's function from (−1.2, 1) it reaches f = 1.2e-12 in 12.2 µs against argmin's
 //! 8.0e-13 in 36.2 µs (medians).
 
+use super::conditions::{ConditionModel, Layout};
 use super::effects::{linear_bike_assuming, predict_weave, specs, Assumed, Effect};
+use super::linear::LinearBike;
 use super::Observation;
-use crate::model::Benchmark;
 use nalgebra::{Complex, DMatrix, DVector};
 
-/// A campaign ready to fit: the rides, the measured bicycle, each ride's unextended weave (the
-/// branch to follow) and the covariance of the residuals.
+/// A campaign (or a study of several conditions, each a campaign) ready to fit: the rides,
+/// each condition's measured bicycle, each ride's condition and unextended weave (the branch
+/// to follow) and the covariance of the residuals.
 #[derive(Clone)]
 pub struct Campaign<'a> {
     pub obs: &'a [Observation],
-    pub base: &'a Benchmark,
-    /// The bicycle's controller ([`crate::model::SteerControl::NONE`] without one).
-    pub control: crate::model::SteerControl,
+    /// The conditions: one for a single campaign ([`super::conditions`]).
+    pub conditions: &'a [ConditionModel],
+    /// Each ride's condition (an index into `conditions`).
+    pub ride_condition: Vec<usize>,
     pub guesses: Vec<Complex<f64>>,
     /// The parts of each ride's residual: 2, the eigenvalue's real and imaginary parts; 4, and
     /// the mode shape's |γ/θ| and phase (rad).
@@ -59,20 +62,62 @@ enum Solve {
 }
 
 impl<'a> Campaign<'a> {
+    /// The layout of `effects`' parameters over the conditions ([`Layout::new`]).
+    pub fn layout(&self, effects: &[Effect]) -> Layout {
+        Layout::new(effects, self.conditions)
+    }
+
+    /// The candidates this campaign (or study) can fit ([`super::conditions::library`]).
+    pub fn library(&self) -> Vec<Effect> {
+        super::conditions::library(self.conditions)
+    }
+
+    /// Whether the campaign is a study of several conditions.
+    pub fn is_study(&self) -> bool {
+        self.conditions.len() > 1
+    }
+
+    /// The rides of condition `c`.
+    pub fn rides_of(&self, c: usize) -> Vec<usize> {
+        (0..self.obs.len())
+            .filter(|&i| self.ride_condition[i] == c)
+            .collect()
+    }
+
+    /// Condition `c`'s bicycle with `effects` at its values of `params` (the fitted vector of
+    /// `layout`), and those values.
+    pub fn bike(
+        &self,
+        effects: &[Effect],
+        layout: &Layout,
+        params: &[f64],
+        c: usize,
+    ) -> (LinearBike, Vec<f64>) {
+        let own = layout.condition_params(params, c);
+        let cond = &self.conditions[c];
+        let bike = linear_bike_assuming(&cond.base, &cond.control, effects, &own, self.assumed);
+        (bike, own)
+    }
+
     /// The residuals of `rides` (experiment − prediction, [`Campaign::parts`] per ride, the
-    /// phase wrapped to ±π), `None` when a ride has no weave or no mode shape.
+    /// phase wrapped to ±π), `params` the fitted vector of the effects' layout; `None` when a
+    /// ride has no weave or no mode shape.
     pub fn residuals(
         &self,
         effects: &[Effect],
         params: &[f64],
         rides: &[usize],
     ) -> Option<DVector<f64>> {
-        let bike = linear_bike_assuming(self.base, &self.control, effects, params, self.assumed);
+        let layout = self.layout(effects);
+        let mut bikes: Vec<Option<(LinearBike, Vec<f64>)>> = vec![None; self.conditions.len()];
         let p = self.parts;
         let mut r = DVector::zeros(p * rides.len());
         for (k, &i) in rides.iter().enumerate() {
             let o = &self.obs[i];
-            let (w, shape) = predict_weave(&bike, effects, params, o, self.guesses[i], p > 2)?;
+            let c = self.ride_condition[i];
+            let (bike, own) =
+                bikes[c].get_or_insert_with(|| self.bike(effects, &layout, params, c));
+            let (w, shape) = predict_weave(bike, effects, own, o, self.guesses[i], p > 2)?;
             r[p * k] = o.weave.re - w.re;
             r[p * k + 1] = o.weave.im - w.im;
             if let Some(s) = shape {
@@ -336,21 +381,17 @@ pub fn nelder_mead(
     (x, fx)
 }
 
-/// The bounds of `effects`' parameters.
-fn bounds(effects: &[Effect]) -> (Vec<f64>, Vec<f64>) {
-    let s = specs(effects);
-    (
-        s.iter().map(|p| p.lo).collect(),
-        s.iter().map(|p| p.hi).collect(),
-    )
-}
-
-/// Fits `effects` to `subset`: the best point of a grid over the bounds (25 points for one
-/// parameter, 11 × 11 for two, 7 per parameter beyond), then Nelder–Mead.
+/// Fits `effects` to `subset`: the best point of a grid over the bounds of the effects'
+/// parameters (25 points for one parameter, 11 × 11 for two, 7 per parameter beyond; in a
+/// study every condition's copy of a parameter at the same grid value), then Nelder–Mead over
+/// every fitted element.
 pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
-    let (lo, hi) = bounds(effects);
+    let layout = subset.campaign.layout(effects);
+    let compact = specs(effects);
+    let lo: Vec<f64> = compact.iter().map(|p| p.lo).collect();
+    let hi: Vec<f64> = compact.iter().map(|p| p.hi).collect();
     let np = lo.len();
-    let f = |x: &[f64]| subset.chi2(effects, x);
+    let f = |x: &[f64]| subset.chi2(effects, &layout.expand(x));
     let per: usize = match np {
         1 => 25,
         2 => 11,
@@ -375,20 +416,40 @@ pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
     let step: Vec<f64> = (0..np)
         .map(|i| (hi[i] - lo[i]) / (per - 1) as f64)
         .collect();
-    refine(subset, effects, &best.0, &step)
+    refine(
+        subset,
+        effects,
+        &layout.expand(&best.0),
+        &layout.expand(&step),
+        &[],
+    )
 }
 
-/// Nelder–Mead from `start` with initial steps `step`.
+/// Nelder–Mead from `start` with initial steps `step`, the elements of `held` kept at their
+/// start.
 pub fn refine(
     subset: &Subset<'_, '_>,
     effects: &[Effect],
     start: &[f64],
     step: &[f64],
+    held: &[usize],
 ) -> EffectFit {
-    let (lo, hi) = bounds(effects);
-    let f = |x: &[f64]| subset.chi2(effects, x);
-    let (params, chi2) = nelder_mead(&f, start, step, &lo, &hi, 400);
-    EffectFit { params, chi2 }
+    let (lo, hi) = subset.campaign.layout(effects).bounds();
+    let free: Vec<usize> = (0..start.len()).filter(|i| !held.contains(i)).collect();
+    let full = |x: &[f64]| -> Vec<f64> {
+        let mut out = start.to_vec();
+        for (k, &i) in free.iter().enumerate() {
+            out[i] = x[k];
+        }
+        out
+    };
+    let pick = |v: &[f64]| -> Vec<f64> { free.iter().map(|&i| v[i]).collect() };
+    let f = |x: &[f64]| subset.chi2(effects, &full(x));
+    let (x, chi2) = nelder_mead(&f, &pick(start), &pick(step), &pick(&lo), &pick(&hi), 400);
+    EffectFit {
+        params: full(&x),
+        chi2,
+    }
 }
 
 /// The minimum of `subset`'s χ² near `start` (a fit to more rides): one Newton step on the
@@ -400,14 +461,17 @@ pub fn refine(
 /// neither lowers χ².
 /// Leaving one ride out moves the minimum by a fraction of its standard error, where χ² is
 /// quadratic to within the step's own error.
+/// The elements of `held` stay at their start (a condition's own parameters when its rides
+/// are left out).
 pub fn refit_near(
     subset: &Subset<'_, '_>,
     cache: &ResidualCache<'_, '_>,
     start: &[f64],
     step: &[f64],
+    held: &[usize],
 ) -> EffectFit {
     let effects = cache.effects;
-    let (lo, hi) = bounds(effects);
+    let (lo, hi) = cache.campaign.layout(effects).bounds();
     let n = lo.len();
     let h: Vec<f64> = (0..n).map(|i| 1e-3 * (hi[i] - lo[i])).collect();
     // Central differences need room on both sides of the start.
@@ -418,16 +482,13 @@ pub fn refit_near(
     let f0 = f(&x0);
     let (grad, hess) = central_differences(&f, &x0, f0, &h);
     if f0.is_finite() && grad.iter().all(|g| g.is_finite()) {
+        let keep: Vec<(usize, f64)> = held.iter().map(|&i| (i, start[i])).collect();
+        let mut at_bounds = active_bounds(start, &grad, &lo, &hi, &h);
+        at_bounds.retain(|(i, _)| !held.contains(i));
+        at_bounds.extend(keep.iter().copied());
         let steps = [
-            newton_step(&x0, &grad, &hess, &lo, &hi, &[]),
-            newton_step(
-                &x0,
-                &grad,
-                &hess,
-                &lo,
-                &hi,
-                &active_bounds(start, &grad, &lo, &hi, &h),
-            ),
+            newton_step(&x0, &grad, &hess, &lo, &hi, &keep),
+            newton_step(&x0, &grad, &hess, &lo, &hi, &at_bounds),
         ];
         for x1 in steps.into_iter().flatten() {
             let f1 = f(&x1);
@@ -439,7 +500,7 @@ pub fn refit_near(
             }
         }
     }
-    refine(subset, effects, start, step)
+    refine(subset, effects, start, step, held)
 }
 
 /// The parameters `start` (a fit to more rides) left at a bound of their box, within `h` of it,
@@ -547,7 +608,7 @@ fn central_differences(
 /// differences, steps of 1e-3 of each range), inflated by √(χ²/dof) when that exceeds 1 (the
 /// scatter the covariance does not explain). `NaN` where the curvature is not positive.
 pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
-    let (lo, hi) = bounds(effects);
+    let (lo, hi) = subset.campaign.layout(effects).bounds();
     let n = lo.len();
     let h: Vec<f64> = (0..n).map(|i| 1e-3 * (hi[i] - lo[i])).collect();
     let f = |x: &[f64]| subset.chi2(effects, x);
@@ -582,7 +643,7 @@ pub fn assumed_se(campaign: &Campaign<'_>, effects: &[Effect], fit: &EffectFit) 
     if !effects.contains(&Effect::Tyres) {
         return vec![0.0; n];
     }
-    let (lo, hi) = bounds(effects);
+    let (lo, hi) = campaign.layout(effects).bounds();
     let step: Vec<f64> = (0..n).map(|i| 0.05 * (hi[i] - lo[i])).collect();
     let refit = |sign: f64| -> Option<Vec<f64>> {
         let shifted = Campaign {
@@ -595,7 +656,7 @@ pub fn assumed_se(campaign: &Campaign<'_>, effects: &[Effect], fit: &EffectFit) 
         };
         let subset = shifted.subset((0..campaign.obs.len()).collect())?;
         let cache = ResidualCache::new(&shifted, effects);
-        let f = refit_near(&subset, &cache, &fit.params, &step);
+        let f = refit_near(&subset, &cache, &fit.params, &step, &[]);
         f.chi2.is_finite().then_some(f.params)
     };
     match (refit(1.0), refit(-1.0)) {

@@ -33,6 +33,7 @@
 //! cannot tell apart, and the rides to make next), [`verdict`] (the words); this file runs them
 //! in order ([`diagnose`]).
 
+pub mod conditions;
 pub mod effects;
 pub mod fit;
 pub mod linear;
@@ -76,6 +77,13 @@ pub struct Diagnosis {
     pub rides_used: usize,
     /// Rides left out, with why.
     pub rides_failed: Vec<String>,
+    /// In a study of several conditions: each condition (empty for a single campaign).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub conditions: Vec<ConditionSummary>,
+    /// Repeated kicks of one set-up (a condition's rides at one set speed) that scatter beyond
+    /// their fits' errors: the scatter between kicks, carried in every ride's covariance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub between_kick_scatter: Option<observe::BetweenKickScatter>,
     pub residuals: Vec<RideResidual>,
     /// The same with the best explanation in the model (fitted to every ride).
     pub residuals_after: Vec<RideResidual>,
@@ -212,12 +220,110 @@ pub fn diagnose(
     options: &GapOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
+    let one = [StudyCondition {
+        name: model.name.clone(),
+        control: model.control,
+        rides: rides.to_vec(),
+        failed: failed.to_vec(),
+    }];
+    diagnose_study(&one, model, options, progress)
+}
+
+/// One condition of a study as it enters the diagnosis: its name, its controller, the rides
+/// that gave an eigenvalue and the names and reasons of those that did not.
+#[derive(Debug, Clone)]
+pub struct StudyCondition {
+    pub name: String,
+    pub control: crate::model::SteerControl,
+    pub rides: Vec<Observation>,
+    pub failed: Vec<String>,
+}
+
+/// Runs the dynamic test of every ride of each manifest (a condition each, named by its
+/// manifest's stem, with its controller) and diagnoses them together against `model` (the
+/// bicycle they share); `progress(stage, done, total)` as [`diagnose_campaign`].
+pub fn diagnose_manifests(
+    manifests: &[(String, crate::ride::dynamic::RideManifest)],
+    model: &Parametrized,
+    progress: &(dyn Fn(&str, usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
+    let mut conditions = Vec::with_capacity(manifests.len());
+    for (name, manifest) in manifests {
+        let controlled = model.clone().with_control(manifest.control);
+        let results = crate::ride::dynamic::run_campaign(
+            manifest,
+            &controlled,
+            &crate::ride::modal::ModalOptions::default(),
+            &|done, total| progress(&format!("rides of {name}"), done, total),
+        );
+        let (rides, failed) = observations(&results);
+        conditions.push(StudyCondition {
+            name: name.clone(),
+            control: manifest.control,
+            rides,
+            failed,
+        });
+    }
+    diagnose_study(
+        &conditions,
+        model,
+        &GapOptions::default(),
+        &|done, total| progress("candidates", done, total),
+    )
+}
+
+/// One condition of a study in the diagnosis.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ConditionSummary {
+    pub name: String,
+    /// Whether it carries a controller.
+    pub controlled: bool,
+    pub rides_used: usize,
+    pub rides_failed: Vec<String>,
+    /// Its rides' χ² against the unextended model (their block of the covariance) and its
+    /// degrees of freedom.
+    pub chi2: f64,
+    pub dof: usize,
+}
+
+/// Diagnoses the conditions of a study together (one condition: a single campaign, as
+/// [`diagnose`]): the bicycle's effects shared, each condition's own equipment fitted per
+/// condition ([`conditions`]), and with two or more conditions each predicted from the others.
+pub fn diagnose_study(
+    study: &[StudyCondition],
+    model: &Parametrized,
+    options: &GapOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
+    let is_study = study.len() > 1;
+    let rides: Vec<Observation> = study.iter().flat_map(|c| c.rides.clone()).collect();
+    let ride_condition: Vec<usize> = study
+        .iter()
+        .enumerate()
+        .flat_map(|(c, cond)| std::iter::repeat_n(c, cond.rides.len()))
+        .collect();
+    let failed: Vec<String> = study
+        .iter()
+        .flat_map(|c| {
+            c.failed.iter().map(move |f| {
+                if is_study {
+                    format!("{}: {f}", c.name)
+                } else {
+                    f.clone()
+                }
+            })
+        })
+        .collect();
+    let rides = &rides[..];
+    let failed = &failed[..];
     let n = rides.len();
     let mut d = Diagnosis {
         conclusive: false,
         reason: None,
         rides_used: n,
         rides_failed: failed.to_vec(),
+        conditions: Vec::new(),
+        between_kick_scatter: None,
         residuals: Vec::new(),
         residuals_after: Vec::new(),
         bands: Vec::new(),
@@ -246,9 +352,13 @@ pub fn diagnose(
         d.reason = Some(reason);
         return Ok(d);
     }
-    // The model at the rides' speeds, its covariance, and the speeds' contribution.
-    let speeds: Vec<f64> = rides.iter().map(|o| o.speed_mps).collect();
-    let wm = model.weave_model(&speeds)?;
+    // The model at the rides' speeds under each condition's controller, its covariance (one
+    // parameter set for every condition), and the speeds' contribution.
+    let per_condition: Vec<(crate::model::SteerControl, Vec<f64>)> = study
+        .iter()
+        .map(|c| (c.control, c.rides.iter().map(|o| o.speed_mps).collect()))
+        .collect();
+    let wm = model.weave_model_conditions(&per_condition)?;
     let shapes_usable = wm.shapes.iter().all(|s| s.is_finite())
         && rides.iter().all(|o| {
             [o.shape_ratio, o.shape_phase_rad]
@@ -265,22 +375,52 @@ pub fn diagnose(
         .select_rows(model_idx.iter())
         .select_columns(model_idx.iter());
     let base = model.nominal();
-    let unextended = linear::LinearBike::whipple(&base).with_control(model.control);
+    let condition_models: Vec<conditions::ConditionModel> = study
+        .iter()
+        .map(|c| conditions::ConditionModel {
+            name: c.name.clone(),
+            base,
+            control: c.control,
+            read_speeds: c.rides.iter().any(|o| {
+                matches!(
+                    o.speed_source,
+                    crate::ride::dynamic::SpeedSource::Noted
+                        | crate::ride::dynamic::SpeedSource::WheelSpeed
+                )
+            }),
+        })
+        .collect();
+    let unextended: Vec<linear::LinearBike> = condition_models
+        .iter()
+        .map(|c| linear::LinearBike::whipple(&c.base).with_control(c.control))
+        .collect();
     let mut exp_cov = DMatrix::zeros(parts * n, parts * n);
-    for (i, o) in rides.iter().enumerate() {
-        let standard_errors = [
+    let fit_se = |o: &Observation| {
+        [
             o.re_se,
             o.im_se,
             o.shape_ratio
                 .se
                 .hypot(SHAPE_RATIO_FLOOR * o.shape_ratio.value),
             o.shape_phase_rad.se.hypot(SHAPE_PHASE_FLOOR_RAD),
-        ];
+        ]
+    };
+    // Repeated kicks of one set-up that scatter beyond their fits' errors: the scatter between
+    // kicks, a random effect of every kick.
+    d.between_kick_scatter = observe::between_kick_scatter(rides, &ride_condition, parts, &fit_se);
+    let scatter = d
+        .between_kick_scatter
+        .as_ref()
+        .map_or(vec![0.0; parts], |s| s.per_part.clone());
+    for (i, o) in rides.iter().enumerate() {
+        let standard_errors = fit_se(o);
         for a in 0..parts {
-            exp_cov[(parts * i + a, parts * i + a)] = standard_errors[a].powi(2);
+            exp_cov[(parts * i + a, parts * i + a)] =
+                standard_errors[a].powi(2) + scatter[a].powi(2);
         }
         // The model's weave and shape per m/s of speed at the ride's.
         let h = 1e-4;
+        let unextended = &unextended[ride_condition[i]];
         let at = |v: f64| -> Option<[f64; 4]> {
             let w = unextended.weave_near(v, guesses[i])?;
             let s = unextended.mode_shape(v, w)?;
@@ -342,8 +482,8 @@ pub fn diagnose(
     let all: Vec<usize> = (0..n).collect();
     let campaign = Campaign {
         obs: rides,
-        base: &base,
-        control: model.control,
+        conditions: &condition_models,
+        ride_condition: ride_condition.clone(),
         guesses: guesses.clone(),
         parts,
         cov: &exp_cov + &model_cov,
@@ -364,6 +504,25 @@ pub fn diagnose(
         .and_then(|c| c.l().solve_lower_triangular(&r0))
         .map_or(f64::NAN, |w| w.norm_squared());
     d.p_value_without_parameter_error = stats::chi2_sf(d.chi2_without_parameter_error, d.dof);
+    if is_study {
+        d.conditions = study
+            .iter()
+            .enumerate()
+            .map(|(c, cond)| {
+                let own = campaign.rides_of(c);
+                ConditionSummary {
+                    name: cond.name.clone(),
+                    controlled: !cond.control.is_none(),
+                    rides_used: cond.rides.len(),
+                    rides_failed: cond.failed.clone(),
+                    chi2: campaign
+                        .subset(own.clone())
+                        .map_or(f64::NAN, |s| s.chi2(&[], &[])),
+                    dof: parts * own.len(),
+                }
+            })
+            .collect();
+    }
     d.residuals = rides
         .iter()
         .enumerate()
@@ -377,9 +536,11 @@ pub fn diagnose(
             };
             let model_weave =
                 Complex::new(o.weave.re - r0[parts * i], o.weave.im - r0[parts * i + 1]);
-            let (dr, dp) = shape_residual(&unextended, o, o.speed_mps, model_weave);
+            let (dr, dp) =
+                shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave);
             RideResidual {
                 ride: o.ride.clone(),
+                condition: is_study.then(|| study[ride_condition[i]].name.clone()),
                 speed_mps: o.speed_mps,
                 speed_correction_mps: o.speed_correction_mps,
                 speed_se_mps: o.speed_se_mps,
@@ -430,32 +591,35 @@ pub fn diagnose(
             rides
                 .iter()
                 .enumerate()
-                .map(|(i, o)| ride_vaf(&unextended, &[], &[], o, guesses[i]))
+                .map(|(i, o)| ride_vaf(&unextended[ride_condition[i]], &[], &[], o, guesses[i]))
                 .collect(),
         );
+        let layout = campaign.layout(&best.effects);
         d.heldout_vaf_after = mean(
             rides
                 .iter()
                 .enumerate()
                 .map(|(i, o)| {
                     let params = best.heldout_params.get(i)?;
-                    let bike = effects::linear_bike(&base, &model.control, &best.effects, params);
-                    ride_vaf(&bike, &best.effects, params, o, guesses[i])
+                    let (bike, own) =
+                        campaign.bike(&best.effects, &layout, params, ride_condition[i]);
+                    ride_vaf(&bike, &best.effects, &own, o, guesses[i])
                 })
                 .collect(),
         );
         if let Some(r) = campaign.residuals(&best.effects, &best.params, &all) {
-            let bike = effects::linear_bike(&base, &model.control, &best.effects, &best.params);
-            let clock = effects::clock(&best.effects, &best.params);
             d.residuals_after = d
                 .residuals
                 .iter()
                 .enumerate()
                 .map(|(i, before)| {
                     let o = &rides[i];
+                    let (bike, own) =
+                        campaign.bike(&best.effects, &layout, &best.params, ride_condition[i]);
+                    let clock = effects::clock(&best.effects, &own);
                     let weave =
                         Complex::new(o.weave.re - r[parts * i], o.weave.im - r[parts * i + 1]);
-                    let v = effects::true_speed(&best.effects, &best.params, o);
+                    let v = effects::true_speed(&best.effects, &own, o);
                     let (dr, dp) = shape_residual(&bike, o, v, weave * clock);
                     RideResidual {
                         re: r[parts * i],

@@ -38,6 +38,10 @@ pub struct Observation {
     /// speed (`[re, im]` in 1/s, `[|γ/θ|, arg]`; [`crate::ride::dynamic::DynamicTest`]), 0
     /// otherwise: its error is common to the campaign's rides.
     pub coasting_bias: [f64; 4],
+    /// The speed the lab set for the ride (a treadmill's setting given in the manifest), when
+    /// there is one: a condition's rides of one set speed repeat one set-up. `None` for a
+    /// coasting ride, whose noted reading is where it was released, not a set-up.
+    pub set_speed_mps: Option<f64>,
 }
 
 impl Observation {
@@ -60,6 +64,7 @@ impl Observation {
             window_s: t.fit.end_s - t.fit.start_s,
             window_accel_mps2: t.speed.sources.window_accel_mps2,
             coasting_bias: t.coasting_bias,
+            set_speed_mps: None,
             window: {
                 let rows: Vec<&[f64; 3]> = t
                     .trace
@@ -107,6 +112,7 @@ impl Observation {
             window_s: b - a,
             window_accel_mps2: 0.0,
             coasting_bias: [0.0; 4],
+            set_speed_mps: d.set_speed_mps,
         })
     }
 }
@@ -115,6 +121,9 @@ impl Observation {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct RideResidual {
     pub ride: String,
+    /// In a study, the ride's condition.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub condition: Option<String>,
     pub speed_mps: f64,
     /// The correction of a noted speed for the slowing before the window (m/s; 0 for `Sync`).
     pub speed_correction_mps: f64,
@@ -187,6 +196,114 @@ pub fn observations(
         }
     }
     (rides, failed)
+}
+
+/// The scatter between repeated kicks of one set-up beyond their fits' errors (a random
+/// effect per kick), estimated from the repeats.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BetweenKickScatter {
+    /// Its standard deviation per part of a ride's residual: the eigenvalue's real and
+    /// imaginary parts (1/s), and with the shape |γ/θ| and its phase (rad).
+    pub per_part: Vec<f64>,
+    /// The set-ups repeated (a condition's rides at one set speed, at least two) and their
+    /// kicks.
+    pub setups: usize,
+    pub kicks: usize,
+    /// Cochran's Q of the eigenvalue's parts (summed over them) against its degrees of freedom,
+    /// and its p: the repeats agree within their errors when p is not small.
+    pub q: f64,
+    pub q_dof: usize,
+    pub p_value: f64,
+}
+
+/// The between-kick scatter of a campaign's (or study's) repeated kicks: rides of one condition
+/// at one set speed (a treadmill's setting, [`Observation::set_speed_mps`]) form a set-up; per part of the residual, Cochran's
+/// Q = Σ wᵢ (xᵢ − x̄_w)² over each set-up's kicks (wᵢ = 1/seᵢ², `fit_se` the fit's errors) and
+/// the DerSimonian–Laird moment estimate τ² = max(0, (Q − df)/(Σw − Σw²/Σw)) pooled over the
+/// set-ups (DerSimonian & Laird 1986). `None` without a repeated set-up, or when the repeats
+/// agree within their errors (every τ zero).
+pub fn between_kick_scatter(
+    rides: &[Observation],
+    ride_condition: &[usize],
+    parts: usize,
+    fit_se: &dyn Fn(&Observation) -> [f64; 4],
+) -> Option<BetweenKickScatter> {
+    let mut setups: Vec<Vec<usize>> = Vec::new();
+    for i in 0..rides.len() {
+        let Some(set) = rides[i].set_speed_mps else {
+            continue;
+        };
+        let same = |j: usize| {
+            ride_condition[j] == ride_condition[i]
+                && rides[j].set_speed_mps.map(f64::to_bits) == Some(set.to_bits())
+        };
+        match setups.iter_mut().find(|s| same(s[0])) {
+            Some(s) => s.push(i),
+            None => setups.push(vec![i]),
+        }
+    }
+    setups.retain(|s| s.len() > 1);
+    if setups.is_empty() {
+        return None;
+    }
+    let value = |o: &Observation, a: usize| -> f64 {
+        match a {
+            0 => o.weave.re,
+            1 => o.weave.im,
+            2 => o.shape_ratio.value,
+            _ => o.shape_phase_rad.value,
+        }
+    };
+    let (mut q_eig, mut dof) = (0.0, 0usize);
+    let per_part: Vec<f64> = (0..parts)
+        .map(|a| {
+            let (mut q, mut df, mut c) = (0.0, 0usize, 0.0);
+            for s in &setups {
+                let w: Vec<f64> = s.iter().map(|&i| fit_se(&rides[i])[a].powi(-2)).collect();
+                let sw: f64 = w.iter().sum();
+                let mean = s
+                    .iter()
+                    .zip(&w)
+                    .map(|(&i, wi)| wi * value(&rides[i], a))
+                    .sum::<f64>()
+                    / sw;
+                q += s
+                    .iter()
+                    .zip(&w)
+                    .map(|(&i, wi)| {
+                        let mut dx = value(&rides[i], a) - mean;
+                        if a == 3 {
+                            dx = crate::signal::wrap_pi(dx);
+                        }
+                        wi * dx * dx
+                    })
+                    .sum::<f64>();
+                df += s.len() - 1;
+                c += sw - w.iter().map(|x| x * x).sum::<f64>() / sw;
+            }
+            if a < 2 {
+                q_eig += q;
+                dof += df;
+            }
+            let tau2 = ((q - df as f64) / c).max(0.0);
+            if tau2.is_finite() {
+                tau2.sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    if per_part.iter().all(|&t| t == 0.0) {
+        return None;
+    }
+    Some(BetweenKickScatter {
+        setups: setups.len(),
+        kicks: setups.iter().map(Vec::len).sum(),
+        q: q_eig,
+        q_dof: dof,
+        p_value: crate::stats::chi2_sf(q_eig, dof),
+        per_part,
+    })
 }
 
 /// Weighted mean residuals in 1 m/s bands.

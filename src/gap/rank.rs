@@ -4,10 +4,15 @@
 //! (whitened residuals and refitted parameters) and whether its values are plausible, in the
 //! order the verdict names them ([`Ranked`]).
 
+use super::conditions::{Layout, Slot};
 use super::effects::{self, Effect};
-use super::fit::{assumed_se, fit_effects, param_se, refit_near, Campaign, ResidualCache};
-use super::{linear, GapError, Observation, CLOSED_RMS, PAIR_GAIN_CHI2, PAIR_POOL, PLAUSIBLE_SE};
+use super::fit::{assumed_se, fit_effects, param_se, refine, refit_near, Campaign, ResidualCache};
+use super::{
+    linear, GapError, Observation, CLOSED_RMS, PAIR_GAIN_CHI2, PAIR_POOL, PLAUSIBLE_SE,
+    SIGNIFICANCE,
+};
 use nalgebra::Complex;
+use std::collections::BTreeMap;
 
 /// One candidate (an effect or a pair) fitted and tested out of sample.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -44,6 +49,29 @@ pub struct Ranked {
     /// Every fitted value inside its plausible range, or within [`PLAUSIBLE_SE`] of its
     /// standard errors of it, and none at a bound.
     pub plausible: bool,
+    /// Each fitted element's spec and, in a study, its condition (`None`: shared by all).
+    #[serde(skip)]
+    pub specs: Vec<effects::ParamSpec>,
+    #[serde(skip)]
+    pub param_conditions: Vec<Option<String>>,
+    /// Each fitted element's effect (an index into `effects`).
+    #[serde(skip)]
+    pub param_effect: Vec<usize>,
+    /// In a study: each condition's values of the effects' parameters (in the order of
+    /// `effects`' parameters; a shared effect repeats its value, an equipment effect a
+    /// condition lacks is `null`) and their standard errors …
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub params_by_condition: BTreeMap<String, Vec<Option<f64>>>,
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub params_se_by_condition: BTreeMap<String, Vec<Option<f64>>>,
+    /// … each condition predicted from the others (its own equipment at the others' mean):
+    /// the RMS of its rides' residuals in their standard errors (the ranking's `before` and
+    /// `after` are these, over every condition) …
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub heldout_rms_by_condition: BTreeMap<String, f64>,
+    /// … and, beside it, every ride left out one at a time.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heldout_rms_rides_out: Option<f64>,
     /// A pair whose held-out prediction the rides left out cannot tell from the best single
     /// effect's (the tie test, [`super::ties::distinguishable`]): listed after it, never named
     /// ahead of it.
@@ -66,23 +94,64 @@ fn heldout(
     let mut per_ride = Vec::with_capacity(n);
     let mut fits = Vec::with_capacity(n);
     let cache = ResidualCache::new(campaign, effects);
+    let step = steps(campaign, effects);
     for i in 0..n {
         let params = match campaign.leave_one_out(i) {
-            Some(s) => {
-                let step: Vec<f64> = effects::specs(effects)
-                    .iter()
-                    .map(|p| 0.05 * (p.hi - p.lo))
-                    .collect();
-                refit_near(&s, &cache, full_fit, &step).params
-            }
+            Some(s) => refit_near(&s, &cache, full_fit, &step, &[]).params,
             None => full_fit.to_vec(),
         };
-        per_ride.push(
-            campaign
-                .ride_whitened(effects, &params, i)
-                .map_or(Vec::new(), |w| w.iter().copied().collect()),
-        );
+        per_ride.push(whitened(campaign, effects, &params, i));
         fits.push(params);
+    }
+    (per_ride, fits)
+}
+
+/// The initial steps of a refit: a twentieth of each element's range.
+fn steps(campaign: &Campaign<'_>, effects: &[Effect]) -> Vec<f64> {
+    let (lo, hi) = campaign.layout(effects).bounds();
+    lo.iter().zip(&hi).map(|(l, h)| 0.05 * (h - l)).collect()
+}
+
+/// Ride `i`'s residual at `params`, whitened ([`Campaign::ride_whitened`]); empty where the
+/// prediction fails.
+fn whitened(campaign: &Campaign<'_>, effects: &[Effect], params: &[f64], i: usize) -> Vec<f64> {
+    campaign
+        .ride_whitened(effects, params, i)
+        .map_or(Vec::new(), |w| w.iter().copied().collect())
+}
+
+/// [`heldout`] with whole conditions left out (a study): each condition's rides predicted by
+/// the candidate fitted to the other conditions (Newton from the fit to all, then
+/// Nelder–Mead: leaving a condition out moves the minimum further than leaving a ride out),
+/// the condition's own equipment at what the others say of it ([`Layout::predicting`]).
+fn heldout_conditions(
+    campaign: &Campaign<'_>,
+    effects: &[Effect],
+    full_fit: &[f64],
+) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let n = campaign.obs.len();
+    let layout = campaign.layout(effects);
+    let mut per_ride = vec![Vec::new(); n];
+    let mut fits = vec![full_fit.to_vec(); n];
+    let cache = ResidualCache::new(campaign, effects);
+    let step = steps(campaign, effects);
+    for c in 0..campaign.conditions.len() {
+        let others: Vec<usize> = (0..n)
+            .filter(|&i| campaign.ride_condition[i] != c)
+            .collect();
+        let own = layout.own(c);
+        let params = match campaign.subset(others) {
+            Some(s) if !layout.is_empty() => {
+                let near = refit_near(&s, &cache, full_fit, &step, &own);
+                refine(&s, effects, &near.params, &step, &own).params
+            }
+            _ => full_fit.to_vec(),
+        };
+        let predicting = layout.predicting(&params, c);
+        for i in campaign.rides_of(c) {
+            per_ride[i] = whitened(campaign, effects, &predicting, i);
+            fits[i] = predicting.clone();
+        }
     }
     (per_ride, fits)
 }
@@ -114,6 +183,33 @@ pub(super) fn ride_vaf(
     Some(0.5 * (vaf[0] + vaf[1]))
 }
 
+/// In a study, each condition's values of `values` (the fitted vector or its standard errors):
+/// `null` where a condition lacks an equipment effect; empty for a single campaign.
+fn by_condition(
+    campaign: &Campaign<'_>,
+    layout: &Layout,
+    values: &[f64],
+) -> BTreeMap<String, Vec<Option<f64>>> {
+    if !campaign.is_study() {
+        return BTreeMap::new();
+    }
+    campaign
+        .conditions
+        .iter()
+        .zip(&layout.slots)
+        .map(|(cond, slots)| {
+            let v = slots
+                .iter()
+                .map(|s| match *s {
+                    Slot::Fitted(k) => values.get(k).copied(),
+                    Slot::Fixed(_) => None,
+                })
+                .collect();
+            (cond.name.clone(), v)
+        })
+        .collect()
+}
+
 /// A fitted value `p` with standard error `se` is plausible when it lies within
 /// [`PLAUSIBLE_SE`] standard errors of the parameter's plausible range (a value the fit cannot
 /// tell from the range's edge is no reason to rule the effect out), but no further out than a
@@ -142,18 +238,39 @@ pub fn at_bound(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
 }
 
 impl Ranked {
+    /// Whether the candidate was ranked in a study of several conditions.
+    pub fn in_study(&self) -> bool {
+        !self.heldout_rms_by_condition.is_empty()
+    }
+
+    /// Whether it ranks among the first: in a single campaign, a plausible candidate (a value
+    /// no real bicycle or lab would have explains nothing, however well it fits); in a study,
+    /// one with no parameter at its search's bound — there the conditions, not a prior, decide,
+    /// and a best fit outside its plausible range is shown first and flagged.
+    pub fn standing(&self) -> bool {
+        if self.in_study() {
+            !self.at_bound.contains(&true)
+        } else {
+            self.plausible
+        }
+    }
+
     /// Each parameter in words, with its unit: `0.092 ± 0.061 kg·m²`, or a bound for one at
     /// the search's edge ([`super::verdict::param_text`]).
     pub fn param_texts(&self) -> Vec<String> {
-        effects::specs(&self.effects)
+        self.specs
             .iter()
             .enumerate()
             .map(|(k, spec)| {
                 let (p, se) = (self.params[k], self.params_se[k]);
-                if self.at_bound.get(k).copied().unwrap_or(false) {
+                let text = if self.at_bound.get(k).copied().unwrap_or(false) {
                     super::verdict::bound_text(spec, p, se)
                 } else {
                     super::verdict::param_text(p, se, spec.unit)
+                };
+                match self.param_conditions.get(k) {
+                    Some(Some(c)) => format!("{text} ({c})"),
+                    _ => text,
                 }
             })
             .collect()
@@ -171,7 +288,7 @@ pub(super) fn rank(
         .sum::<f64>();
     let parts = n * campaign.parts;
     let rms = |s: f64| (s / parts as f64).sqrt();
-    let library = Effect::library(!campaign.control.is_none());
+    let library = campaign.library();
     let total = 2 * library.len() - 1 + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let evaluate = |effects: &[Effect]| -> Option<Ranked> {
@@ -183,17 +300,24 @@ pub(super) fn rank(
             .zip(assumed_se(campaign, &effects, &f))
             .map(|(s, a)| s.hypot(a))
             .collect();
-        let (whitened, heldout_params) = heldout(campaign, &effects, &f.params);
-        let per_ride: Vec<f64> = whitened
-            .iter()
-            .map(|w| {
-                if w.is_empty() {
-                    f64::INFINITY
-                } else {
-                    w.iter().map(|x| x * x).sum()
-                }
-            })
-            .collect();
+        let chi2_of = |w: &Vec<f64>| -> f64 {
+            if w.is_empty() {
+                f64::INFINITY
+            } else {
+                w.iter().map(|x| x * x).sum()
+            }
+        };
+        let (rides_out, rides_out_params) = heldout(campaign, &effects, &f.params);
+        // In a study the conditions are left out: the ranking rests on predicting one from
+        // the others; the rides left out one at a time are reported beside it.
+        let (whitened, heldout_params, rides_out_rms) = if campaign.is_study() {
+            let (w, p) = heldout_conditions(campaign, &effects, &f.params);
+            let total: f64 = rides_out.iter().map(chi2_of).sum();
+            (w, p, Some(rms(total)))
+        } else {
+            (rides_out, rides_out_params, None)
+        };
+        let per_ride: Vec<f64> = whitened.iter().map(chi2_of).collect();
         let held: f64 = per_ride.iter().sum();
         progress(
             done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
@@ -204,7 +328,8 @@ pub(super) fn rank(
             .map(|e| e.name())
             .collect::<Vec<_>>()
             .join(" + ");
-        let specs = effects::specs(&effects);
+        let layout = campaign.layout(&effects);
+        let specs = layout.specs.clone();
         let bounded: Vec<bool> = specs
             .iter()
             .zip(f.params.iter().zip(&se))
@@ -219,7 +344,29 @@ pub(super) fn rank(
                     .all(|(spec, (&p, &se))| plausible(spec, p, se)),
             at_bound: bounded,
             not_needed: false,
-            units: effects::specs(&effects).iter().map(|p| p.unit).collect(),
+            units: specs.iter().map(|p| p.unit).collect(),
+            param_conditions: layout
+                .condition
+                .iter()
+                .map(|c| c.map(|c| campaign.conditions[c].name.clone()))
+                .collect(),
+            param_effect: layout.effect.clone(),
+            params_by_condition: by_condition(campaign, &layout, &f.params),
+            params_se_by_condition: by_condition(campaign, &layout, &se),
+            heldout_rms_by_condition: if campaign.is_study() {
+                (0..campaign.conditions.len())
+                    .map(|c| {
+                        let rides = campaign.rides_of(c);
+                        let sum: f64 = rides.iter().map(|&i| per_ride[i]).sum();
+                        let parts = (campaign.parts * rides.len()).max(1) as f64;
+                        (campaign.conditions[c].name.clone(), (sum / parts).sqrt())
+                    })
+                    .collect()
+            } else {
+                BTreeMap::new()
+            },
+            heldout_rms_rides_out: rides_out_rms,
+            specs,
             effects,
             bic: f.chi2 + f.params.len() as f64 * (parts as f64).ln(),
             chi2: f.chi2,
@@ -242,13 +389,14 @@ pub(super) fn rank(
     };
     let mut ranked = over(&singles);
     sort(&mut ranked);
-    if ranked
-        .first()
-        .is_none_or(|b| b.heldout_rms_after <= CLOSED_RMS)
-    {
+    let dof = parts.saturating_sub(1).max(1);
+    if ranked.first().is_none_or(|b| {
+        b.heldout_rms_after <= CLOSED_RMS && crate::stats::chi2_sf(b.chi2, dof) >= SIGNIFICANCE
+    }) {
         return Ok(ranked);
     }
-    // No single effect closes the gap: pairs of the best singles, kept when they beat every
+    // No single effect passes (it leaves the rides left out further than CLOSED_RMS, or its fit
+    // to every ride fails the χ² test): pairs of the best singles, kept when they beat every
     // single out of sample by PAIR_GAIN_CHI2 and by the BIC.
     let pool: Vec<Effect> = ranked
         .iter()
@@ -290,12 +438,12 @@ pub(super) fn rank(
     Ok(ranked)
 }
 
-/// Plausible candidates first (a value no real bicycle or lab would have explains nothing,
-/// however well it fits), pairs not needed after the rest, each group by held-out RMS.
+/// Candidates in good standing first ([`Ranked::standing`]), pairs not needed after the rest,
+/// each group by held-out RMS.
 fn sort(ranked: &mut [Ranked]) {
     ranked.sort_by(|a, b| {
-        b.plausible
-            .cmp(&a.plausible)
+        b.standing()
+            .cmp(&a.standing())
             .then(a.not_needed.cmp(&b.not_needed))
             .then_with(|| a.heldout_rms_after.total_cmp(&b.heldout_rms_after))
             .then_with(|| a.effect.cmp(&b.effect))

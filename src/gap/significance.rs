@@ -129,19 +129,20 @@ pub(super) fn detection_limits(
     };
     let alpha = super::SIGNIFICANCE / (2.0 * tried.max(1) as f64);
     let z = normal.inverse_cdf(1.0 - alpha / 2.0) + normal.inverse_cdf(DETECTION_POWER);
-    let library = super::effects::Effect::library(!campaign.control.is_none());
-    library
+    campaign
+        .library()
         .into_iter()
         .filter_map(|e| {
             let [spec] = e.params()[..] else {
                 return None;
             };
+            let layout = campaign.layout(&[e]);
             if !spec.none.is_finite() {
                 return None;
             }
             let one_sided = spec.none <= spec.lo;
             let h = 1e-3 * (spec.hi - spec.lo);
-            let at = |p: f64| campaign.residuals(&[e], &[p], &all);
+            let at = |p: f64| campaign.residuals(&[e], &layout.expand(&[p]), &all);
             let derivative = if one_sided {
                 (at(spec.none + h)? - &r0) / h
             } else {
@@ -159,7 +160,7 @@ pub(super) fn detection_limits(
                 param: spec.name,
                 unit: spec.unit,
                 size,
-                absolute: absolute(e, campaign.base, size),
+                absolute: absolute(e, &campaign.conditions[0].base, size),
                 none: spec.none,
                 one_sided,
             })

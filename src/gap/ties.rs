@@ -108,11 +108,13 @@ pub(super) fn next_rides(
             speed_mps: v,
             ..obs[i].clone()
         };
-        let bike = effects::linear_bike(campaign.base, &campaign.control, &r.effects, &r.params);
-        let guess = linear::LinearBike::whipple(campaign.base)
-            .with_control(campaign.control)
+        let c = campaign.ride_condition[i];
+        let (bike, own) = campaign.bike(&r.effects, &campaign.layout(&r.effects), &r.params, c);
+        let cond = &campaign.conditions[c];
+        let guess = linear::LinearBike::whipple(&cond.base)
+            .with_control(cond.control)
             .weave_near(v, campaign.guesses[i])?;
-        let (w, shape) = effects::predict_weave(&bike, &r.effects, &r.params, &o, guess, p > 2)?;
+        let (w, shape) = effects::predict_weave(&bike, &r.effects, &own, &o, guess, p > 2)?;
         let mut out = vec![w.re, w.im];
         if let Some(s) = shape {
             out.extend([s.norm(), s.arg()]);
@@ -125,7 +127,12 @@ pub(super) fn next_rides(
         .collect();
     // The model's error at every grid speed (one propagation); where it fails, the nearest
     // ride's (its block of the campaign's covariance less the fit's and the speed's).
-    let model_at_grid = model.weave_model(&grid).ok();
+    // (In a study the nearest ride's condition sets the controller: its block.)
+    let model_at_grid = if campaign.is_study() {
+        None
+    } else {
+        model.weave_model(&grid).ok()
+    };
     // D of each rival at each grid speed.
     let d: Vec<Vec<f64>> = grid
         .iter()
@@ -267,7 +274,7 @@ pub fn ride_contrasts(a: &Ranked, b: &Ranked) -> Vec<Option<(f64, f64)>> {
         .collect()
 }
 
-/// The candidates as plausible as the best that the rides left out cannot tell from it
+/// The candidates in the best's standing ([`Ranked::standing`]) that the rides left out cannot tell from it
 /// ([`distinguishable`]); empty when only the best.
 pub(super) fn tied(ranked: &[Ranked]) -> Vec<String> {
     let Some(best) = ranked.first() else {
@@ -275,7 +282,7 @@ pub(super) fn tied(ranked: &[Ranked]) -> Vec<String> {
     };
     let t: Vec<String> = ranked
         .iter()
-        .filter(|r| r.plausible == best.plausible && !r.not_needed && !distinguishable(best, r))
+        .filter(|r| r.standing() == best.standing() && !r.not_needed && !distinguishable(best, r))
         .map(|r| r.effect.clone())
         .collect();
     if t.len() > 1 {

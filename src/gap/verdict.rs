@@ -61,8 +61,10 @@ pub(super) fn verdict(d: &Diagnosis) -> String {
     let mut v = headline(d);
     v.push('\n');
     let part = |name: &str, unit: &str, sel: &dyn Fn(&RideResidual) -> (f64, f64, f64)| {
-        let beyond = d.residuals.iter().filter(|r| sel(r).2.abs() > 2.0).count();
-        let m = weighted_mean(d.residuals.iter().map(|r| {
+        // (In a study, rides with the eigenvalue alone have no shape residual.)
+        let measured = || d.residuals.iter().filter(|r| sel(r).2.is_finite());
+        let beyond = measured().filter(|r| sel(r).2.abs() > 2.0).count();
+        let m = weighted_mean(measured().map(|r| {
             let (x, se, _) = sel(r);
             (x, se)
         }));
@@ -72,7 +74,7 @@ pub(super) fn verdict(d: &Diagnosis) -> String {
             "{name} {dir} than the model's by {:.3} ± {:.3} {unit} on average ({beyond} of {} rides beyond 2σ)",
             mean.abs(),
             se,
-            d.residuals.len()
+            measured().count()
         )
     };
     let shape = if d.residuals.iter().any(|r| r.shape_ratio_z.is_finite()) {
@@ -128,9 +130,10 @@ pub(super) fn verdict(d: &Diagnosis) -> String {
         return v;
     };
     let named: Vec<(Effect, effects::ParamSpec)> = best
-        .effects
+        .param_effect
         .iter()
-        .flat_map(|&e| e.params().into_iter().map(move |p| (e, p)))
+        .zip(&best.specs)
+        .map(|(&j, spec)| (best.effects[j], *spec))
         .collect();
     let params: Vec<String> = named
         .iter()
@@ -429,26 +432,22 @@ impl Diagnosis {
 /// (`cornering 11.8 ± 0.5 1/rad, relaxation 0.15 ± 0.03 m`), the effects' separated by `; `.
 fn named_params(r: &super::Ranked) -> String {
     let texts = r.param_texts();
-    let mut at = 0;
     r.effects
         .iter()
-        .map(|e| {
-            let specs = e.params();
-            let part = specs
-                .iter()
-                .enumerate()
-                .map(|(k, spec)| {
-                    let t = texts.get(at + k).cloned().unwrap_or_default();
-                    if specs.len() > 1 {
-                        format!("{} {t}", spec.name)
+        .enumerate()
+        .map(|(j, e)| {
+            let several = e.params().len() > 1;
+            (0..texts.len())
+                .filter(|&k| r.param_effect.get(k) == Some(&j))
+                .map(|k| {
+                    if several {
+                        format!("{} {}", r.specs[k].name, texts[k])
                     } else {
-                        t
+                        texts[k].clone()
                     }
                 })
                 .collect::<Vec<_>>()
-                .join(", ");
-            at += specs.len();
-            part
+                .join(", ")
         })
         .collect::<Vec<_>>()
         .join("; ")

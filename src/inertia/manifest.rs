@@ -129,6 +129,34 @@ pub struct ManifestError {
     pub message: String,
 }
 
+impl ManifestError {
+    /// An error in the manifest `path` whose text is `text`, at the line of the first
+    /// occurrence of `needle` (none when it does not occur).
+    pub fn at(path: &Path, text: &str, needle: &str, message: String) -> ManifestError {
+        ManifestError {
+            path: path.to_path_buf(),
+            line: text
+                .find(needle)
+                .map(|i| 1 + text[..i].matches('\n').count()),
+            message,
+        }
+    }
+}
+
+/// Checks a manifest's `version` (bikeproc reads version 1).
+pub fn check_version(path: &Path, text: &str, version: u32) -> Result<(), ManifestError> {
+    if version == 1 {
+        Ok(())
+    } else {
+        Err(ManifestError::at(
+            path,
+            text,
+            "version",
+            format!("version {version} (bikeproc reads version 1)"),
+        ))
+    }
+}
+
 /// Unit suffixes people write, and the SI suffix bikeproc takes instead.
 const UNIT_HINTS: &[(&str, &str)] = &[
     ("_g", "_kg"),

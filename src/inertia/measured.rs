@@ -966,7 +966,7 @@ impl MeasuredBicycle {
         let model = Parametrized::from_inputs(
             &name,
             model_inputs,
-            Box::new(|x: &[f64]| {
+            std::sync::Arc::new(|x: &[f64]| {
                 let mut a = [0.0; 26];
                 a.copy_from_slice(&x[..26]);
                 Benchmark::from_array(&a)

@@ -12,11 +12,12 @@ use nalgebra::Complex;
 use std::path::Path;
 
 /// Inputs → benchmark parameters.
-pub type Builder = Box<dyn Fn(&[f64]) -> Benchmark + Send + Sync>;
+pub type Builder = std::sync::Arc<dyn Fn(&[f64]) -> Benchmark + Send + Sync>;
 
 /// A bicycle whose benchmark parameters are a function of measured inputs: the
 /// uncertainties are propagated from those inputs (with their correlations through the
 /// conversion), not from the benchmark parameters.
+#[derive(Clone)]
 pub struct Parametrized {
     pub name: String,
     pub inputs: Inputs,
@@ -36,7 +37,7 @@ impl Parametrized {
         Parametrized {
             name: name.into(),
             inputs,
-            build: Box::new(|x: &[f64]| {
+            build: std::sync::Arc::new(|x: &[f64]| {
                 let mut a = [0.0; 26];
                 a.copy_from_slice(&x[..26]);
                 Benchmark::from_array(&a)
@@ -75,7 +76,7 @@ impl Parametrized {
         Parametrized {
             name: name.into(),
             inputs,
-            build: Box::new(move |x: &[f64]| {
+            build: std::sync::Arc::new(move |x: &[f64]| {
                 let mut b = bike.clone();
                 for (k, body) in [
                     &mut b.rear_wheel,
@@ -234,28 +235,51 @@ impl Parametrized {
     /// covariance of their parts propagated from the parameters. The phase of each perturbed
     /// shape is taken within ±π of the nominal one.
     pub fn weave_model(&self, speeds: &[f64]) -> Result<WeaveModel, ParamError> {
-        let nominal = self.nominal_canonical();
-        let sweep = nominal.sweep(speeds)?;
-        let weaves: Vec<Complex<f64>> = sweep.eigenvalues.iter().map(|e| e[0]).collect();
+        self.weave_model_conditions(&[(self.control, speeds.to_vec())])
+    }
+
+    /// [`Parametrized::weave_model`] of the same bicycle under several controllers (the
+    /// conditions of a study), each at its own speeds, in that order: one propagation, so that
+    /// the covariance holds the correlation across conditions that one parameter set makes.
+    pub fn weave_model_conditions(
+        &self,
+        conditions: &[(SteerControl, Vec<f64>)],
+    ) -> Result<WeaveModel, ParamError> {
+        let at = |x: &[f64], control: SteerControl| {
+            Canonical::from_benchmark(&self.benchmark_at(x)).with_control(control)
+        };
+        let nominal_x = self.inputs.values();
+        let sweeps = conditions
+            .iter()
+            .map(|(control, speeds)| at(nominal_x, *control).sweep(speeds))
+            .collect::<Result<Vec<_>, _>>()?;
         let shape_of = |c: &Canonical, v: f64, w: Complex<f64>| -> Complex<f64> {
             c.mode_shape(v, w)
                 .map(|x| x[1] / x[0])
                 .filter(|z| z.is_finite())
                 .unwrap_or(Complex::new(f64::NAN, f64::NAN))
         };
-        let shapes: Vec<Complex<f64>> = speeds
-            .iter()
-            .zip(&weaves)
-            .map(|(&v, &w)| shape_of(&nominal, v, w))
-            .collect();
+        let mut weaves = Vec::new();
+        let mut shapes = Vec::new();
+        for ((control, speeds), sweep) in conditions.iter().zip(&sweeps) {
+            let nominal = at(nominal_x, *control);
+            for (&v, e) in speeds.iter().zip(&sweep.eigenvalues) {
+                weaves.push(e[0]);
+                shapes.push(shape_of(&nominal, v, e[0]));
+            }
+        }
         let (_, cov) = propagate(&self.inputs, |x| {
-            let c = self.canonical_at(x);
-            let mut out = Vec::with_capacity(WEAVE_PARTS * speeds.len());
-            for (i, &v) in speeds.iter().enumerate() {
-                let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
-                let w = super::match_order(&sweep.eigenvalues[i], &ev)[0];
-                let s = shape_of(&c, v, w);
-                out.extend([w.re, w.im, s.norm(), wrap_near(s.arg(), shapes[i].arg())]);
+            let mut out = Vec::with_capacity(WEAVE_PARTS * weaves.len());
+            let mut k = 0;
+            for ((control, speeds), sweep) in conditions.iter().zip(&sweeps) {
+                let c = at(x, *control);
+                for (i, &v) in speeds.iter().enumerate() {
+                    let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
+                    let w = super::match_order(&sweep.eigenvalues[i], &ev)[0];
+                    let s = shape_of(&c, v, w);
+                    out.extend([w.re, w.im, s.norm(), wrap_near(s.arg(), shapes[k].arg())]);
+                    k += 1;
+                }
             }
             out
         });

@@ -454,5 +454,72 @@ pub(super) fn controlled_section(
          kicks of one gain and speed), which no model of one weave per speed can follow: a fit's χ² then fails whatever the effect, and bikeproc does not call the gap\n\
          explained unless the held-out segments are predicted within their errors.\n"
     );
+    study_section(root, progress, md)
+}
+
+/// `real.md`'s joint diagnosis of the balance-assist bicycle's four conditions
+/// (`fixtures/real/balanceassist_study.toml`): what is shared, what differs per condition, each
+/// condition predicted from the others.
+fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -> Result<()> {
+    use crate::ride::study::Study;
+    let path = root.join("fixtures/real/balanceassist_study.toml");
+    progress("the balance-assist study: four conditions together");
+    let study = Study::load(&path)?;
+    let model = crate::model::uncertain::load(&study.bike_path()?)?;
+    let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})?;
+    let _ = write!(
+        md,
+        "\n### The four conditions together\n\n\
+         `bikeproc gap fixtures/real/balanceassist_study.toml` diagnoses the uncontrolled decays (the\n\
+         three windows that lab marked, `fixtures/real/balanceassist_uncontrolled.toml`) and the three\n\
+         gains as one bicycle: its effects shared by every condition, the motor's delivered gain fitted\n\
+         per controller, the speedometer's scale and the clock per condition; the ranking rests on each\n\
+         condition predicted from the others (its own equipment at the others' mean). Every segment\n\
+         enters by its eigenvalue (the controlled segments have the roll rate alone). Repeated kicks of\n\
+         one set-up enter with the scatter between them estimated from the repeats{}.\n\n\
+         | condition | controller | rides | χ² against the model (dof) |\n|---|---|---|---|\n",
+        d.between_kick_scatter.as_ref().map_or(String::new(), |s| format!(
+            " ({} set-ups, {} kicks: σ {:.3} 1/s, ω {:.3} rad/s between kicks; Cochran's Q {:.0} for {} dof)",
+            s.setups,
+            s.kicks,
+            s.per_part[0],
+            s.per_part.get(1).copied().unwrap_or(f64::NAN),
+            s.q,
+            s.q_dof
+        ))
+    );
+    for c in &d.conditions {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.0} ({}) |",
+            c.name,
+            if c.controlled { "on" } else { "off" },
+            c.rides_used,
+            c.chi2,
+            c.dof
+        );
+    }
+    let _ = write!(
+        md,
+        "\n| candidate | parameters | each condition predicted from the others (RMS) | all | rides left out one at a time |\n|---|---|---|---|---|\n"
+    );
+    for r in d.ranking.iter().take(6) {
+        let by: Vec<String> = r
+            .heldout_rms_by_condition
+            .iter()
+            .map(|(c, v)| format!("{c} {v:.2}"))
+            .collect();
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.2} | {} |",
+            r.effect,
+            r.param_texts().join("; "),
+            by.join(", "),
+            r.heldout_rms_after,
+            r.heldout_rms_rides_out
+                .map_or(String::new(), |v| format!("{v:.2}"))
+        );
+    }
+    let _ = write!(md, "\n{}\n", verdict_list(&d.verdict));
     Ok(())
 }

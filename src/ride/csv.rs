@@ -746,6 +746,10 @@ pub struct DecaySummary {
     pub speed_source: Option<SpeedSource>,
     /// The model's weave at that speed, when a bicycle was given.
     pub model: Option<super::dynamic::ModelWeave>,
+    /// The speed the lab set or noted for the ride (a treadmill's setting), when given: rides
+    /// of one set speed are repeats of one set-up.
+    #[serde(skip)]
+    pub set_speed_mps: Option<f64>,
 }
 
 impl DecaySummary {
@@ -775,6 +779,7 @@ impl DecaySummary {
             speed_mps: speed.map(|s| s.0),
             speed_source: speed.map(|s| s.1),
             model,
+            set_speed_mps: given.map(|g| g.speed_mps),
         })
     }
 

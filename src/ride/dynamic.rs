@@ -743,12 +743,18 @@ impl RideEntry {
             .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
     }
 
-    /// The ride's name: its log's file name without the extension (`ride_03`).
+    /// The ride's name: its log's file name without the extension (`ride_03`), and for a
+    /// window of a longer recording its start (`uncontrolled_18kmh@141.28s`).
     pub fn name(&self) -> String {
-        self.log
+        let stem = self
+            .log
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default()
+            .unwrap_or_default();
+        match self.window_s {
+            Some([a, _]) => format!("{stem}@{a:.2}s"),
+            None => stem,
+        }
     }
 }
 
@@ -763,21 +769,9 @@ impl RideManifest {
         })?;
         let mut m: RideManifest = from_toml(path, &text)?;
         m.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let line_of = |needle: &str| {
-            text.find(needle)
-                .map(|i| 1 + text[..i].matches('\n').count())
-        };
-        let err = |needle: &str, message: String| ManifestError {
-            path: path.to_path_buf(),
-            line: line_of(needle),
-            message,
-        };
-        if m.version != 1 {
-            return Err(err(
-                "version",
-                format!("version {} (bikeproc reads version 1)", m.version),
-            ));
-        }
+        let line_of = |needle: &str| ManifestError::at(path, &text, needle, String::new()).line;
+        let err = |needle: &str, message: String| ManifestError::at(path, &text, needle, message);
+        crate::inertia::manifest::check_version(path, &text, m.version)?;
         for (key, x, range) in [
             (
                 "speedometer_resolution_mps",

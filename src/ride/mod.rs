@@ -8,6 +8,7 @@
 //!   the measured slowing, the reed switch, and the rolling kinematics, compared.
 //! - [`csv`]: rides from other instruments, a CSV of named time series → one free decay
 //!   fitted, the speed from the wheel-speed column.
+//! - [`study`]: several campaigns of one bicycle, each a condition (controller off, gains).
 //! - [`modal`]: θ and γ over the free motion → the modes they share (weave σ ± iω, real
 //!   modes), standard errors, mode shape.
 
@@ -16,5 +17,6 @@ pub mod dynamic;
 pub mod modal;
 pub mod read;
 pub mod speed;
+pub mod study;
 
 pub use read::*;

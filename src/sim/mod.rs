@@ -18,6 +18,7 @@ pub mod linearize;
 pub mod ode;
 pub mod pendulum;
 pub mod ride;
+pub mod study;
 pub mod whipple;
 
 use draw::{seeded, Draw};

@@ -56,6 +56,70 @@ pub struct Effects {
     /// the logs' time stamps stay at the nominal rate, so every rate read from them (the
     /// eigenvalues, the `Sync` speed) is the true one divided by this.
     pub clock_scale: f64,
+    /// A geared steer motor on the head tube, powered or not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub steer_motor: Option<SteerMotor>,
+}
+
+/// A steer motor: its rotor turns with the fork through a gearbox, so that the fork carries the
+/// rotor's inertia times the gear ratio squared about the steer axis whether the motor is
+/// powered or not; powered, it applies the torque its controller commands, scaled by what the
+/// driver and gearbox deliver.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SteerMotor {
+    /// The rotor's inertia reflected to the steer axis (kg·m²): I_rotor · N².
+    pub reflected_inertia_kgm2: f64,
+    /// The controller, when powered.
+    pub controller: Option<MotorController>,
+}
+
+/// A steer controller as the motor's firmware runs it: a steer torque (N·m, turning the fork
+/// towards positive steer) of `Σ gains(v) · (roll, steer, roll rate, steer rate)` (rad, rad/s),
+/// the gains linear between `speeds_mps` and constant beyond, v the rear wheel's speed; the
+/// motor delivers `delivered` times it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorController {
+    pub speeds_mps: Vec<f64>,
+    pub gains: Vec<[f64; 4]>,
+    pub delivered: f64,
+}
+
+impl MotorController {
+    /// The gains at speed `v` (m/s), as the firmware interpolates its table.
+    fn gains_at(&self, v: f64) -> [f64; 4] {
+        let s = &self.speeds_mps;
+        let (Some(&first), Some(&last)) = (s.first(), s.last()) else {
+            return [0.0; 4];
+        };
+        if v <= first {
+            return self.gains[0];
+        }
+        if v >= last {
+            return self.gains[s.len() - 1];
+        }
+        let k = s.iter().rposition(|&x| x <= v).unwrap_or(0);
+        let f = (v - s[k]) / (s[k + 1] - s[k]);
+        std::array::from_fn(|j| self.gains[k][j] + f * (self.gains[k + 1][j] - self.gains[k][j]))
+    }
+
+    /// The torque the motor applies at the state `(q, q̇)` (the rear wheel's radius `rr`).
+    fn torque_nm(&self, q: &[f64; 8], qd: &[f64; 8], rr: f64) -> f64 {
+        let g = self.gains_at(-qd[5] * rr);
+        let x = [q[3], q[6], qd[3], qd[6]];
+        self.delivered * g.iter().zip(x).map(|(k, x)| k * x).sum::<f64>()
+    }
+}
+
+/// The simulator's parameters of `bike` with a steer motor's reflected inertia on the fork,
+/// about its own z axis (the steer axis).
+pub fn params_with_motor(bike: &Benchmark, motor: Option<&SteerMotor>) -> WhippleParams {
+    let mut p = WhippleParams::from_benchmark(bike);
+    if let Some(m) = motor {
+        p.ie[2][2] += m.reflected_inertia_kgm2;
+    }
+    p
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -74,6 +138,7 @@ impl Default for Effects {
             speedometer_scale: 1.0,
             tyres: None,
             clock_scale: 1.0,
+            steer_motor: None,
         }
     }
 }
@@ -116,6 +181,7 @@ impl Effects {
             ],
             speedometer_scale: 1.03,
             clock_scale: 1.0,
+            steer_motor: None,
             tyres: Some(whipple::TyreModel {
                 cornering_per_rad: 11.0,
                 camber_per_rad: 0.6,
@@ -379,6 +445,7 @@ fn ride_loads(
     let e = effects.clone();
     let kick = kick.clone();
     let normal = static_normal_loads(bike);
+    let r_r = bike.r_r;
     let (sl, cl) = bike.lambda.sin_cos();
     // The saddle in the frame's axes relative to its centre of mass.
     let sx = kick.saddle_x_m - bike.x_b;
@@ -387,8 +454,14 @@ fn ride_loads(
     move |input: &whipple::LoadInput<'_>| -> Vec<Load> {
         let (t, q, qd) = (input.t, input.q, input.qd);
         let mut l = Vec::new();
+        let motor = e
+            .steer_motor
+            .as_ref()
+            .and_then(|m| m.controller.as_ref())
+            .map_or(0.0, |c| c.torque_nm(q, qd, r_r));
         l.push(Load::Steer(
-            -e.steer_viscous_nms_per_rad * qd[6]
+            motor
+                - e.steer_viscous_nms_per_rad * qd[6]
                 - e.steer_spring_nm_per_rad * q[6]
                 - e.steer_coulomb_nm * (qd[6] / COULOMB_SMOOTHING_RAD_PER_S).tanh(),
         ));
@@ -472,7 +545,7 @@ fn sample(
 pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Ride, RideError> {
     let mut rng = seeded(seed);
     let truth_bike = with_point_masses(bike, &spec.effects.extra_masses);
-    let p = WhippleParams::from_benchmark(&truth_bike);
+    let p = params_with_motor(&truth_bike, spec.effects.steer_motor.as_ref());
     // The logs' nominal rate; the sensors sample every `dt` of true time.
     let rate = 100.0;
     let dt = 1.0 / (rate * spec.effects.clock_scale);

@@ -1,0 +1,254 @@
+//! The conditions of a study: one bicycle ridden in several known set-ups (its controller off
+//! and at several gains, a known mass added, …), each a campaign of its own. In: each
+//! condition's name, model (the measured bicycle with that condition's known changes and its
+//! controller) and which of its rides carry a speed reading. Out: for a candidate's effects,
+//! the [`Layout`] of its parameters ([`super::effects::specs`] once per condition or shared) — the bicycle's effects shared by every condition, a
+//! condition's own equipment ([`Effect::per_condition`]) fitted once per condition where it acts —
+//! and each condition's parameter values from the fitted vector.
+//!
+//! A single campaign is a study of one condition: every parameter is then fitted once, as the
+//! library lists them.
+
+use super::effects::{Effect, ParamSpec};
+use crate::model::{Benchmark, SteerControl};
+
+/// One condition's model.
+#[derive(Debug, Clone)]
+pub struct ConditionModel {
+    /// The condition's name (its manifest's stem).
+    pub name: String,
+    /// The measured bicycle with the condition's known changes.
+    pub base: Benchmark,
+    pub control: SteerControl,
+    /// Some of its rides' speeds are a reading or another instrument's wheel sensor (what a
+    /// speedometer's scale acts on).
+    pub read_speeds: bool,
+}
+
+impl ConditionModel {
+    /// Whether `effect` acts on this condition's rides: the actuator's gain only with a
+    /// controller, the speedometer's scale only on read speeds.
+    pub fn acts(&self, effect: Effect) -> bool {
+        match effect {
+            Effect::ActuatorGain => !self.control.is_none(),
+            Effect::SpeedScale => self.read_speeds,
+            _ => true,
+        }
+    }
+}
+
+/// Where a condition's value of one effect parameter comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Slot {
+    /// The fitted vector's element.
+    Fitted(usize),
+    /// A fixed value (the parameter's "no effect": an equipment effect a condition lacks).
+    Fixed(f64),
+}
+
+/// The parameters of a candidate in a study: the fitted vector's elements and, per condition,
+/// where each of the effects' parameters (`effects::specs` order) comes from.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    /// Each fitted element's spec …
+    pub specs: Vec<ParamSpec>,
+    /// … its index among the effects' parameters (`effects::specs` order) …
+    pub compact: Vec<usize>,
+    /// … its effect (an index into the effects) …
+    pub effect: Vec<usize>,
+    /// … and its condition (`None`: shared by all).
+    pub condition: Vec<Option<usize>>,
+    /// Per condition, per effect parameter.
+    pub slots: Vec<Vec<Slot>>,
+}
+
+impl Layout {
+    /// The layout of `effects` over `conditions`. With one condition every parameter is
+    /// fitted once (the single campaign's layout); with more, an equipment effect's parameters
+    /// are fitted once per condition it acts on ([`ConditionModel::acts`]) and fixed at "no
+    /// effect" in the others, the bicycle's shared.
+    pub fn new(effects: &[Effect], conditions: &[ConditionModel]) -> Layout {
+        let mut layout = Layout {
+            specs: Vec::new(),
+            compact: Vec::new(),
+            effect: Vec::new(),
+            condition: Vec::new(),
+            slots: vec![Vec::new(); conditions.len()],
+        };
+        let mut at = 0;
+        for (j, &e) in effects.iter().enumerate() {
+            for spec in e.params() {
+                let study = conditions.len() > 1 && e.per_condition();
+                if study {
+                    for (c, cond) in conditions.iter().enumerate() {
+                        let slot = if cond.acts(e) {
+                            layout.push(spec, at, j, Some(c))
+                        } else {
+                            Slot::Fixed(spec.none)
+                        };
+                        layout.slots[c].push(slot);
+                    }
+                } else {
+                    let slot = layout.push(spec, at, j, None);
+                    for s in layout.slots.iter_mut() {
+                        s.push(slot);
+                    }
+                }
+                at += 1;
+            }
+        }
+        layout
+    }
+
+    fn push(
+        &mut self,
+        spec: ParamSpec,
+        compact: usize,
+        effect: usize,
+        condition: Option<usize>,
+    ) -> Slot {
+        self.specs.push(spec);
+        self.compact.push(compact);
+        self.effect.push(effect);
+        self.condition.push(condition);
+        Slot::Fitted(self.specs.len() - 1)
+    }
+
+    /// How many elements are fitted.
+    pub fn len(&self) -> usize {
+        self.specs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.specs.is_empty()
+    }
+
+    /// Condition `c`'s values of the effects' parameters from the fitted vector `params`.
+    pub fn condition_params(&self, params: &[f64], c: usize) -> Vec<f64> {
+        self.slots[c]
+            .iter()
+            .map(|s| match *s {
+                Slot::Fitted(k) => params.get(k).copied().unwrap_or(f64::NAN),
+                Slot::Fixed(v) => v,
+            })
+            .collect()
+    }
+
+    /// The fitted vector with every condition's copy of a parameter at the same value:
+    /// `compact` holds the effects' parameters (`effects::specs` order).
+    pub fn expand(&self, compact: &[f64]) -> Vec<f64> {
+        self.compact.iter().map(|&k| compact[k]).collect()
+    }
+
+    /// The bounds of the fitted elements.
+    pub fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+        (
+            self.specs.iter().map(|p| p.lo).collect(),
+            self.specs.iter().map(|p| p.hi).collect(),
+        )
+    }
+
+    /// `params` with the elements of condition `c` (fitted on the others, which do not
+    /// constrain them) replaced by what the others say of the same parameter: the mean of their
+    /// copies, or "no effect" when no other condition has one. The prediction of a condition
+    /// left out.
+    pub fn predicting(&self, params: &[f64], c: usize) -> Vec<f64> {
+        let mut out = params.to_vec();
+        for (k, cond) in self.condition.iter().enumerate() {
+            if *cond != Some(c) {
+                continue;
+            }
+            let others: Vec<f64> = (0..self.len())
+                .filter(|&j| self.compact[j] == self.compact[k] && self.condition[j] != Some(c))
+                .map(|j| params[j])
+                .collect();
+            out[k] = if others.is_empty() {
+                self.specs[k].none
+            } else {
+                others.iter().sum::<f64>() / others.len() as f64
+            };
+        }
+        out
+    }
+
+    /// The fitted elements that condition `c`'s rides do not see (its own copies of the
+    /// equipment effects), which a fit without them leaves where they are.
+    pub fn own(&self, c: usize) -> Vec<usize> {
+        (0..self.len())
+            .filter(|&k| self.condition[k] == Some(c))
+            .collect()
+    }
+}
+
+/// The effects of the library that a study of `conditions` can fit: the steer motor's only
+/// where a condition carries a controller, an equipment effect only where it acts on some
+/// condition.
+pub fn library(conditions: &[ConditionModel]) -> Vec<Effect> {
+    let controlled = conditions.iter().any(|c| !c.control.is_none());
+    Effect::library(controlled)
+        .into_iter()
+        .filter(|&e| {
+            conditions.len() < 2 || !e.per_condition() || conditions.iter().any(|c| c.acts(e))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn condition(name: &str, controlled: bool, read: bool) -> ConditionModel {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../shared/reference/bicycleparameters/BenchmarkBenchmark.txt");
+        let control = if controlled {
+            let spec = crate::model::control::ControllerSpec {
+                description: String::new(),
+                speeds_mps: vec![0.0],
+                roll_nm_per_rad: None,
+                steer_nm_per_rad: None,
+                roll_rate_nms_per_rad: Some(vec![10.0]),
+                steer_rate_nms_per_rad: None,
+            };
+            SteerControl::from_spec(&spec, &path).unwrap()
+        } else {
+            SteerControl::NONE
+        };
+        ConditionModel {
+            name: name.into(),
+            base: Benchmark::load(&path).unwrap(),
+            control,
+            read_speeds: read,
+        }
+    }
+
+    /// Uncontrolled, then two gains: the actuator's gain is fitted twice (once per controller)
+    /// and fixed at 1 without one; the trail once for all; predicting the second gain from the
+    /// others takes the first gain's value.
+    #[test]
+    fn equipment_per_condition_bicycle_shared() {
+        let conds = [
+            condition("u", false, true),
+            condition("g6", true, true),
+            condition("g8", true, true),
+        ];
+        let l = Layout::new(&[Effect::Trail, Effect::ActuatorGain], &conds);
+        assert_eq!(l.len(), 3);
+        assert_eq!(l.condition, vec![None, Some(1), Some(2)]);
+        let p = [1.1, 0.6, 0.8];
+        assert_eq!(l.condition_params(&p, 0), vec![1.1, 1.0]);
+        assert_eq!(l.condition_params(&p, 1), vec![1.1, 0.6]);
+        assert_eq!(l.condition_params(&p, 2), vec![1.1, 0.8]);
+        assert_eq!(l.predicting(&p, 2), vec![1.1, 0.6, 0.6]);
+        assert_eq!(l.predicting(&p, 0), p.to_vec());
+        assert_eq!(l.expand(&[1.2, 0.7]), vec![1.2, 0.7, 0.7]);
+        assert_eq!(l.own(1), vec![1]);
+        // One condition: the library's parameters, once each.
+        let one = Layout::new(&[Effect::Trail, Effect::ActuatorGain], &conds[1..2]);
+        assert_eq!(one.len(), 2);
+        assert_eq!(one.condition, vec![None, None]);
+        // No read speed anywhere: no speedometer in a study.
+        let unread = [condition("a", false, false), condition("b", true, false)];
+        assert!(!library(&unread).contains(&Effect::SpeedScale));
+        assert!(library(&unread).contains(&Effect::ActuatorGain));
+    }
+}

@@ -1,0 +1,124 @@
+//! A study: one bicycle ridden in several conditions, each a campaign manifest of its own (its
+//! controller off or at a gain, a known change). In: a study manifest (`version = 1`,
+//! `conditions = ["uncontrolled.toml", "gain6.toml", …]`, each beside it) or the campaign
+//! manifests themselves. Out: the conditions, named by their manifests' stems, loaded and
+//! checked ([`RideManifest::load`]), and the bicycle they share.
+
+use super::dynamic::RideManifest;
+use crate::inertia::manifest::{from_toml, ManifestError};
+use std::path::{Path, PathBuf};
+
+/// A study manifest as written.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StudyFile {
+    version: u32,
+    /// What the study is (for the reports).
+    #[serde(default)]
+    #[allow(dead_code)]
+    description: String,
+    conditions: Vec<PathBuf>,
+}
+
+/// The conditions of a study, each named by its manifest's stem, in the order given.
+#[derive(Debug, Clone)]
+pub struct Study {
+    pub conditions: Vec<(String, RideManifest)>,
+}
+
+impl Study {
+    /// Reads a study manifest and every campaign it lists (beside it, or below it).
+    pub fn load(path: &Path) -> Result<Study, ManifestError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ManifestError {
+            path: path.to_path_buf(),
+            line: None,
+            message: format!("cannot read the study manifest: {e}"),
+        })?;
+        let file: StudyFile = from_toml(path, &text)?;
+        let err = |needle: &str, message: String| ManifestError::at(path, &text, needle, message);
+        crate::inertia::manifest::check_version(path, &text, file.version)?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        for c in &file.conditions {
+            if !crate::inertia::manifest::within_folder(c) {
+                return Err(err(
+                    &c.display().to_string(),
+                    format!(
+                        "the condition {} lies outside the study manifest's folder",
+                        c.display()
+                    ),
+                ));
+            }
+        }
+        let paths: Vec<PathBuf> = file.conditions.iter().map(|c| dir.join(c)).collect();
+        if paths.is_empty() {
+            return Err(err(
+                "conditions",
+                "conditions = [] lists no campaign".into(),
+            ));
+        }
+        Study::from_manifests(&paths)
+    }
+
+    /// The conditions of the campaign manifests `paths` (two or more make a study): each loaded, names (their stems) distinct, no manifest twice.
+    pub fn from_manifests(paths: &[PathBuf]) -> Result<Study, ManifestError> {
+        let mut conditions: Vec<(String, RideManifest)> = Vec::with_capacity(paths.len());
+        let mut seen: Vec<PathBuf> = Vec::new();
+        for p in paths {
+            let canonical = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+            if seen.contains(&canonical) {
+                return Err(ManifestError {
+                    path: p.clone(),
+                    line: None,
+                    message: "is given twice: each condition once (its rides would count twice)"
+                        .into(),
+                });
+            }
+            seen.push(canonical);
+            let name = p
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            if conditions.iter().any(|(n, _)| *n == name) {
+                return Err(ManifestError {
+                    path: p.clone(),
+                    line: None,
+                    message: format!(
+                        "a second condition named \"{name}\" (conditions are named by their \
+                         manifests' file names, which must differ)"
+                    ),
+                });
+            }
+            conditions.push((name, RideManifest::load(p)?));
+        }
+        Ok(Study { conditions })
+    }
+
+    /// The bicycle the conditions share: every manifest's `bike` must be the same file (a
+    /// known change between conditions is written in a condition's manifest, not as another
+    /// bicycle file).
+    pub fn bike_path(&self) -> Result<PathBuf, ManifestError> {
+        let Some((first_name, first)) = self.conditions.first() else {
+            return Err(ManifestError {
+                path: PathBuf::new(),
+                line: None,
+                message: "a study without conditions".into(),
+            });
+        };
+        let bike = first.bike_path();
+        let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+        for (name, m) in self.conditions.iter().skip(1) {
+            if canonical(&m.bike_path()) != canonical(&bike) {
+                return Err(ManifestError {
+                    path: m.bike_path(),
+                    line: None,
+                    message: format!(
+                        "condition \"{name}\" rides another bicycle file than \"{first_name}\" \
+                         ({}): a study's conditions share one bicycle (or give --bike)",
+                        bike.display()
+                    ),
+                });
+            }
+        }
+        Ok(bike)
+    }
+}
