@@ -45,11 +45,11 @@ fn diagnose(s: &Study) -> Diagnosis {
 /// its delivered gain per controller, its inertia shared — on each of three seeds, with the
 /// study's JSON (`params_by_condition`, `heldout_rms_by_condition`, `conditions`).
 ///
-/// The values are a regression guard, not the acceptance: on seeds 1–4 the study's
-/// inertia came out 5–35 % from its truth and the gains up to 0.063 from theirs, often beyond
-/// 2 of their standard errors (s1: a 0.488 ± 0.014 for 0.426; s3: J 0.046 ± 0.003 for 0.034),
-/// so the guard is half the inertia and 0.15 of the gain. The single-campaign diagnoses of the
-/// same rides are printed (how often each names the pair), not asserted.
+/// The values are a regression guard, not the acceptance: on seeds 1–6 the study's
+/// inertia came out 2–31 % from its truth (within 2 of its standard errors in 4 of 6) and the
+/// gains up to 0.09 from theirs (within 2 standard errors in 9 of 18; s3: 0.889 ± 0.013 for
+/// 0.844), so the guard is half the inertia and 0.15 of the gain. The single-campaign
+/// diagnoses of the same rides are printed (how often each names the pair), not asserted.
 #[test]
 fn a_blind_study_names_the_steer_motor() {
     let mut singles_naming_both = 0;

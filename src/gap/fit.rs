@@ -28,7 +28,7 @@ pub struct Campaign<'a> {
     pub guesses: Vec<Complex<f64>>,
     /// The parts of each ride's residual: 2, the eigenvalue's real and imaginary parts; 4, and
     /// the mode shape's |γ/θ| and phase (rad).
-    pub parts: usize,
+    pub parts: Parts,
     /// Covariance of `[re₀, im₀, (|γ/θ|₀, arg₀,) re₁, …]` of the residuals (experiment − model).
     pub cov: DMatrix<f64>,
     /// Its inverse, made on the first leave-one-out subset ([`Campaign::leave_one_out`]).
@@ -36,6 +36,59 @@ pub struct Campaign<'a> {
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
     pub assumed: Assumed,
+}
+
+/// Where each ride's parts lie in the residual vector: 2 (the eigenvalue's real and imaginary
+/// parts) or 4 (and the mode shape's |γ/θ| and phase) per ride, in the rides' order. Rides fitted
+/// from the roll rate alone give the eigenvalue only; rides with both angles give the shape too:
+/// both enter one likelihood.
+#[derive(Debug, Clone)]
+pub struct Parts {
+    per_ride: Vec<usize>,
+    start: Vec<usize>,
+    total: usize,
+}
+
+impl Parts {
+    /// The parts of rides with `per_ride` parts each (2 or 4).
+    pub fn new(per_ride: Vec<usize>) -> Parts {
+        let mut start = Vec::with_capacity(per_ride.len());
+        let mut total = 0;
+        for &p in &per_ride {
+            start.push(total);
+            total += p;
+        }
+        Parts {
+            per_ride,
+            start,
+            total,
+        }
+    }
+
+    /// Ride `i`'s number of parts …
+    pub fn of(&self, i: usize) -> usize {
+        self.per_ride[i]
+    }
+
+    /// … and where they start.
+    pub fn start(&self, i: usize) -> usize {
+        self.start[i]
+    }
+
+    /// Every ride's parts.
+    pub fn total(&self) -> usize {
+        self.total
+    }
+
+    /// The parts of `rides`.
+    pub fn count(&self, rides: &[usize]) -> usize {
+        rides.iter().map(|&i| self.per_ride[i]).sum()
+    }
+
+    /// The most parts of any ride (4 when some ride gives its mode shape).
+    pub fn most(&self) -> usize {
+        self.per_ride.iter().copied().max().unwrap_or(2)
+    }
 }
 
 /// χ² of a subset of rides.
@@ -99,8 +152,8 @@ impl<'a> Campaign<'a> {
         (bike, own)
     }
 
-    /// The residuals of `rides` (experiment − prediction, [`Campaign::parts`] per ride, the
-    /// phase wrapped to ±π), `params` the fitted vector of the effects' layout; `None` when a
+    /// The residuals of `rides` (experiment − prediction, each ride's [`Campaign::parts`] in
+    /// turn, the phase wrapped to ±π), `params` the fitted vector of the effects' layout; `None` when a
     /// ride has no weave or no mode shape.
     pub fn residuals(
         &self,
@@ -110,20 +163,22 @@ impl<'a> Campaign<'a> {
     ) -> Option<DVector<f64>> {
         let layout = self.layout(effects);
         let mut bikes: Vec<Option<(LinearBike, Vec<f64>)>> = vec![None; self.conditions.len()];
-        let p = self.parts;
-        let mut r = DVector::zeros(p * rides.len());
-        for (k, &i) in rides.iter().enumerate() {
+        let mut r = DVector::zeros(self.parts.count(rides));
+        let mut at = 0;
+        for &i in rides {
             let o = &self.obs[i];
             let c = self.ride_condition[i];
             let (bike, own) =
                 bikes[c].get_or_insert_with(|| self.bike(effects, &layout, params, c));
-            let (w, shape) = predict_weave(bike, effects, own, o, self.guesses[i], p > 2)?;
-            r[p * k] = o.weave.re - w.re;
-            r[p * k + 1] = o.weave.im - w.im;
+            let with_shape = self.parts.of(i) > 2;
+            let (w, shape) = predict_weave(bike, effects, own, o, self.guesses[i], with_shape)?;
+            r[at] = o.weave.re - w.re;
+            r[at + 1] = o.weave.im - w.im;
             if let Some(s) = shape {
-                r[p * k + 2] = o.shape_ratio.value - s.norm();
-                r[p * k + 3] = crate::signal::wrap_pi(o.shape_phase_rad.value - s.arg());
+                r[at + 2] = o.shape_ratio.value - s.norm();
+                r[at + 3] = crate::signal::wrap_pi(o.shape_phase_rad.value - s.arg());
             }
+            at += self.parts.of(i);
         }
         Some(r)
     }
@@ -132,7 +187,10 @@ impl<'a> Campaign<'a> {
     fn indices(&self, rides: &[usize]) -> Vec<usize> {
         rides
             .iter()
-            .flat_map(|&i| (0..self.parts).map(move |a| self.parts * i + a))
+            .flat_map(|&i| {
+                let start = self.parts.start(i);
+                start..start + self.parts.of(i)
+            })
             .collect()
     }
 
@@ -154,10 +212,8 @@ impl<'a> Campaign<'a> {
             .inverse
             .get_or_init(|| self.cov.clone().cholesky().map(|c| c.inverse()))
             .as_ref()?;
-        let p = self.parts;
-        let block = inverse
-            .view((p * left_out, p * left_out), (p, p))
-            .into_owned();
+        let (start, p) = (self.parts.start(left_out), self.parts.of(left_out));
+        let block = inverse.view((start, start), (p, p)).into_owned();
         Some(Subset {
             campaign: self,
             rides: (0..self.obs.len()).filter(|&j| j != left_out).collect(),
@@ -227,13 +283,15 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
             }
         };
         let per_ride = &memo[k].1;
-        let p = self.campaign.parts;
-        let mut r = DVector::zeros(p * subset.rides.len());
-        for (j, &i) in subset.rides.iter().enumerate() {
+        let parts = &self.campaign.parts;
+        let mut r = DVector::zeros(parts.count(&subset.rides));
+        let mut at = 0;
+        for &i in &subset.rides {
             let Some(ri) = &per_ride[i] else {
                 return f64::INFINITY;
             };
-            r.rows_mut(p * j, p).copy_from(ri);
+            r.rows_mut(at, parts.of(i)).copy_from(ri);
+            at += parts.of(i);
         }
         subset.chi2_of(&r)
     }
@@ -262,14 +320,17 @@ impl Subset<'_, '_> {
                 let Some(Some(s)) = self.campaign.inverse.get() else {
                     return f64::INFINITY;
                 };
-                let p = self.campaign.parts;
+                let parts = &self.campaign.parts;
                 // Every ride's residual, zero for the one left out.
                 let mut full = DVector::zeros(s.nrows());
-                for (j, &i) in self.rides.iter().enumerate() {
-                    full.rows_mut(p * i, p).copy_from(&r.rows(p * j, p));
+                let mut at = 0;
+                for &i in &self.rides {
+                    let p = parts.of(i);
+                    full.rows_mut(parts.start(i), p).copy_from(&r.rows(at, p));
+                    at += p;
                 }
                 let u = s * &full;
-                let ui = u.rows(p * left_out, p);
+                let ui = u.rows(parts.start(*left_out), parts.of(*left_out));
                 let chi2 = full.dot(&u) - (block_inverse * ui).dot(&ui);
                 chi2.max(0.0)
             }
@@ -613,7 +674,10 @@ pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) ->
     let h: Vec<f64> = (0..n).map(|i| 1e-3 * (hi[i] - lo[i])).collect();
     let f = |x: &[f64]| subset.chi2(effects, x);
     let (_, hess) = central_differences(&f, &fit.params, fit.chi2, &h);
-    let dof = (subset.campaign.parts * subset.len())
+    let dof = subset
+        .campaign
+        .parts
+        .count(&subset.rides)
         .saturating_sub(n)
         .max(1) as f64;
     let birge = (fit.chi2 / dof).max(1.0);

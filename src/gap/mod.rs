@@ -359,16 +359,32 @@ pub fn diagnose_study(
         .map(|c| (c.control, c.rides.iter().map(|o| o.speed_mps).collect()))
         .collect();
     let wm = model.weave_model_conditions(&per_condition)?;
-    let shapes_usable = wm.shapes.iter().all(|s| s.is_finite())
-        && rides.iter().all(|o| {
-            [o.shape_ratio, o.shape_phase_rad]
+    // The mode shape enters for a condition whose every ride measured it (both angles) where
+    // the model has one; a condition of roll-rate segments gives the eigenvalue alone.
+    let shape_usable = |i: usize| {
+        let o = &rides[i];
+        wm.shapes[i].is_finite()
+            && [o.shape_ratio, o.shape_phase_rad]
                 .iter()
                 .all(|e| e.value.is_finite() && e.se.is_finite() && e.se > 0.0)
-        });
-    let parts = if options.shape && shapes_usable { 4 } else { 2 };
+    };
+    let condition_shapes: Vec<bool> = (0..study.len())
+        .map(|c| options.shape && (0..n).filter(|&i| ride_condition[i] == c).all(shape_usable))
+        .collect();
+    let parts = fit::Parts::new(
+        (0..n)
+            .map(|i| {
+                if condition_shapes[ride_condition[i]] {
+                    4
+                } else {
+                    2
+                }
+            })
+            .collect(),
+    );
     let guesses = wm.weaves.clone();
     let model_idx: Vec<usize> = (0..n)
-        .flat_map(|i| (0..parts).map(move |a| WEAVE_PARTS * i + a))
+        .flat_map(|i| (0..parts.of(i)).map(move |a| WEAVE_PARTS * i + a))
         .collect();
     let model_cov = wm
         .cov
@@ -394,7 +410,8 @@ pub fn diagnose_study(
         .iter()
         .map(|c| linear::LinearBike::whipple(&c.base).with_control(c.control))
         .collect();
-    let mut exp_cov = DMatrix::zeros(parts * n, parts * n);
+    let total = parts.total();
+    let mut exp_cov = DMatrix::zeros(total, total);
     let fit_se = |o: &Observation| {
         [
             o.re_se,
@@ -407,16 +424,17 @@ pub fn diagnose_study(
     };
     // Repeated kicks of one set-up that scatter beyond their fits' errors: the scatter between
     // kicks, a random effect of every kick.
-    d.between_kick_scatter = observe::between_kick_scatter(rides, &ride_condition, parts, &fit_se);
+    d.between_kick_scatter =
+        observe::between_kick_scatter(rides, &ride_condition, parts.most(), &fit_se);
     let scatter = d
         .between_kick_scatter
         .as_ref()
-        .map_or(vec![0.0; parts], |s| s.per_part.clone());
+        .map_or(vec![0.0; parts.most()], |s| s.per_part.clone());
     for (i, o) in rides.iter().enumerate() {
         let standard_errors = fit_se(o);
-        for a in 0..parts {
-            exp_cov[(parts * i + a, parts * i + a)] =
-                standard_errors[a].powi(2) + scatter[a].powi(2);
+        let (start, p) = (parts.start(i), parts.of(i));
+        for a in 0..p {
+            exp_cov[(start + a, start + a)] = standard_errors[a].powi(2) + scatter[a].powi(2);
         }
         // The model's weave and shape per m/s of speed at the ride's.
         let h = 1e-4;
@@ -445,14 +463,14 @@ pub fn diagnose_study(
         // p bin, none below 0.05 of the targeted test's), and half the window gives it back its
         // uniform histogram (0.5 % below 0.01, docs/gap-calibration.md).
         let window_change_mps = 0.5 * o.window_accel_mps2.abs() * o.window_s.max(0.0);
-        for a in 2..parts {
-            exp_cov[(parts * i + a, parts * i + a)] += (per_mps[a] * window_change_mps).powi(2);
+        for a in 2..p {
+            exp_cov[(start + a, start + a)] += (per_mps[a] * window_change_mps).powi(2);
         }
         if o.speed_se_mps > 0.0 {
             let g = per_mps.map(|d| d * o.speed_se_mps);
-            for a in 0..parts {
-                for b in 0..parts {
-                    exp_cov[(parts * i + a, parts * i + b)] += g[a] * g[b];
+            for a in 0..p {
+                for b in 0..p {
+                    exp_cov[(start + a, start + b)] += g[a] * g[b];
                 }
             }
         }
@@ -465,14 +483,14 @@ pub fn diagnose_study(
         use crate::ride::dynamic::{COASTING_BIAS_COMMON_FRACTION as C, COASTING_BIAS_SE_FRACTION};
         for (i, oi) in rides.iter().enumerate() {
             for (j, oj) in rides.iter().enumerate() {
-                for a in 0..parts {
-                    for b in 0..parts {
+                for a in 0..parts.of(i) {
+                    for b in 0..parts.of(j) {
                         let own = if i == j && a == b {
                             COASTING_BIAS_SE_FRACTION.powi(2) * oi.coasting_bias[a].powi(2)
                         } else {
                             0.0
                         };
-                        exp_cov[(parts * i + a, parts * j + b)] +=
+                        exp_cov[(parts.start(i) + a, parts.start(j) + b)] +=
                             C * C * oi.coasting_bias[a] * oj.coasting_bias[b] - own;
                     }
                 }
@@ -485,13 +503,13 @@ pub fn diagnose_study(
         conditions: &condition_models,
         ride_condition: ride_condition.clone(),
         guesses: guesses.clone(),
-        parts,
+        parts: parts.clone(),
         cov: &exp_cov + &model_cov,
         inverse: std::sync::OnceLock::new(),
         assumed: effects::Assumed::NOMINAL,
     };
-    d.parts_per_ride = parts;
-    d.dof = parts * n;
+    d.parts_per_ride = parts.most();
+    d.dof = total;
     let full = campaign.subset(all.clone()).ok_or(GapError::Covariance)?;
     let r0 = campaign
         .residuals(&[], &[], &all)
@@ -518,7 +536,7 @@ pub fn diagnose_study(
                     chi2: campaign
                         .subset(own.clone())
                         .map_or(f64::NAN, |s| s.chi2(&[], &[])),
-                    dof: parts * own.len(),
+                    dof: parts.count(&own),
                 }
             })
             .collect();
@@ -527,15 +545,15 @@ pub fn diagnose_study(
         .iter()
         .enumerate()
         .map(|(i, o)| {
-            let se = |a: usize| campaign.cov[(parts * i + a, parts * i + a)].sqrt();
+            let at = parts.start(i);
+            let se = |a: usize| campaign.cov[(at + a, at + a)].sqrt();
             let (re_se, im_se) = (se(0), se(1));
-            let (ratio_se, phase_se) = if parts > 2 {
+            let (ratio_se, phase_se) = if parts.of(i) > 2 {
                 (se(2), se(3))
             } else {
                 (o.shape_ratio.se, o.shape_phase_rad.se)
             };
-            let model_weave =
-                Complex::new(o.weave.re - r0[parts * i], o.weave.im - r0[parts * i + 1]);
+            let model_weave = Complex::new(o.weave.re - r0[at], o.weave.im - r0[at + 1]);
             let (dr, dp) =
                 shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave);
             RideResidual {
@@ -546,12 +564,12 @@ pub fn diagnose_study(
                 speed_se_mps: o.speed_se_mps,
                 speed_source: o.speed_source,
                 speed_sources: o.speed_sources.clone(),
-                re: r0[parts * i],
-                im: r0[parts * i + 1],
+                re: r0[at],
+                im: r0[at + 1],
                 re_se,
                 im_se,
-                re_z: r0[parts * i] / re_se,
-                im_z: r0[parts * i + 1] / im_se,
+                re_z: r0[at] / re_se,
+                im_z: r0[at + 1] / im_se,
                 shape_ratio: dr,
                 shape_ratio_se: ratio_se,
                 shape_ratio_z: dr / ratio_se,
@@ -614,18 +632,18 @@ pub fn diagnose_study(
                 .enumerate()
                 .map(|(i, before)| {
                     let o = &rides[i];
+                    let at = parts.start(i);
                     let (bike, own) =
                         campaign.bike(&best.effects, &layout, &best.params, ride_condition[i]);
                     let clock = effects::clock(&best.effects, &own);
-                    let weave =
-                        Complex::new(o.weave.re - r[parts * i], o.weave.im - r[parts * i + 1]);
+                    let weave = Complex::new(o.weave.re - r[at], o.weave.im - r[at + 1]);
                     let v = effects::true_speed(&best.effects, &own, o);
                     let (dr, dp) = shape_residual(&bike, o, v, weave * clock);
                     RideResidual {
-                        re: r[parts * i],
-                        im: r[parts * i + 1],
-                        re_z: r[parts * i] / before.re_se,
-                        im_z: r[parts * i + 1] / before.im_se,
+                        re: r[at],
+                        im: r[at + 1],
+                        re_z: r[at] / before.re_se,
+                        im_z: r[at + 1] / before.im_se,
                         shape_ratio: dr,
                         shape_ratio_z: dr / before.shape_ratio_se,
                         shape_phase_rad: dp,

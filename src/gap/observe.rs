@@ -259,6 +259,18 @@ pub fn between_kick_scatter(
         .map(|a| {
             let (mut q, mut df, mut c) = (0.0, 0usize, 0.0);
             for s in &setups {
+                // The kicks that measured this part (the shape needs both angles).
+                let s: Vec<usize> = s
+                    .iter()
+                    .copied()
+                    .filter(|&i| {
+                        let se = fit_se(&rides[i])[a];
+                        value(&rides[i], a).is_finite() && se.is_finite() && se > 0.0
+                    })
+                    .collect();
+                if s.len() < 2 {
+                    continue;
+                }
                 let w: Vec<f64> = s.iter().map(|&i| fit_se(&rides[i])[a].powi(-2)).collect();
                 let sw: f64 = w.iter().sum();
                 let mean = s

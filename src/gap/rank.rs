@@ -286,7 +286,7 @@ pub(super) fn rank(
     let before = (0..n)
         .map(|i| campaign.ride_chi2(&[], &[], i).unwrap_or(f64::INFINITY))
         .sum::<f64>();
-    let parts = n * campaign.parts;
+    let parts = campaign.parts.total();
     let rms = |s: f64| (s / parts as f64).sqrt();
     let library = campaign.library();
     let total = 2 * library.len() - 1 + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2;
@@ -358,7 +358,7 @@ pub(super) fn rank(
                     .map(|c| {
                         let rides = campaign.rides_of(c);
                         let sum: f64 = rides.iter().map(|&i| per_ride[i]).sum();
-                        let parts = (campaign.parts * rides.len()).max(1) as f64;
+                        let parts = campaign.parts.count(&rides).max(1) as f64;
                         (campaign.conditions[c].name.clone(), (sum / parts).sqrt())
                     })
                     .collect()

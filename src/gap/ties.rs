@@ -86,7 +86,7 @@ pub(super) fn next_rides(
         .map(|now| (UNTIE_SEPARATION - now).max(0.0))
         .collect();
     let obs = campaign.obs;
-    let p = campaign.parts;
+    let parts = &campaign.parts;
     // A ride at speed v is expected to be measured as well as the campaign's ride nearest to
     // it: the covariance of its parts (the fit's and the speed's).
     let nearest = |v: f64| -> Option<usize> {
@@ -96,7 +96,8 @@ pub(super) fn next_rides(
                 .total_cmp(&(obs[b].speed_mps - v).abs())
         })
     };
-    let block = |m: &DMatrix<f64>, start: usize| m.view((start, start), (p, p)).into_owned();
+    let block =
+        |m: &DMatrix<f64>, start: usize, p: usize| m.view((start, start), (p, p)).into_owned();
     let (lo, hi) = obs
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
@@ -114,7 +115,8 @@ pub(super) fn next_rides(
         let guess = linear::LinearBike::whipple(&cond.base)
             .with_control(cond.control)
             .weave_near(v, campaign.guesses[i])?;
-        let (w, shape) = effects::predict_weave(&bike, &r.effects, &own, &o, guess, p > 2)?;
+        let (w, shape) =
+            effects::predict_weave(&bike, &r.effects, &own, &o, guess, parts.of(i) > 2)?;
         let mut out = vec![w.re, w.im];
         if let Some(s) = shape {
             out.extend([s.norm(), s.arg()]);
@@ -142,11 +144,12 @@ pub(super) fn next_rides(
             let Some((i, b)) = nearest(v).and_then(|i| Some((i, predict_at(best, v, i)?))) else {
                 return zero;
             };
+            let (start, p) = (parts.start(i), parts.of(i));
             let model_block = match &model_at_grid {
-                Some(wm) => block(&wm.cov, WEAVE_PARTS * k),
-                None => block(&campaign.cov, p * i) - block(exp_cov, p * i),
+                Some(wm) => block(&wm.cov, WEAVE_PARTS * k, p),
+                None => block(&campaign.cov, start, p) - block(exp_cov, start, p),
             };
-            let Some(chol) = (block(exp_cov, p * i) + model_block).cholesky() else {
+            let Some(chol) = (block(exp_cov, start, p) + model_block).cholesky() else {
                 return zero;
             };
             rivals
