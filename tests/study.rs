@@ -98,3 +98,110 @@ fn a_blind_study_names_the_steer_motor() {
     }
     eprintln!("single campaigns naming actuator_gain + steer_inertia: {singles_naming_both} of 12");
 }
+
+/// The real balance-assist study from the command line (the issue's acceptance command): one
+/// entry per condition, and in every ranking entry each condition's parameters, their errors
+/// and the condition predicted from the others.
+#[test]
+fn the_real_study_carries_its_conditions() {
+    let d = common::run_json([
+        "gap",
+        "fixtures/real/balanceassist_uncontrolled.toml",
+        "fixtures/real/balanceassist_gain6.toml",
+        "fixtures/real/balanceassist_gain8.toml",
+        "fixtures/real/balanceassist_gain10.toml",
+        "--json",
+    ]);
+    let names = [
+        "balanceassist_uncontrolled",
+        "balanceassist_gain6",
+        "balanceassist_gain8",
+        "balanceassist_gain10",
+    ];
+    let conditions = d["conditions"].as_array().unwrap();
+    assert_eq!(conditions.len(), 4);
+    for (c, name) in conditions.iter().zip(names) {
+        assert_eq!(c["name"], name);
+        // Three marked decays uncontrolled; 21 segments per gain.
+        let expected = if name.ends_with("uncontrolled") {
+            3
+        } else {
+            21
+        };
+        assert_eq!(c["rides_used"], expected, "{c}");
+    }
+    let ranking = d["ranking"].as_array().unwrap();
+    assert!(ranking.len() > 10);
+    for r in ranking {
+        for key in [
+            "params_by_condition",
+            "params_se_by_condition",
+            "heldout_rms_by_condition",
+        ] {
+            let by = r[key].as_object().unwrap();
+            assert_eq!(by.len(), 4, "{key} of {}", r["effect"]);
+            for name in names {
+                assert!(by.contains_key(name), "{key} of {}: {name}", r["effect"]);
+            }
+        }
+        // A shared effect repeats its value in every condition.
+        if r["effect"] == "steer_inertia" {
+            let v = &r["params_by_condition"];
+            assert_eq!(v[names[0]], v[names[3]]);
+            assert_eq!(v[names[0]][0], r["params"][0]);
+        }
+        // The actuator's gain: none without the controller, its own per gain.
+        if r["effect"] == "actuator_gain" {
+            assert!(r["params_by_condition"][names[0]][0].is_null());
+            assert_eq!(r["params"].as_array().unwrap().len(), 3);
+        }
+    }
+}
+
+/// Studies that cannot be: a condition given twice, conditions of two bicycles, a study
+/// manifest naming a missing campaign, a known mass below the ground. Each refused (exit 2)
+/// with the file named.
+#[test]
+fn a_malformed_study_is_refused_with_its_file() {
+    let dir = std::env::temp_dir().join(format!("bikeproc_study_refusals_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let data = root().join("data");
+    let manifest = |bike: &str, extra: &str| {
+        format!(
+            "version = 1\nbike = \"{}\"\nallow_outside_folder = true\n{extra}\n\
+             [[ride]]\nlog = \"{}\"\nnoted_speed_mps = 3.5\n",
+            data.join(bike).display(),
+            data.join("ride_01.log").display()
+        )
+    };
+    std::fs::write(dir.join("a.toml"), manifest("lab_bike.toml", "")).unwrap();
+    std::fs::write(dir.join("b.toml"), manifest("lab_bike_seed.toml", "")).unwrap();
+    std::fs::write(
+        dir.join("heavy.toml"),
+        manifest(
+            "lab_bike.toml",
+            "[[known_mass]]\nframe = \"rear\"\nmass_kg = 2.0\nx_m = 0.4\nz_m = 0.5\n",
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("study.toml"),
+        "version = 1\nconditions = [\"a.toml\", \"missing.toml\"]\n",
+    )
+    .unwrap();
+    let a = dir.join("a.toml");
+    let cases: [(Vec<PathBuf>, &str); 4] = [
+        (vec![a.clone(), a.clone()], "given twice"),
+        (vec![a.clone(), dir.join("b.toml")], "another bicycle file"),
+        (vec![dir.join("study.toml")], "missing.toml"),
+        (vec![dir.join("heavy.toml"), a.clone()], "known_mass"),
+    ];
+    for (files, words) in cases {
+        let mut args = vec!["gap".to_string()];
+        args.extend(files.iter().map(|f| f.display().to_string()));
+        let out = common::run(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(words), "{args:?}: {err}");
+    }
+}

@@ -122,7 +122,19 @@ pub enum Command {
     #[command(after_help = concat!(
         "Examples:\n",
         "  bikeproc gap data/rides.toml\n",
-        "  bikeproc gap fixtures/real/balanceassist_gain6.toml\n\n",
+        "  bikeproc gap fixtures/real/balanceassist_gain6.toml\n",
+        "  bikeproc gap fixtures/real/balanceassist_uncontrolled.toml fixtures/real/balanceassist_gain6.toml\n",
+        "  bikeproc gap fixtures/real/balanceassist_study.toml\n\n",
+        "A study: several campaign manifests of one bicycle (or a study manifest, `version = 1` ",
+        "and `conditions = [\"a.toml\", …]` beside it), each a condition named by its file's ",
+        "stem. The bicycle's effects are shared; a condition's own equipment (the actuator's ",
+        "gain per controller, the speedometer's scale, the clock) is fitted per condition; a ",
+        "known change is written in the condition's manifest (its `[controller]`, and ",
+        "`[[known_mass]]` tables: `frame = \"rear\"` or `\"front\"`, `mass_kg`, `x_m`, `z_m` in ",
+        "the benchmark's axes). The ranking rests on each condition predicted from the others ",
+        "(`heldout_rms_by_condition`); JSON adds `conditions` and, per candidate, ",
+        "`params_by_condition` and `params_se_by_condition`. Repeated kicks at one set speed ",
+        "carry the scatter between them (`between_kick_scatter`).\n\n",
         "The manifest (rides.toml, data/rides.toml for an example): `version = 1`, `bike = ",
         "\"lab_bike.toml\"` (the bicycle, beside it), optionally a `[controller]` table, then one ",
         "`[[ride]]` per ride: `log = \"ride_01.log\"` (the angles log, its `_cal` file beside it, ",
@@ -137,7 +149,9 @@ pub enum Command {
         "\"residuals\", \"ranking\": [{\"effect\", \"params\", \"params_se\", ",
         "\"heldout_rms_before\", \"heldout_rms_after\", \"plausible\", \"at_bound\", ",
         "\"not_needed\"}, …], \"detection_limits\", \"verdict\"}.\n\n",
-        "Ranking: plausible candidates first, then by the held-out RMS normalized residual. A ",
+        "Ranking: plausible candidates first (in a study, candidates off their search's edge ",
+        "first, a best fit outside its plausible range shown and flagged in words), then by the ",
+        "held-out RMS normalized residual. A ",
         "pair is tried only when no single effect brings it within 2, kept only when it beats the ",
         "best single on the rides left out by 6.63 in χ² and by the BIC, and named ahead of the ",
         "single only when the tie test tells the two apart (the held-out χ² difference beyond ",
@@ -414,6 +428,27 @@ pub enum SimCommand {
         #[arg(long, default_value = "data/lab_bike.toml")]
         bike: PathBuf,
         /// Folder to write into.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The joint diagnosis of studies calibrated: blind studies (a steer motor withheld) and
+    /// effect-free ones, diagnosed together and one condition at a time; writes the tallies
+    /// (named, the values' coverage, the effect-free p-values) as Markdown.
+    #[command(
+        name = "study-calibration",
+        after_help = "Example (docs/study-calibration.md, about 20 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --controls 50 --out docs/study-calibration.md"
+    )]
+    StudyCalibration {
+        /// Blind studies (seeds 1 to N).
+        #[arg(long, default_value_t = 50)]
+        studies: u64,
+        /// Effect-free studies (seeds 1001 onwards).
+        #[arg(long, default_value_t = 50)]
+        controls: u64,
+        /// The measured bicycle.
+        #[arg(long, default_value = "data/lab_bike.toml")]
+        bike: PathBuf,
+        /// The Markdown to write.
         #[arg(long)]
         out: PathBuf,
     },

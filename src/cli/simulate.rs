@@ -74,6 +74,12 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             out,
             results,
         } => return gap_calibration(campaigns, controls, &only, &bike, &out, results.as_deref()),
+        SimCommand::StudyCalibration {
+            studies,
+            controls,
+            bike,
+            out,
+        } => return study_calibration(studies, controls, &bike, &out),
         SimCommand::RideFaults { out } => {
             let bike = LabBike::load(Path::new("data/lab_bike.toml"))?;
             return write_generated(&out, &campaign::ride_fault_fixtures(&bike)?);
@@ -181,6 +187,46 @@ fn write_generated(out: &Path, files: &campaign::Files) -> Result<()> {
 
 /// `simulate gap-calibration`: the blind campaigns run one after the other (each uses both
 /// cores), a line on standard error per campaign.
+/// `simulate study-calibration`: blind and effect-free studies, diagnosed and tallied.
+fn study_calibration(studies: u64, controls: u64, bike: &Path, out: &Path) -> Result<()> {
+    use sim::study::{run_study, study_markdown};
+    let command = format!(
+        "bikeproc simulate study-calibration --studies {studies} --controls {controls} --out {}",
+        out.display()
+    );
+    let lab = LabBike::load(bike)?;
+    let text =
+        std::fs::read_to_string(bike).with_context(|| format!("reading {}", bike.display()))?;
+    let cases: Vec<(u64, bool)> = (1..=studies)
+        .map(|s| (s, false))
+        .chain((1001..1001 + controls).map(|s| (s, true)))
+        .collect();
+    let (mut results, mut failures) = (Vec::new(), Vec::new());
+    for (k, &(seed, effect_free)) in cases.iter().enumerate() {
+        match run_study(&lab, &text, seed, effect_free) {
+            Ok(r) => {
+                note!(
+                    "[{}/{}] {} seed {seed}: p {:.2e}, best {}, pair {:?}",
+                    k + 1,
+                    cases.len(),
+                    if effect_free { "effect-free" } else { "blind" },
+                    r.campaign_p_value,
+                    r.best,
+                    r.motor_fit.as_ref().map(|f| &f.0)
+                );
+                results.push(r);
+            }
+            Err(e) => failures.push(format!("seed {seed} (effect-free {effect_free}): {e}")),
+        }
+    }
+    write_atomic(
+        out,
+        study_markdown(&results, &failures, &command).as_bytes(),
+    )?;
+    note!("wrote {}", out.display());
+    Ok(())
+}
+
 fn gap_calibration(
     campaigns: u64,
     controls: u64,

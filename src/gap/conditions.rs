@@ -171,6 +171,31 @@ impl Layout {
         out
     }
 
+    /// The effects' parameters (`effects::specs` order) in a condition not yet ridden: a shared
+    /// parameter's value, an equipment parameter at the mean of its fitted copies (the
+    /// condition's own equipment as the others' is), "no effect" where no condition has one.
+    pub fn new_condition(&self, params: &[f64], compact_len: usize) -> Vec<f64> {
+        (0..compact_len)
+            .map(|k| {
+                let copies: Vec<f64> = (0..self.len())
+                    .filter(|&j| self.compact[j] == k)
+                    .map(|j| params[j])
+                    .collect();
+                if copies.is_empty() {
+                    self.slots
+                        .first()
+                        .and_then(|s| match s.get(k) {
+                            Some(Slot::Fixed(v)) => Some(*v),
+                            _ => None,
+                        })
+                        .unwrap_or(f64::NAN)
+                } else {
+                    copies.iter().sum::<f64>() / copies.len() as f64
+                }
+            })
+            .collect()
+    }
+
     /// The fitted elements that condition `c`'s rides do not see (its own copies of the
     /// equipment effects), which a fit without them leaves where they are.
     pub fn own(&self, c: usize) -> Vec<usize> {

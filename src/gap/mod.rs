@@ -127,6 +127,10 @@ pub struct Diagnosis {
     pub best_fit_p_value: f64,
     /// When candidates are tied: the rides to make next, where their predictions differ most.
     pub next_rides: NextRides,
+    /// … and the known changes (another condition: the controller off or its gains changed, a
+    /// known mass added) that would split them most, best first.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub next_conditions: Vec<ties::NextCondition>,
     /// With no significant gap: each one-parameter candidate's smallest size these rides would
     /// have detected (the campaign's test, 80 % power), what the quiet campaign rules out.
     pub detection_limits: Vec<significance::DetectionLimit>,
@@ -223,6 +227,7 @@ pub fn diagnose(
     let one = [StudyCondition {
         name: model.name.clone(),
         control: model.control,
+        masses: Vec::new(),
         rides: rides.to_vec(),
         failed: failed.to_vec(),
     }];
@@ -235,6 +240,8 @@ pub fn diagnose(
 pub struct StudyCondition {
     pub name: String,
     pub control: crate::model::SteerControl,
+    /// Known masses added to the bicycle in this condition (its manifest's `[[known_mass]]`).
+    pub masses: Vec<crate::model::params::PointMass>,
     pub rides: Vec<Observation>,
     pub failed: Vec<String>,
 }
@@ -249,7 +256,10 @@ pub fn diagnose_manifests(
 ) -> Result<Diagnosis, GapError> {
     let mut conditions = Vec::with_capacity(manifests.len());
     for (name, manifest) in manifests {
-        let controlled = model.clone().with_control(manifest.control);
+        let controlled = model
+            .clone()
+            .with_masses(&manifest.known_masses)
+            .with_control(manifest.control);
         let results = crate::ride::dynamic::run_campaign(
             manifest,
             &controlled,
@@ -260,6 +270,7 @@ pub fn diagnose_manifests(
         conditions.push(StudyCondition {
             name: name.clone(),
             control: manifest.control,
+            masses: manifest.known_masses.clone(),
             rides,
             failed,
         });
@@ -344,6 +355,7 @@ pub fn diagnose_study(
         explained: false,
         best_fit_p_value: f64::NAN,
         next_rides: NextRides::default(),
+        next_conditions: Vec::new(),
         detection_limits: Vec::new(),
         verdict: String::new(),
     };
@@ -354,9 +366,14 @@ pub fn diagnose_study(
     }
     // The model at the rides' speeds under each condition's controller, its covariance (one
     // parameter set for every condition), and the speeds' contribution.
-    let per_condition: Vec<(crate::model::SteerControl, Vec<f64>)> = study
+    let per_condition: Vec<(Parametrized, Vec<f64>)> = study
         .iter()
-        .map(|c| (c.control, c.rides.iter().map(|o| o.speed_mps).collect()))
+        .map(|c| {
+            (
+                model.clone().with_masses(&c.masses).with_control(c.control),
+                c.rides.iter().map(|o| o.speed_mps).collect(),
+            )
+        })
         .collect();
     let wm = model.weave_model_conditions(&per_condition)?;
     // The mode shape enters for a condition whose every ride measured it (both angles) where
@@ -393,9 +410,13 @@ pub fn diagnose_study(
     let base = model.nominal();
     let condition_models: Vec<conditions::ConditionModel> = study
         .iter()
-        .map(|c| conditions::ConditionModel {
+        .zip(&per_condition)
+        .map(|(c, (m, _))| conditions::ConditionModel {
             name: c.name.clone(),
-            base,
+            base: crate::model::Benchmark {
+                se: base.se,
+                ..m.benchmark_at(m.inputs.values())
+            },
             control: c.control,
             read_speeds: c.rides.iter().any(|o| {
                 matches!(
@@ -592,6 +613,7 @@ pub fn diagnose_study(
     if d.significant {
         d.tied = tied(&d.ranking);
         d.next_rides = next_rides(&campaign, &exp_cov, model, &d.ranking, &d.tied);
+        d.next_conditions = ties::next_conditions(&campaign, &d.ranking, &d.tied);
     }
     if let Some(best) = d.ranking.first() {
         let k = best.params.len();

@@ -7,6 +7,7 @@
 use super::fit::Campaign;
 use super::{effects, linear, Observation, Ranked, TIE_CHI2, TIE_SE};
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
+use crate::model::Benchmark;
 use nalgebra::{DMatrix, DVector};
 
 /// A ride to make next, to tell tied candidates apart.
@@ -293,4 +294,177 @@ pub(super) fn tied(ranked: &[Ranked]) -> Vec<String> {
     } else {
         Vec::new()
     }
+}
+
+/// A known change a lab can make to tell the tied candidates apart: another condition.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct NextCondition {
+    /// The change, in words ("the controller off", "the controller's gains × 2", "2 kg at the
+    /// front frame's centre of mass").
+    pub change: String,
+    /// The condition it changes (its instruments and set-up kept), and the speed to ride it at
+    /// (where the eigenvalue applies, m/s).
+    pub from: String,
+    pub speed_mps: f64,
+    /// For each candidate tied with the best, in the order of `tied` without the best: how far
+    /// apart their predictions of one ride there are, in the standard errors the tie test will
+    /// weigh it with (those of the condition's ride nearest that speed, fit, speed and model).
+    pub separation_se: Vec<f64>,
+}
+
+/// The mass a lab adds as a known change (kg): a bag of sand, a dumbbell plate.
+pub const KNOWN_MASS_KG: f64 = 2.0;
+
+/// The known changes that would split the tied candidates most, best first (at most three,
+/// each at its best speed): from each condition, its controller off (or another condition's
+/// controller on), its gains halved or doubled, and [`KNOWN_MASS_KG`] at either frame's centre
+/// of mass; each scored as [`next_rides`] scores a speed, by Σ over the tied rivals of
+/// min(D, what the pair still lacks), D the squared separation of the two candidates'
+/// predictions of a ride made so (the candidates' equipment in a new condition as in the
+/// others, [`super::conditions::Layout::new_condition`]), weighed by the errors of the
+/// condition's ride nearest that speed.
+pub(super) fn next_conditions(
+    campaign: &Campaign<'_>,
+    ranking: &[Ranked],
+    tied: &[String],
+) -> Vec<NextCondition> {
+    use crate::model::params::{Frame, PointMass};
+    let (Some(best), true) = (ranking.first(), tied.len() > 1) else {
+        return Vec::new();
+    };
+    let rivals: Vec<&Ranked> = tied
+        .iter()
+        .filter(|t| **t != best.effect)
+        .filter_map(|t| ranking.iter().find(|r| r.effect == *t))
+        .collect();
+    let needed: Vec<f64> = rivals
+        .iter()
+        .map(|r| (UNTIE_SEPARATION - heldout_contrast(best, r).1).max(0.0))
+        .collect();
+    let obs = campaign.obs;
+    let parts = &campaign.parts;
+    // The changes: (words, from condition, its model changed).
+    let mut changes: Vec<(String, usize, Benchmark, crate::model::SteerControl)> = Vec::new();
+    for (c, cond) in campaign.conditions.iter().enumerate() {
+        let (base, control) = (cond.base, cond.control);
+        if control.is_none() {
+            for other in campaign.conditions.iter().filter(|o| !o.control.is_none()) {
+                changes.push((
+                    format!("{}'s controller on", other.name),
+                    c,
+                    base,
+                    other.control,
+                ));
+            }
+        } else {
+            changes.push((
+                "the controller off".into(),
+                c,
+                base,
+                crate::model::SteerControl::NONE,
+            ));
+            for k in [0.5, 2.0] {
+                let mut scaled = control;
+                scaled.actuator_gain *= k;
+                changes.push((format!("the controller's gains × {k}"), c, base, scaled));
+            }
+        }
+        for (frame, words, x, z) in [
+            (Frame::Rear, "rear", base.x_b, base.z_b),
+            (Frame::Front, "front", base.x_h, base.z_h),
+        ] {
+            let mass = PointMass {
+                frame,
+                mass_kg: KNOWN_MASS_KG,
+                x_m: x,
+                z_m: z,
+            };
+            changes.push((
+                format!("{KNOWN_MASS_KG} kg at the {words} frame's centre of mass"),
+                c,
+                base.with_point_mass(&mass),
+                control,
+            ));
+        }
+    }
+    let (lo, hi) = obs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
+            (a.min(o.speed_mps), b.max(o.speed_mps))
+        });
+    let grid: Vec<f64> = (0..)
+        .map(|k| (lo - 0.5).max(0.5) + 0.1 * k as f64)
+        .take_while(|&v| v <= hi + 0.5 + 1e-9)
+        .collect();
+    let predict = |r: &Ranked, base: &Benchmark, control, v: f64, i: usize| {
+        let layout = campaign.layout(&r.effects);
+        let own = layout.new_condition(&r.params, effects::specs(&r.effects).len());
+        let bike = effects::linear_bike(base, &control, &r.effects, &own);
+        let o = Observation {
+            speed_mps: v,
+            ..obs[i].clone()
+        };
+        let guess = linear::LinearBike::whipple(base)
+            .with_control(control)
+            .weave_near(v, campaign.guesses[i])?;
+        let (w, shape) =
+            effects::predict_weave(&bike, &r.effects, &own, &o, guess, parts.of(i) > 2)?;
+        let mut out = vec![w.re, w.im];
+        if let Some(s) = shape {
+            out.extend([s.norm(), s.arg()]);
+        }
+        Some(out)
+    };
+    let mut scored: Vec<(f64, NextCondition)> = changes
+        .iter()
+        .filter_map(|(words, c, base, control)| {
+            let own: Vec<usize> = campaign.rides_of(*c);
+            grid.iter()
+                .filter_map(|&v| {
+                    let &i = own.iter().min_by(|&&a, &&b| {
+                        (obs[a].speed_mps - v)
+                            .abs()
+                            .total_cmp(&(obs[b].speed_mps - v).abs())
+                    })?;
+                    let b = predict(best, base, *control, v, i)?;
+                    let (start, p) = (parts.start(i), parts.of(i));
+                    let block = campaign.cov.view((start, start), (p, p)).into_owned();
+                    let chol = block.cholesky()?;
+                    let d: Vec<f64> = rivals
+                        .iter()
+                        .map(|r| {
+                            predict(r, base, *control, v, i).map_or(0.0, |x| {
+                                let delta = DVector::from_iterator(
+                                    p,
+                                    (0..p).map(|a| {
+                                        let diff = b[a] - x[a];
+                                        if a == 3 {
+                                            crate::signal::wrap_pi(diff)
+                                        } else {
+                                            diff
+                                        }
+                                    }),
+                                );
+                                chol.l()
+                                    .solve_lower_triangular(&delta)
+                                    .map_or(0.0, |w| w.norm_squared())
+                            })
+                        })
+                        .collect();
+                    let score: f64 = d.iter().zip(&needed).map(|(x, n)| x.min(*n)).sum();
+                    Some((
+                        score,
+                        NextCondition {
+                            change: words.clone(),
+                            from: campaign.conditions[*c].name.clone(),
+                            speed_mps: v,
+                            separation_se: d.iter().map(|x| x.sqrt()).collect(),
+                        },
+                    ))
+                })
+                .max_by(|a, b| a.0.total_cmp(&b.0))
+        })
+        .collect();
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+    scored.into_iter().take(3).map(|(_, n)| n).collect()
 }

@@ -138,13 +138,26 @@ pub(super) fn verdict(d: &Diagnosis) -> String {
     let params: Vec<String> = named
         .iter()
         .zip(best.param_texts())
-        .map(|((e, spec), text)| {
+        .enumerate()
+        .map(|(k, ((e, spec), text))| {
             let sep = if text.starts_with(['≤', '≥']) {
                 " "
             } else {
                 " = "
             };
-            format!("{} {}{sep}{text}", e.name(), spec.name)
+            let (lo, hi) = spec.plausible;
+            let at_bound = best.at_bound.get(k).copied().unwrap_or(false);
+            let outside = match best.params.get(k) {
+                Some(&p) if !at_bound && !super::rank::plausible(spec, p, best.params_se[k]) => {
+                    format!(
+                        ", {} the {} taken as plausible",
+                        if p < lo { "below" } else { "above" },
+                        range_text(lo, hi, spec.unit)
+                    )
+                }
+                _ => String::new(),
+            };
+            format!("{} {}{sep}{text}{outside}", e.name(), spec.name)
         })
         .collect();
     let shrink = 1.0 - best.heldout_rms_after / best.heldout_rms_before;
@@ -290,10 +303,32 @@ fn next_rides_text(d: &Diagnosis) -> String {
             next.separation_needed
         ),
     };
-    format!(
+    let mut out = format!(
         "\nNext: the rides that best tell the tied candidates apart are at {}; {how_many}.",
         rides.join(" and at ")
-    )
+    );
+    if let Some(c) = d.next_conditions.first() {
+        let most = c.separation_se.iter().copied().fold(0.0, f64::max);
+        let now = next
+            .rides
+            .first()
+            .map_or(0.0, |r| r.separation_se.iter().copied().fold(0.0, f64::max));
+        if most > now {
+            let _ = write!(
+                out,
+                "\nBetter, change a known thing: {} ({} otherwise as it was), ridden at {:.2} m/s, sets the tied candidates' predictions of one ride up to {most:.1} of its standard errors apart (a ride as the campaign stands, up to {now:.1}).",
+                c.change, c.from, c.speed_mps
+            );
+        } else {
+            let _ = write!(
+                out,
+                "\nNo known change tried (the controller off or its gains halved or doubled, {} kg at either frame's centre of mass) sets them further apart than a ride as the campaign stands (the best, {}, up to {most:.1} of a ride's standard errors).",
+                super::ties::KNOWN_MASS_KG,
+                c.change
+            );
+        }
+    }
+    out
 }
 
 impl Diagnosis {
@@ -483,6 +518,15 @@ pub fn param_text(value: f64, se: f64, unit: &str) -> String {
     } else {
         format!("{value:.3}{unit} (no standard error: not identified)")
     }
+}
+
+/// A plausible range in words: `0.3–1.5 × nominal`.
+fn range_text(lo: f64, hi: f64, unit: &str) -> String {
+    let num = |x: f64| {
+        let t = format!("{x:.3}");
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
+    format!("{}–{}{}", num(lo), num(hi), spaced(unit))
 }
 
 /// A unit with its leading space (`" kg"`), or nothing.

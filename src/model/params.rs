@@ -391,3 +391,128 @@ fn is_positive(x: f64) -> bool {
 fn is_non_negative(x: f64) -> bool {
     x >= 0.0
 }
+
+/// Which of the benchmark's two frames a load rides on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Frame {
+    /// The rear frame (body B: frame, saddle, rider).
+    Rear,
+    /// The front frame (body H: fork and handlebar).
+    Front,
+}
+
+/// A point mass at a stated place on one frame, in the benchmark's axes (x forward, z down,
+/// from the rear contact, upright): a lab's known change between conditions (a weight at the
+/// saddle or the handlebar).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointMass {
+    pub frame: Frame,
+    pub mass_kg: f64,
+    pub x_m: f64,
+    pub z_m: f64,
+}
+
+impl Benchmark {
+    /// The bicycle with `p` added to its frame: the frame's mass grows, its centre of mass
+    /// moves to the joint one, and its inertia about that centre is each part's about its own
+    /// centre plus its mass times its offset's parallel-axis term (Steiner; for an offset
+    /// (dx, 0, dz) in the x–z plane: `I_xx += m dz²`, `I_yy += m (dx² + dz²)`, `I_zz += m dx²`,
+    /// `I_xz −= m dx dz`, the product of inertia being the tensor's off-diagonal element as in
+    /// Meijaard et al. 2007, Table 1).
+    pub fn with_point_mass(&self, p: &PointMass) -> Benchmark {
+        let mut b = *self;
+        let (m, x, z, ixx, iyy, izz, ixz) = match p.frame {
+            Frame::Rear => (
+                &mut b.m_b,
+                &mut b.x_b,
+                &mut b.z_b,
+                &mut b.i_bxx,
+                &mut b.i_byy,
+                &mut b.i_bzz,
+                &mut b.i_bxz,
+            ),
+            Frame::Front => (
+                &mut b.m_h,
+                &mut b.x_h,
+                &mut b.z_h,
+                &mut b.i_hxx,
+                &mut b.i_hyy,
+                &mut b.i_hzz,
+                &mut b.i_hxz,
+            ),
+        };
+        let total = *m + p.mass_kg;
+        if total <= 0.0 {
+            return b;
+        }
+        let centre = [
+            (*m * *x + p.mass_kg * p.x_m) / total,
+            (*m * *z + p.mass_kg * p.z_m) / total,
+        ];
+        for (mass, at) in [(*m, [*x, *z]), (p.mass_kg, [p.x_m, p.z_m])] {
+            let (dx, dz) = (at[0] - centre[0], at[1] - centre[1]);
+            *ixx += mass * dz * dz;
+            *iyy += mass * (dx * dx + dz * dz);
+            *izz += mass * dx * dx;
+            *ixz -= mass * dx * dz;
+        }
+        (*m, *x, *z) = (total, centre[0], centre[1]);
+        b
+    }
+}
+
+#[cfg(test)]
+mod point_mass_tests {
+    use super::*;
+
+    /// Against the other route: both parts' inertia about the rear contact (each about its
+    /// centre plus its own parallel-axis term there), less the joint mass's about the joint
+    /// centre. A mass at the frame's own centre changes the mass alone.
+    #[test]
+    fn a_point_mass_joins_its_frame_by_parallel_axes() {
+        let b = Benchmark::meijaard_2007();
+        let p = PointMass {
+            frame: Frame::Rear,
+            mass_kg: 2.5,
+            x_m: 0.9,
+            z_m: -1.1,
+        };
+        let j = b.with_point_mass(&p);
+        // About the origin, [xx, yy, zz, xz] of a mass m at (x, z).
+        let about_origin =
+            |m: f64, x: f64, z: f64| [m * z * z, m * (x * x + z * z), m * x * x, -m * x * z];
+        let body = about_origin(b.m_b, b.x_b, b.z_b);
+        let point = about_origin(p.mass_kg, p.x_m, p.z_m);
+        let joint = about_origin(j.m_b, j.x_b, j.z_b);
+        let own = [b.i_bxx, b.i_byy, b.i_bzz, b.i_bxz];
+        let got = [j.i_bxx, j.i_byy, j.i_bzz, j.i_bxz];
+        for k in 0..4 {
+            let expected = own[k] + body[k] + point[k] - joint[k];
+            assert!(
+                (got[k] - expected).abs() < 1e-12,
+                "{k}: {} vs {expected}",
+                got[k]
+            );
+        }
+        assert!((j.m_b - 87.5).abs() < 1e-12);
+        let at_centre = b.with_point_mass(&PointMass {
+            frame: Frame::Front,
+            mass_kg: 1.0,
+            x_m: b.x_h,
+            z_m: b.z_h,
+        });
+        assert_eq!(at_centre.m_h, b.m_h + 1.0);
+        assert_eq!(
+            [
+                at_centre.i_hxx,
+                at_centre.i_hyy,
+                at_centre.i_hzz,
+                at_centre.i_hxz,
+                at_centre.x_h
+            ],
+            [b.i_hxx, b.i_hyy, b.i_hzz, b.i_hxz, b.x_h]
+        );
+    }
+}

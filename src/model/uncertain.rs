@@ -100,6 +100,21 @@ impl Parametrized {
         }
     }
 
+    /// The same bicycle with known point masses added (a condition's known change):
+    /// [`Benchmark::with_point_mass`] after the inputs make the parameters, so that their
+    /// uncertainty propagates through the changed bicycle.
+    pub fn with_masses(mut self, masses: &[super::params::PointMass]) -> Parametrized {
+        if masses.is_empty() {
+            return self;
+        }
+        let build = self.build.clone();
+        let masses = masses.to_vec();
+        self.build = std::sync::Arc::new(move |x: &[f64]| {
+            masses.iter().fold(build(x), |b, m| b.with_point_mass(m))
+        });
+        self
+    }
+
     /// The same bicycle with `control` closing the loop.
     pub fn with_control(mut self, control: SteerControl) -> Parametrized {
         self.control = control;
@@ -235,23 +250,22 @@ impl Parametrized {
     /// covariance of their parts propagated from the parameters. The phase of each perturbed
     /// shape is taken within ±π of the nominal one.
     pub fn weave_model(&self, speeds: &[f64]) -> Result<WeaveModel, ParamError> {
-        self.weave_model_conditions(&[(self.control, speeds.to_vec())])
+        self.weave_model_conditions(&[(self.clone(), speeds.to_vec())])
     }
 
-    /// [`Parametrized::weave_model`] of the same bicycle under several controllers (the
-    /// conditions of a study), each at its own speeds, in that order: one propagation, so that
-    /// the covariance holds the correlation across conditions that one parameter set makes.
+    /// [`Parametrized::weave_model`] of the same bicycle in several conditions (a study's),
+    /// each a model made from this one's inputs (`with_control`, `with_masses`) at its own
+    /// speeds, in that order: one propagation through this bicycle's inputs, so that the
+    /// covariance holds the correlation across conditions that one parameter set makes.
     pub fn weave_model_conditions(
         &self,
-        conditions: &[(SteerControl, Vec<f64>)],
+        conditions: &[(Parametrized, Vec<f64>)],
     ) -> Result<WeaveModel, ParamError> {
-        let at = |x: &[f64], control: SteerControl| {
-            Canonical::from_benchmark(&self.benchmark_at(x)).with_control(control)
-        };
+        let at = |x: &[f64], condition: &Parametrized| condition.canonical_at(x);
         let nominal_x = self.inputs.values();
         let sweeps = conditions
             .iter()
-            .map(|(control, speeds)| at(nominal_x, *control).sweep(speeds))
+            .map(|(condition, speeds)| at(nominal_x, condition).sweep(speeds))
             .collect::<Result<Vec<_>, _>>()?;
         let shape_of = |c: &Canonical, v: f64, w: Complex<f64>| -> Complex<f64> {
             c.mode_shape(v, w)
@@ -261,8 +275,8 @@ impl Parametrized {
         };
         let mut weaves = Vec::new();
         let mut shapes = Vec::new();
-        for ((control, speeds), sweep) in conditions.iter().zip(&sweeps) {
-            let nominal = at(nominal_x, *control);
+        for ((condition, speeds), sweep) in conditions.iter().zip(&sweeps) {
+            let nominal = at(nominal_x, condition);
             for (&v, e) in speeds.iter().zip(&sweep.eigenvalues) {
                 weaves.push(e[0]);
                 shapes.push(shape_of(&nominal, v, e[0]));
@@ -271,8 +285,8 @@ impl Parametrized {
         let (_, cov) = propagate(&self.inputs, |x| {
             let mut out = Vec::with_capacity(WEAVE_PARTS * weaves.len());
             let mut k = 0;
-            for ((control, speeds), sweep) in conditions.iter().zip(&sweeps) {
-                let c = at(x, *control);
+            for ((condition, speeds), sweep) in conditions.iter().zip(&sweeps) {
+                let c = at(x, condition);
                 for (i, &v) in speeds.iter().enumerate() {
                     let ev = c.eigenvalues(v).unwrap_or([Complex::new(f64::NAN, 0.0); 4]);
                     let w = super::match_order(&sweep.eigenvalues[i], &ev)[0];

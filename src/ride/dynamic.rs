@@ -701,6 +701,11 @@ pub struct RideManifest {
     /// The bicycle's steer controller, if it carries one.
     #[serde(default)]
     pub controller: Option<crate::model::control::ControllerSpec>,
+    /// Known changes of this campaign's bicycle from the bicycle file: point masses at stated
+    /// places (`[[known_mass]]`: `frame = "rear"` or `"front"`, `mass_kg`, `x_m`, `z_m` in the
+    /// benchmark's axes, x forward and z down from the rear contact).
+    #[serde(default, rename = "known_mass")]
+    pub known_masses: Vec<crate::model::params::PointMass>,
     /// The rides' files may lie outside the manifest's folder (refused unless set: a
     /// manifest from elsewhere cannot make bikeproc read any file on the machine).
     #[serde(default)]
@@ -853,6 +858,21 @@ impl RideManifest {
             }
             seen.push(key);
         }
+        for k in &m.known_masses {
+            let fine = (k.mass_kg.is_finite() && k.mass_kg > 0.0 && k.mass_kg <= 200.0)
+                && (k.x_m.is_finite() && k.x_m.abs() <= 3.0)
+                && (k.z_m.is_finite() && (-3.0..0.0).contains(&k.z_m));
+            if !fine {
+                return Err(err(
+                    "[[known_mass]]",
+                    format!(
+                        "[[known_mass]] mass_kg = {}, x_m = {}, z_m = {}: a mass (0–200 kg) at a \
+                         place on the bicycle (|x| ≤ 3 m, z from −3 m up to the ground, z down)",
+                        k.mass_kg, k.x_m, k.z_m
+                    ),
+                ));
+            }
+        }
         if let Some(spec) = &m.controller {
             m.control = SteerControl::from_spec(spec, path).map_err(|e| ManifestError {
                 path: path.to_path_buf(),
@@ -875,7 +895,9 @@ impl RideManifest {
     /// controller.
     pub fn model(&self, bike: Option<&Path>) -> Result<Parametrized, crate::model::ParamError> {
         let path = bike.map_or_else(|| self.bike_path(), Path::to_path_buf);
-        Ok(crate::model::uncertain::load(&path)?.with_control(self.control))
+        Ok(crate::model::uncertain::load(&path)?
+            .with_masses(&self.known_masses)
+            .with_control(self.control))
     }
 }
 
