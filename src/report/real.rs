@@ -474,9 +474,10 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
          three windows that lab marked, `fixtures/real/balanceassist_uncontrolled.toml`) and the three\n\
          gains as one bicycle: its effects shared by every condition, the motor's delivered gain fitted\n\
          per controller, the speedometer's scale and the clock per condition; the ranking rests on each\n\
-         condition predicted from the others (its own equipment at the others' mean). Every segment\n\
-         enters by its eigenvalue (the controlled segments have the roll rate alone). Repeated kicks of\n\
-         one set-up enter with the scatter between them estimated from the repeats{}.\n\n\
+         condition predicted from the others (its own equipment at the others' mean). The controlled\n\
+         segments enter by their eigenvalue (the roll rate alone), the uncontrolled decays by their\n\
+         eigenvalue and mode shape (roll and steer), in one likelihood. Repeated kicks of one set-up\n\
+         enter with the scatter between them estimated from the repeats{}.\n\n\
          | condition | controller | rides | χ² against the model (dof) |\n|---|---|---|---|\n",
         d.between_kick_scatter.as_ref().map_or(String::new(), |s| format!(
             " ({} set-ups, {} kicks: σ {:.3} 1/s, ω {:.3} rad/s between kicks; Cochran's Q {:.0} for {} dof)",
