@@ -154,19 +154,10 @@ impl Layout {
     /// left out.
     pub fn predicting(&self, params: &[f64], c: usize) -> Vec<f64> {
         let mut out = params.to_vec();
-        for (k, cond) in self.condition.iter().enumerate() {
-            if *cond != Some(c) {
-                continue;
-            }
-            let others: Vec<f64> = (0..self.len())
-                .filter(|&j| self.compact[j] == self.compact[k] && self.condition[j] != Some(c))
-                .map(|j| params[j])
-                .collect();
-            out[k] = if others.is_empty() {
-                self.specs[k].none
-            } else {
-                others.iter().sum::<f64>() / others.len() as f64
-            };
+        for k in self.own(c) {
+            out[k] = self
+                .mean_of_copies(params, self.compact[k], Some(c))
+                .unwrap_or(self.specs[k].none);
         }
         out
     }
@@ -177,23 +168,27 @@ impl Layout {
     pub fn new_condition(&self, params: &[f64], compact_len: usize) -> Vec<f64> {
         (0..compact_len)
             .map(|k| {
-                let copies: Vec<f64> = (0..self.len())
-                    .filter(|&j| self.compact[j] == k)
-                    .map(|j| params[j])
-                    .collect();
-                if copies.is_empty() {
-                    self.slots
-                        .first()
-                        .and_then(|s| match s.get(k) {
-                            Some(Slot::Fixed(v)) => Some(*v),
-                            _ => None,
-                        })
-                        .unwrap_or(f64::NAN)
-                } else {
-                    copies.iter().sum::<f64>() / copies.len() as f64
-                }
+                self.mean_of_copies(params, k, None).unwrap_or_else(|| {
+                    // No fitted copy: every condition holds it at "no effect".
+                    match self.slots.first().and_then(|s| s.get(k)) {
+                        Some(Slot::Fixed(v)) => *v,
+                        _ => f64::NAN,
+                    }
+                })
             })
             .collect()
+    }
+
+    /// The mean of the fitted copies of the effects' parameter `compact` outside condition
+    /// `except`; `None` when there is none.
+    fn mean_of_copies(&self, params: &[f64], compact: usize, except: Option<usize>) -> Option<f64> {
+        let copies: Vec<f64> = (0..self.len())
+            .filter(|&j| {
+                self.compact[j] == compact && (except.is_none() || self.condition[j] != except)
+            })
+            .map(|j| params[j])
+            .collect();
+        (!copies.is_empty()).then(|| copies.iter().sum::<f64>() / copies.len() as f64)
     }
 
     /// The fitted elements that condition `c`'s rides do not see (its own copies of the

@@ -76,58 +76,23 @@ pub(super) fn next_rides(
     let (Some(best), true) = (ranking.first(), tied.len() > 1) else {
         return NextRides::default();
     };
-    let rivals: Vec<&Ranked> = tied
-        .iter()
-        .filter(|t| **t != best.effect)
-        .filter_map(|t| ranking.iter().find(|r| r.effect == *t))
-        .collect();
+    let rivals = rivals_of(ranking, tied, best);
     let separation_now: Vec<f64> = rivals.iter().map(|r| heldout_contrast(best, r).1).collect();
-    let needed: Vec<f64> = separation_now
-        .iter()
-        .map(|now| (UNTIE_SEPARATION - now).max(0.0))
-        .collect();
+    let needed = still_needed(best, &rivals);
     let obs = campaign.obs;
     let parts = &campaign.parts;
     // A ride at speed v is expected to be measured as well as the campaign's ride nearest to
     // it: the covariance of its parts (the fit's and the speed's).
-    let nearest = |v: f64| -> Option<usize> {
-        (0..obs.len()).min_by(|&a, &b| {
-            (obs[a].speed_mps - v)
-                .abs()
-                .total_cmp(&(obs[b].speed_mps - v).abs())
-        })
-    };
     let block =
         |m: &DMatrix<f64>, start: usize, p: usize| m.view((start, start), (p, p)).into_owned();
-    let (lo, hi) = obs
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
-            (a.min(o.speed_mps), b.max(o.speed_mps))
-        });
     let mean_slowing = obs.iter().map(|o| o.speed_correction_mps).sum::<f64>() / obs.len() as f64;
     let predict_at = |r: &Ranked, v: f64, i: usize| -> Option<Vec<f64>> {
-        let o = Observation {
-            speed_mps: v,
-            ..obs[i].clone()
-        };
         let c = campaign.ride_condition[i];
-        let (bike, own) = campaign.bike(&r.effects, &campaign.layout(&r.effects), &r.params, c);
+        let own = campaign.layout(&r.effects).condition_params(&r.params, c);
         let cond = &campaign.conditions[c];
-        let guess = linear::LinearBike::whipple(&cond.base)
-            .with_control(cond.control)
-            .weave_near(v, campaign.guesses[i])?;
-        let (w, shape) =
-            effects::predict_weave(&bike, &r.effects, &own, &o, guess, parts.of(i) > 2)?;
-        let mut out = vec![w.re, w.im];
-        if let Some(s) = shape {
-            out.extend([s.norm(), s.arg()]);
-        }
-        Some(out)
+        predict_ride(campaign, r, &own, &cond.base, cond.control, v, i)
     };
-    let grid: Vec<f64> = (0..)
-        .map(|k| (lo - 0.5).max(0.5) + 0.05 * k as f64)
-        .take_while(|&v| v <= hi + 0.5 + 1e-9)
-        .collect();
+    let grid = speed_grid(obs, 0.05);
     // The model's error at every grid speed (one propagation); where it fails, the nearest
     // ride's (its block of the campaign's covariance less the fit's and the speed's).
     // (In a study the nearest ride's condition sets the controller: its block.)
@@ -142,7 +107,9 @@ pub(super) fn next_rides(
         .enumerate()
         .map(|(k, &v)| {
             let zero = vec![0.0; rivals.len()];
-            let Some((i, b)) = nearest(v).and_then(|i| Some((i, predict_at(best, v, i)?))) else {
+            let Some((i, b)) =
+                nearest(obs, 0..obs.len(), v).and_then(|i| Some((i, predict_at(best, v, i)?)))
+            else {
                 return zero;
             };
             let (start, p) = (parts.start(i), parts.of(i));
@@ -155,24 +122,7 @@ pub(super) fn next_rides(
             };
             rivals
                 .iter()
-                .map(|r| {
-                    predict_at(r, v, i).map_or(0.0, |x| {
-                        let delta = DVector::from_iterator(
-                            b.len(),
-                            (0..b.len()).map(|a| {
-                                let diff = b[a] - x[a];
-                                if a == 3 {
-                                    crate::signal::wrap_pi(diff)
-                                } else {
-                                    diff
-                                }
-                            }),
-                        );
-                        chol.l()
-                            .solve_lower_triangular(&delta)
-                            .map_or(0.0, |w| w.norm_squared())
-                    })
-                })
+                .map(|r| predict_at(r, v, i).map_or(0.0, |x| squared_separation(&chol, &b, &x)))
                 .collect()
         })
         .collect();
@@ -296,6 +246,92 @@ pub(super) fn tied(ranked: &[Ranked]) -> Vec<String> {
     }
 }
 
+/// The candidates tied with `best`, itself left out, in the order of `tied`.
+fn rivals_of<'r>(ranking: &'r [Ranked], tied: &[String], best: &Ranked) -> Vec<&'r Ranked> {
+    tied.iter()
+        .filter(|t| **t != best.effect)
+        .filter_map(|t| ranking.iter().find(|r| r.effect == *t))
+        .collect()
+}
+
+/// What each rival still lacks of [`UNTIE_SEPARATION`] against `best`.
+fn still_needed(best: &Ranked, rivals: &[&Ranked]) -> Vec<f64> {
+    rivals
+        .iter()
+        .map(|r| (UNTIE_SEPARATION - heldout_contrast(best, r).1).max(0.0))
+        .collect()
+}
+
+/// Speeds on a grid of `step` (m/s) from 0.5 m/s below the campaign's slowest ride to 0.5 m/s
+/// above its fastest (never below 0.5 m/s).
+fn speed_grid(obs: &[Observation], step: f64) -> Vec<f64> {
+    let (lo, hi) = obs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
+            (a.min(o.speed_mps), b.max(o.speed_mps))
+        });
+    (0..)
+        .map(|k| (lo - 0.5).max(0.5) + step * k as f64)
+        .take_while(|&v| v <= hi + 0.5 + 1e-9)
+        .collect()
+}
+
+/// Among `rides`, the one whose speed is nearest `v`.
+fn nearest(obs: &[Observation], rides: impl Iterator<Item = usize>, v: f64) -> Option<usize> {
+    rides.min_by(|&a, &b| {
+        (obs[a].speed_mps - v)
+            .abs()
+            .total_cmp(&(obs[b].speed_mps - v).abs())
+    })
+}
+
+/// Candidate `r`'s prediction of a ride like the campaign's ride `i` (its speed source,
+/// slowing and parts) made at speed `v` on the bicycle `base` with `control`, its effects'
+/// parameters `own` (`effects::specs` order): `[re, im(, |γ/θ|, arg)]`.
+fn predict_ride(
+    campaign: &Campaign<'_>,
+    r: &Ranked,
+    own: &[f64],
+    base: &Benchmark,
+    control: crate::model::SteerControl,
+    v: f64,
+    i: usize,
+) -> Option<Vec<f64>> {
+    let bike = effects::linear_bike(base, &control, &r.effects, own);
+    let o = Observation {
+        speed_mps: v,
+        ..campaign.obs[i].clone()
+    };
+    let guess = linear::LinearBike::whipple(base)
+        .with_control(control)
+        .weave_near(v, campaign.guesses[i])?;
+    let shape = campaign.parts.of(i) > 2;
+    let (w, s) = effects::predict_weave(&bike, &r.effects, own, &o, guess, shape)?;
+    let mut out = vec![w.re, w.im];
+    if let Some(s) = s {
+        out.extend([s.norm(), s.arg()]);
+    }
+    Some(out)
+}
+
+/// (a − b)ᵀ Σ⁻¹ (a − b) of two predictions of one ride's parts, the phase's difference wrapped
+/// to ±π, Σ = L Lᵀ given by `chol`.
+fn squared_separation(chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>, a: &[f64], b: &[f64]) -> f64 {
+    let delta = DVector::from_iterator(
+        a.len(),
+        a.iter().zip(b).enumerate().map(|(k, (x, y))| {
+            if k == 3 {
+                crate::signal::wrap_pi(x - y)
+            } else {
+                x - y
+            }
+        }),
+    );
+    chol.l()
+        .solve_lower_triangular(&delta)
+        .map_or(0.0, |w| w.norm_squared())
+}
+
 /// A known change a lab can make to tell the tied candidates apart: another condition.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct NextCondition {
@@ -332,15 +368,8 @@ pub(super) fn next_conditions(
     let (Some(best), true) = (ranking.first(), tied.len() > 1) else {
         return Vec::new();
     };
-    let rivals: Vec<&Ranked> = tied
-        .iter()
-        .filter(|t| **t != best.effect)
-        .filter_map(|t| ranking.iter().find(|r| r.effect == *t))
-        .collect();
-    let needed: Vec<f64> = rivals
-        .iter()
-        .map(|r| (UNTIE_SEPARATION - heldout_contrast(best, r).1).max(0.0))
-        .collect();
+    let rivals = rivals_of(ranking, tied, best);
+    let needed = still_needed(best, &rivals);
     let obs = campaign.obs;
     let parts = &campaign.parts;
     // The changes: (words, from condition, its model changed).
@@ -387,33 +416,11 @@ pub(super) fn next_conditions(
             ));
         }
     }
-    let (lo, hi) = obs
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
-            (a.min(o.speed_mps), b.max(o.speed_mps))
-        });
-    let grid: Vec<f64> = (0..)
-        .map(|k| (lo - 0.5).max(0.5) + 0.1 * k as f64)
-        .take_while(|&v| v <= hi + 0.5 + 1e-9)
-        .collect();
+    let grid = speed_grid(obs, 0.1);
     let predict = |r: &Ranked, base: &Benchmark, control, v: f64, i: usize| {
         let layout = campaign.layout(&r.effects);
         let own = layout.new_condition(&r.params, effects::specs(&r.effects).len());
-        let bike = effects::linear_bike(base, &control, &r.effects, &own);
-        let o = Observation {
-            speed_mps: v,
-            ..obs[i].clone()
-        };
-        let guess = linear::LinearBike::whipple(base)
-            .with_control(control)
-            .weave_near(v, campaign.guesses[i])?;
-        let (w, shape) =
-            effects::predict_weave(&bike, &r.effects, &own, &o, guess, parts.of(i) > 2)?;
-        let mut out = vec![w.re, w.im];
-        if let Some(s) = shape {
-            out.extend([s.norm(), s.arg()]);
-        }
-        Some(out)
+        predict_ride(campaign, r, &own, base, control, v, i)
     };
     let mut scored: Vec<(f64, NextCondition)> = changes
         .iter()
@@ -421,11 +428,7 @@ pub(super) fn next_conditions(
             let own: Vec<usize> = campaign.rides_of(*c);
             grid.iter()
                 .filter_map(|&v| {
-                    let &i = own.iter().min_by(|&&a, &&b| {
-                        (obs[a].speed_mps - v)
-                            .abs()
-                            .total_cmp(&(obs[b].speed_mps - v).abs())
-                    })?;
+                    let i = nearest(obs, own.iter().copied(), v)?;
                     let b = predict(best, base, *control, v, i)?;
                     let (start, p) = (parts.start(i), parts.of(i));
                     let block = campaign.cov.view((start, start), (p, p)).into_owned();
@@ -433,22 +436,8 @@ pub(super) fn next_conditions(
                     let d: Vec<f64> = rivals
                         .iter()
                         .map(|r| {
-                            predict(r, base, *control, v, i).map_or(0.0, |x| {
-                                let delta = DVector::from_iterator(
-                                    p,
-                                    (0..p).map(|a| {
-                                        let diff = b[a] - x[a];
-                                        if a == 3 {
-                                            crate::signal::wrap_pi(diff)
-                                        } else {
-                                            diff
-                                        }
-                                    }),
-                                );
-                                chol.l()
-                                    .solve_lower_triangular(&delta)
-                                    .map_or(0.0, |w| w.norm_squared())
-                            })
+                            predict(r, base, *control, v, i)
+                                .map_or(0.0, |x| squared_separation(&chol, &b, &x))
                         })
                         .collect();
                     let score: f64 = d.iter().zip(&needed).map(|(x, n)| x.min(*n)).sum();

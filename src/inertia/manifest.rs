@@ -143,6 +143,16 @@ impl ManifestError {
     }
 }
 
+/// The text of the manifest `path`; `what` names the manifest in the error ("the ride
+/// manifest").
+pub fn read_text(path: &Path, what: &str) -> Result<String, ManifestError> {
+    std::fs::read_to_string(path).map_err(|e| ManifestError {
+        path: path.to_path_buf(),
+        line: None,
+        message: format!("cannot read {what}: {e}"),
+    })
+}
+
 /// Checks a manifest's `version` (bikeproc reads version 1).
 pub fn check_version(path: &Path, text: &str, version: u32) -> Result<(), ManifestError> {
     if version == 1 {

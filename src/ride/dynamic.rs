@@ -767,11 +767,7 @@ impl RideManifest {
     /// Reads and checks a campaign manifest: version, at least one ride, positive speeds, the
     /// logs present.
     pub fn load(path: &Path) -> Result<RideManifest, ManifestError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ManifestError {
-            path: path.to_path_buf(),
-            line: None,
-            message: format!("cannot read the ride manifest: {e}"),
-        })?;
+        let text = crate::inertia::manifest::read_text(path, "the ride manifest")?;
         let mut m: RideManifest = from_toml(path, &text)?;
         m.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let line_of = |needle: &str| ManifestError::at(path, &text, needle, String::new()).line;

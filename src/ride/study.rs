@@ -15,7 +15,6 @@ struct StudyFile {
     version: u32,
     /// What the study is (for the reports).
     #[serde(default)]
-    #[allow(dead_code)]
     description: String,
     conditions: Vec<PathBuf>,
 }
@@ -23,17 +22,15 @@ struct StudyFile {
 /// The conditions of a study, each named by its manifest's stem, in the order given.
 #[derive(Debug, Clone)]
 pub struct Study {
+    /// What the study is, as its manifest says (empty for manifests given one by one).
+    pub description: String,
     pub conditions: Vec<(String, RideManifest)>,
 }
 
 impl Study {
     /// Reads a study manifest and every campaign it lists (beside it, or below it).
     pub fn load(path: &Path) -> Result<Study, ManifestError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ManifestError {
-            path: path.to_path_buf(),
-            line: None,
-            message: format!("cannot read the study manifest: {e}"),
-        })?;
+        let text = crate::inertia::manifest::read_text(path, "the study manifest")?;
         let file: StudyFile = from_toml(path, &text)?;
         let err = |needle: &str, message: String| ManifestError::at(path, &text, needle, message);
         crate::inertia::manifest::check_version(path, &text, file.version)?;
@@ -56,7 +53,10 @@ impl Study {
                 "conditions = [] lists no campaign".into(),
             ));
         }
-        Study::from_manifests(&paths)
+        Ok(Study {
+            description: file.description,
+            ..Study::from_manifests(&paths)?
+        })
     }
 
     /// The conditions of the campaign manifests `paths` (two or more make a study): each loaded, names (their stems) distinct, no manifest twice.
@@ -90,7 +90,10 @@ impl Study {
             }
             conditions.push((name, RideManifest::load(p)?));
         }
-        Ok(Study { conditions })
+        Ok(Study {
+            description: String::new(),
+            conditions,
+        })
     }
 
     /// The bicycle the conditions share: every manifest's `bike` must be the same file (a

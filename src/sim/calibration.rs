@@ -99,30 +99,45 @@ pub fn diagnose_blind(
         draws,
     )
     .map_err(|e| e.to_string())?;
-    let dir = std::env::temp_dir().join(format!(
-        "bikeproc_blind_{}_{}_{:?}_{}_{}_{draws:?}",
-        std::process::id(),
+    let name = format!(
+        "blind_{}_{:?}_{}_{}_{draws:?}",
         case.withheld.label(),
         case.design,
         case.seed,
         extra_speeds_mps.len()
-    ));
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let diagnosis = (|| {
-        for (p, text) in &files {
-            if p.as_os_str() != "truth.json" {
-                std::fs::write(dir.join(p), text).map_err(|e| e.to_string())?;
-            }
-        }
-        std::fs::write(dir.join("bike.toml"), bike_text).map_err(|e| e.to_string())?;
+    );
+    let diagnosis = in_scratch(&name, &files, bike_text, &|dir| {
         let manifest = crate::ride::dynamic::RideManifest::load(&dir.join("rides.toml"))
             .map_err(|e| e.to_string())?;
         let model =
             crate::model::uncertain::load(&dir.join("bike.toml")).map_err(|e| e.to_string())?;
         crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}).map_err(|e| e.to_string())
+    })?;
+    Ok((diagnosis, truth))
+}
+
+/// Runs `analyse` on a scratch folder (`name`, made unique to the process) holding a blind
+/// campaign's or study's `files` without its sealed `truth.json`, and the measured bicycle as
+/// `bike.toml`; the folder is removed afterwards.
+pub fn in_scratch<T>(
+    name: &str,
+    files: &super::campaign::Files,
+    bike_text: &str,
+    analyse: &dyn Fn(&std::path::Path) -> Result<T, String>,
+) -> Result<T, String> {
+    let dir = std::env::temp_dir().join(format!("bikeproc_{name}_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let result = (|| {
+        for (p, text) in files {
+            if p.as_os_str() != "truth.json" {
+                std::fs::write(dir.join(p), text).map_err(|e| e.to_string())?;
+            }
+        }
+        std::fs::write(dir.join("bike.toml"), bike_text).map_err(|e| e.to_string())?;
+        analyse(&dir)
     })();
     std::fs::remove_dir_all(&dir).ok();
-    Ok((diagnosis?, truth))
+    result
 }
 
 /// One campaign of the calibration: simulated with [`Draws::Broad`], diagnosed, compared.

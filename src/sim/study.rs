@@ -148,6 +148,9 @@ pub fn blind_study_with(
     Ok((files, truth))
 }
 
+/// The steer motor's two effects as the diagnosis names them together.
+const PAIR: &str = "actuator_gain + steer_inertia";
+
 /// What the diagnosis said of one blind study, beside its truth.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct StudyResult {
@@ -159,6 +162,8 @@ pub struct StudyResult {
     pub campaign_p_value: f64,
     pub best: String,
     pub tied: Vec<String>,
+    /// The pair named first, or tied at the top, with a significant gap.
+    pub named: bool,
     /// The joint diagnosis's `actuator_gain + steer_inertia` (three gains, then the inertia)
     /// with standard errors, wherever it ranks.
     pub motor_fit: Option<(Vec<f64>, Vec<f64>)>,
@@ -180,27 +185,14 @@ pub fn run_study(
     let motor = effect_free.then_some((0.0, 1.0));
     let (files, truth) =
         blind_study_with(measured, "bike.toml", seed, motor).map_err(|e| e.to_string())?;
-    let dir = std::env::temp_dir().join(format!(
-        "bikeproc_study_calibration_{}_{seed}_{effect_free}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let write = |name: &std::path::Path, text: &str| {
-        std::fs::write(dir.join(name), text).map_err(|e| e.to_string())
-    };
-    for (name, text) in &files {
-        write(name, text)?;
-    }
-    write(std::path::Path::new("bike.toml"), bike_text)?;
-    let result = (|| -> Result<StudyResult, String> {
+    let name = format!("study_calibration_{seed}_{effect_free}");
+    super::calibration::in_scratch(&name, &files, bike_text, &|dir| {
         let study =
             crate::ride::study::Study::load(&dir.join("study.toml")).map_err(|e| e.to_string())?;
         let bike = study.bike_path().map_err(|e| e.to_string())?;
         let model = crate::model::uncertain::load(&bike).map_err(|e| e.to_string())?;
         let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})
             .map_err(|e| e.to_string())?;
-        const PAIR: &str = "actuator_gain + steer_inertia";
         let names_pair = |d: &crate::gap::Diagnosis| {
             d.significant
                 && (d.ranking.first().is_some_and(|b| b.effect == PAIR)
@@ -229,7 +221,7 @@ pub fn run_study(
         }
         Ok(StudyResult {
             seed,
-            truth: (!effect_free).then_some(truth),
+            truth: (!effect_free).then(|| truth.clone()),
             rides_used: d.rides_used,
             significant: d.significant,
             campaign_p_value: d.campaign_p_value,
@@ -238,13 +230,12 @@ pub fn run_study(
                 .first()
                 .map_or(String::new(), |r| r.effect.clone()),
             tied: d.tied.clone(),
+            named: names_pair(&d),
             motor_fit,
             singles_named,
             singles_inertia,
         })
-    })();
-    let _ = std::fs::remove_dir_all(&dir);
-    result
+    })
 }
 
 /// The tallies of blind and effect-free studies as Markdown (`docs/study-calibration.md`).
@@ -271,11 +262,7 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
             format!("{a}/{b} ({:.1} %)", 100.0 * a as f64 / b as f64)
         }
     };
-    const PAIR: &str = "actuator_gain + steer_inertia";
-    let named = blind
-        .iter()
-        .filter(|r| r.significant && (r.best == PAIR || r.tied.iter().any(|t| t == PAIR)))
-        .count();
+    let named = blind.iter().filter(|r| r.named).count();
     let first = blind
         .iter()
         .filter(|r| r.significant && r.best == PAIR)
