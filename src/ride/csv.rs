@@ -858,9 +858,12 @@ impl DecaySummary {
         if let Some(m) = &self.model {
             let _ = writeln!(
                 out,
-                "model weave      {:.3} ± {:.3} + {:.3} ± {:.3}i 1/s: experiment − model {:+.1} σ (real), {:+.1} σ (imaginary)",
-                m.re, m.re_se, m.im, m.im_se, m.re_z, m.im_z
+                "model {:<11}{:.3} ± {:.3} + {:.3} ± {:.3}i 1/s: experiment − model {:+.1} σ (real), {:+.1} σ (imaginary)",
+                m.mode.label(), m.re, m.re_se, m.im, m.im_se, m.re_z, m.im_z
             );
+            if let Some(note) = m.comparable_text() {
+                let _ = writeln!(out, "                 {note}");
+            }
         }
         out
     }

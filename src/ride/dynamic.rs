@@ -83,6 +83,49 @@ pub struct ModelWeave {
     /// The model's mode shape: |γ/θ| and arg(γ/θ) (rad).
     pub shape_ratio: f64,
     pub shape_phase_rad: f64,
+    /// Which of the model's oscillatory modes this is: `weave`, or `capsize_castor` where the
+    /// capsize and castor roots have met in a second oscillatory pair (a controlled bicycle at
+    /// low speed) and the measurement lies nearer that one.
+    pub mode: ModelMode,
+    /// Another oscillatory mode of the model at that speed as near the measurement, in the
+    /// combined errors (within [`COMPARABLE_MODE_CHI2`]), `[re, im]` (1/s); `None` when one
+    /// mode is clearly the nearer.
+    pub comparable: Option<[f64; 2]>,
+}
+
+/// The model's oscillatory mode a measured one is set beside.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelMode {
+    Weave,
+    CapsizeCastor,
+}
+
+/// Two of the model's oscillatory modes are equally near a measured eigenvalue when their
+/// squared distances in the combined errors (2 degrees of freedom) differ by less than this:
+/// a likelihood ratio of e², the 2-SE rule of thumb in one dimension.
+pub const COMPARABLE_MODE_CHI2: f64 = 4.0;
+
+impl ModelMode {
+    /// Its name in the text reports.
+    pub fn label(self) -> &'static str {
+        match self {
+            ModelMode::Weave => "weave",
+            ModelMode::CapsizeCastor => "capsize–castor pair",
+        }
+    }
+}
+
+impl ModelWeave {
+    /// A line saying that another oscillatory mode of the model is as near, when one is.
+    pub fn comparable_text(&self) -> Option<String> {
+        self.comparable.map(|[re, im]| {
+            format!(
+                "(the model's other oscillatory mode, {re:.3} {im:+.3}i 1/s, is about as near: \
+                 which the kick excited cannot be told from the eigenvalue alone)"
+            )
+        })
+    }
 }
 
 /// A ride's dynamic test.
@@ -613,9 +656,17 @@ fn model_weave(
     model_weave_at(path, model, speed.speed_mps, speed.speed_se_mps, exp)
 }
 
-/// The model's weave at `v` ± `v_se` (m/s) beside the experimental eigenvalue `exp`: its
-/// standard errors from the measured parameters and the speed's, and the differences in the
-/// combined standard errors. `path` names the ride when the model has no weave there.
+/// The model's oscillatory mode at `v` ± `v_se` (m/s) beside the experimental eigenvalue
+/// `exp`: of the model's eigenvalues with a positive imaginary part there (the weave, and on a
+/// controlled bicycle at low speed the pair the capsize and castor roots form), the one nearest
+/// the measurement in the combined standard errors (the model's from the measured parameters
+/// and the speed's through dλ/dv, the experiment's). Its standard errors, the differences in
+/// them, its mode shape, and any other oscillatory mode as near ([`COMPARABLE_MODE_CHI2`]).
+/// `path` names the ride when the model has no oscillatory mode there.
+///
+/// Below about 2.5 m/s a controlled bicycle has two oscillatory pairs; the one named "weave"
+/// by continuity from high speed is not always the one a kick excites (the balance-assist
+/// bicycle at 1.5 m/s: the slow pair −1.33 + 2.31i beside a measured −3.44 + 5.45i).
 pub fn model_weave_at(
     path: &Path,
     model: &Parametrized,
@@ -631,15 +682,37 @@ pub fn model_weave_at(
     };
     let h = 0.01;
     let bands = model.bands(&[v - h, v, v + h]).map_err(|_| no_weave())?;
-    let w = |k: usize| bands.sweep.eigenvalues[k][0];
-    let lambda = w(1);
-    if lambda.im <= 0.0 {
-        return Err(no_weave());
-    }
-    let dv = (w(2) - w(0)) / (2.0 * h);
-    let (pre, pim) = bands.se[1][0];
-    let re_se = (pre.powi(2) + (dv.re * v_se).powi(2)).sqrt();
-    let im_se = (pim.powi(2) + (dv.im * v_se).powi(2)).sqrt();
+    let at = |k: usize, j: usize| bands.sweep.eigenvalues[k][j];
+    // Each oscillatory mode: its eigenvalue, standard errors, and squared distance from the
+    // measurement in the combined errors.
+    let candidates: Vec<(usize, Complex<f64>, f64, f64, f64)> = (0..4)
+        .filter(|&j| at(1, j).im > 0.0 && at(1, j).re.is_finite())
+        .map(|j| {
+            let lambda = at(1, j);
+            let dv = (at(2, j) - at(0, j)) / (2.0 * h);
+            let (pre, pim) = bands.se[1][j];
+            let re_se = (pre.powi(2) + (dv.re * v_se).powi(2)).sqrt();
+            let im_se = (pim.powi(2) + (dv.im * v_se).powi(2)).sqrt();
+            let d2 = (exp.re - lambda.re).powi(2) / (exp.re_se.powi(2) + re_se.powi(2))
+                + (exp.im - lambda.im).powi(2) / (exp.im_se.powi(2) + im_se.powi(2));
+            (
+                j,
+                lambda,
+                re_se,
+                im_se,
+                if d2.is_nan() { f64::INFINITY } else { d2 },
+            )
+        })
+        .collect();
+    let &(j, lambda, re_se, im_se, d2) = candidates
+        .iter()
+        .min_by(|a, b| a.4.total_cmp(&b.4))
+        .ok_or_else(no_weave)?;
+    let comparable = candidates
+        .iter()
+        .filter(|c| c.0 != j && c.4 - d2 < COMPARABLE_MODE_CHI2)
+        .min_by(|a, b| a.4.total_cmp(&b.4))
+        .map(|c| [c.1.re, c.1.im]);
     let shape = model
         .nominal_canonical()
         .mode_shape(v, lambda)
@@ -654,7 +727,33 @@ pub fn model_weave_at(
         im_z: (exp.im - lambda.im) / (exp.im_se.powi(2) + im_se.powi(2)).sqrt(),
         shape_ratio: shape.norm(),
         shape_phase_rad: shape.arg(),
+        mode: if is_weave_branch(model, v, lambda) {
+            ModelMode::Weave
+        } else {
+            ModelMode::CapsizeCastor
+        },
+        comparable,
     })
+}
+
+/// Whether `lambda`, an oscillatory eigenvalue of the model at `v`, lies on the weave's branch:
+/// named at high speed (10 m/s, or above `v`) and followed down to `v` by continuity in steps
+/// of 0.02 m/s, as `bikeproc stability` names it. Named at `v` alone, two oscillatory pairs
+/// would be told apart by their real parts, which put the balance-assist bicycle's slow
+/// capsize–castor pair in the weave's place at 0.8 m/s.
+fn is_weave_branch(model: &Parametrized, v: f64, lambda: Complex<f64>) -> bool {
+    let top = v.max(10.0);
+    let steps = ((top - v) / 0.02).ceil().max(1.0) as usize;
+    let speeds: Vec<f64> = (0..=steps)
+        .map(|k| v + (top - v) * k as f64 / steps as f64)
+        .collect();
+    match model.nominal_canonical().sweep(&speeds) {
+        Ok(sweep) => {
+            let w = sweep.eigenvalues[0][0];
+            (w - lambda).norm() <= 1e-9 * (1.0 + lambda.norm())
+        }
+        Err(_) => true,
+    }
 }
 
 /// A campaign of rides (`rides.toml`, version 1): the bicycle and each ride's log with the
@@ -1256,9 +1355,16 @@ impl Summary {
             1e3 * self.residual_rms_rad[1]
         );
         out += &format!(
-            "  model weave      {:.4} ± {:.4} {:+.4} ± {:.4} i  1/s\n",
-            m.re, m.re_se, m.im, m.im_se
+            "  model {:<11}{:.4} ± {:.4} {:+.4} ± {:.4} i  1/s\n",
+            m.mode.label(),
+            m.re,
+            m.re_se,
+            m.im,
+            m.im_se
         );
+        if let Some(note) = m.comparable_text() {
+            out += &format!("                   {note}\n");
+        }
         out += &format!(
             "  difference       real {:+.1} SE, imaginary {:+.1} SE (combined)\n",
             m.re_z, m.im_z
