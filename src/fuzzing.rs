@@ -99,7 +99,7 @@ pub fn csv_ride(bytes: &[u8]) {
     let Some(path) = as_file(bytes, "ride.csv") else {
         return;
     };
-    if let Ok(ride) = read_csv_ride(&path, &Columns::default()) {
+    if let Ok(ride) = read_csv_ride(&path, &Columns::default(), None) {
         let _ = ride_decays(&ride, None, None, None, &Default::default());
     }
 }

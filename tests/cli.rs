@@ -424,3 +424,150 @@ fn absurd_readings_and_windows_are_named_for_what_they_are() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("START and END must be finite"), "{err}");
 }
+
+/// Issue 32 item 1: another lab's logger writes one comma-separated line per control step,
+/// channel names and no time column, as `.log`. The balance-assist recording with its two
+/// time columns dropped, given `--rate 100` (the rate it was sampled at: its own `time`
+/// column is the row number / 100), gives the eigenvalue that the same rows with their time
+/// column give, to the last printed digit; its units can be said after a colon
+/// (`gyro_x:deg_per_s` is π/180 of the same column read as rad/s, so its frequency is too);
+/// a campaign manifest takes the rate as `rate_hz`. Without a rate it is refused naming
+/// `--rate`; a rate for a table with a time column, or an IMU log, is refused.
+#[test]
+fn a_table_without_a_time_column_is_read_at_its_rate() {
+    let csv =
+        root().join("../shared/reference/rides/balanceassist_controlled/gain6_10kmh_kick1.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let keep: Vec<usize> = (0..header.len())
+        .filter(|&i| header[i] != "Time" && header[i] != "time")
+        .collect();
+    let time_col = header.iter().position(|h| *h == "time").unwrap();
+    let pick = |fields: &[&str]| {
+        keep.iter()
+            .map(|&i| fields[i])
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let mut out = pick(&header) + "\n";
+    let mut off_s: f64 = 0.0;
+    for (k, line) in lines.enumerate() {
+        let fields: Vec<&str> = line.split(',').collect();
+        let t: f64 = fields[time_col].parse().unwrap();
+        off_s = off_s.max((t - k as f64 / 100.0).abs());
+        out += &(pick(&fields) + "\n");
+    }
+    // The recording's own clock is the row number at 100 Hz within a tenth of a sample.
+    assert!(off_s < 1e-3, "{off_s} s");
+    let dir = std::env::temp_dir().join(format!("bikeproc_rate_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("kick.log");
+    std::fs::write(&log, out).unwrap();
+    let (log_s, csv_s) = (log.to_str().unwrap(), csv.to_str().unwrap());
+    let weave = |args: &[&str]| -> [f64; 4] {
+        let (code, out, err) = bikeproc(args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+        let w = &v["weave"];
+        ["re", "im", "re_se", "im_se"].map(|k| w[k].as_f64().unwrap_or_else(|| panic!("{v}")))
+    };
+    let common = ["--speed", "2.778", "--json"];
+    let with_time = weave(
+        &[
+            &["dynamic", csv_s, "--columns", "roll_rate=gyro_x,time=time"],
+            &common[..],
+        ]
+        .concat(),
+    );
+    let at_rate = weave(
+        &[
+            &[
+                "dynamic",
+                log_s,
+                "--columns",
+                "roll_rate=gyro_x",
+                "--rate",
+                "100",
+            ],
+            &common[..],
+        ]
+        .concat(),
+    );
+    // The same rows on clocks a tenth of a sample apart: the same eigenvalue and errors
+    // within a tenth of its standard error.
+    for k in 0..4 {
+        assert!(
+            (with_time[k] - at_rate[k]).abs() < 0.1 * with_time[2 + k % 2],
+            "{with_time:?} {at_rate:?}"
+        );
+    }
+    let in_degrees = weave(
+        &[
+            &[
+                "dynamic",
+                log_s,
+                "--columns",
+                "roll_rate=gyro_x:deg_per_s",
+                "--rate",
+                "100",
+            ],
+            &common[..],
+        ]
+        .concat(),
+    );
+    assert!(
+        (in_degrees[1] - at_rate[1]).abs() < 3.0 * at_rate[3],
+        "{in_degrees:?} {at_rate:?}"
+    );
+    // Refusals, exit 2, each naming its cause.
+    let (code, _, err) = bikeproc(&["dynamic", log_s, "--columns", "roll_rate=gyro_x"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("no time column") && err.contains("--rate"),
+        "{err}"
+    );
+    let (code, _, err) = bikeproc(&[
+        "dynamic",
+        csv_s,
+        "--columns",
+        "roll_rate=gyro_x,time=time",
+        "--rate",
+        "100",
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("it has a time column (`time`)"), "{err}");
+    let ride = root().join("data/ride_03.log");
+    let (code, _, err) = bikeproc(&["dynamic", ride.to_str().unwrap(), "--rate", "100"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--rate is for a table"), "{err}");
+    let (code, _, err) = bikeproc(&[
+        "dynamic",
+        log_s,
+        "--columns",
+        "roll_rate=gyro_x:furlong",
+        "--rate",
+        "100",
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("not a unit of roll_rate"), "{err}");
+    // A campaign of such files: the rate in the manifest.
+    let bike = root().join("../shared/reference/bicycleparameters/Balanceassistv1Benchmark.txt");
+    let manifest = dir.join("rides.toml");
+    std::fs::write(
+        &manifest,
+        format!(
+            "version = 1\nbike = \"{}\"\nallow_outside_folder = true\n\n[[ride]]\nlog = \"kick.log\"\ncolumns = \"roll_rate=gyro_x\"\nrate_hz = 100\nnoted_speed_mps = 2.778\n",
+            bike.display()
+        ),
+    )
+    .unwrap();
+    let (code, out, err) = bikeproc(&["dynamic", manifest.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let im = v["rides"][0]["weave"]["im"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{v}"));
+    assert!((im - at_rate[1]).abs() < 1e-9 * im, "{v}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -161,7 +161,7 @@ fn the_uncontrolled_rides_free_decays_give_weave_eigenvalues() {
     use bikeproc::ride::modal::ModalOptions;
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv");
-    let ride = read_csv_ride(&path, &Columns::default()).unwrap();
+    let ride = read_csv_ride(&path, &Columns::default(), None).unwrap();
     let mut weaves = Vec::new();
     for w in [(141.28, 142.71), (148.53, 149.94), (153.98, 155.50)] {
         let d = fit_decay(&ride, Some(w), &ModalOptions::default()).unwrap();
@@ -228,7 +228,7 @@ fn a_simulated_csv_ride_gives_the_simulators_weave() {
         }
         let path = dir.join(format!("ride_{seed}.csv"));
         std::fs::write(&path, csv).unwrap();
-        let ride = read_csv_ride(&path, &Columns::default()).unwrap();
+        let ride = read_csv_ride(&path, &Columns::default(), None).unwrap();
         let d = fit_decay(
             &ride,
             Some((truth.kick_s + 0.8, truth.kick_s + 3.3)),
@@ -259,7 +259,7 @@ fn a_simulated_csv_ride_gives_the_simulators_weave() {
         }
         std::fs::write(&path, csv).unwrap();
         let cols: Columns = "roll_rate=gyro_x".parse().unwrap();
-        let ride = read_csv_ride(&path, &cols).unwrap();
+        let ride = read_csv_ride(&path, &cols, None).unwrap();
         let d = fit_decay(
             &ride,
             Some((truth.kick_s + 0.8, truth.kick_s + 2.3)),
@@ -287,17 +287,17 @@ fn a_bad_csv_ride_is_named_where() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("bad.csv");
     std::fs::write(&path, "time_s,roll_rad\n0.00,0.1\n0.01,x\n").unwrap();
-    let e = read_csv_ride(&path, &Columns::default())
+    let e = read_csv_ride(&path, &Columns::default(), None)
         .unwrap_err()
         .to_string();
     assert!(e.contains("bad.csv:3:6"), "{e}");
     std::fs::write(&path, "when,roll_rad\n0.00,0.1\n").unwrap();
-    let e = read_csv_ride(&path, &Columns::default())
+    let e = read_csv_ride(&path, &Columns::default(), None)
         .unwrap_err()
         .to_string();
     assert!(e.contains("no time column"), "{e}");
     let cols: Columns = "roll_rate=gyro_x".parse().unwrap();
-    let e = read_csv_ride(&path, &cols).unwrap_err().to_string();
+    let e = read_csv_ride(&path, &cols, None).unwrap_err().to_string();
     assert!(e.contains("no column `gyro_x`"), "{e}");
     assert!("speed=x".parse::<Columns>().is_err());
     // Issue 33: values outside their physical range, by line and column; a roll rate that never
@@ -317,7 +317,7 @@ fn a_bad_csv_ride_is_named_where() {
         ),
     ] {
         std::fs::write(&path, text).unwrap();
-        let e = read_csv_ride(&path, &Columns::default())
+        let e = read_csv_ride(&path, &Columns::default(), None)
             .unwrap_err()
             .to_string();
         assert!(e.contains(want), "{e}");
@@ -343,7 +343,7 @@ fn every_controlled_segment_gives_a_weave_eigenvalue() {
         .collect();
     files.sort();
     for f in &files {
-        let ride = read_csv_ride(f, &cols).unwrap();
+        let ride = read_csv_ride(f, &cols, None).unwrap();
         let d = fit_decay(&ride, None, &ModalOptions::default())
             .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         let e = d.weave;
@@ -397,7 +397,7 @@ fn every_kick_of_a_long_simulated_recording_is_found_and_fitted() {
     let path = dir.join("long.csv");
     std::fs::write(&path, csv).unwrap();
     let cols: Columns = "roll_rate=gyro_x,wheel_speed=wheel".parse().unwrap();
-    let ride = read_csv_ride(&path, &cols).unwrap();
+    let ride = read_csv_ride(&path, &cols, None).unwrap();
     let kicks = ride_decays(&ride, None, None, None, &ModalOptions::default()).unwrap();
     for k in &kicks {
         println!(

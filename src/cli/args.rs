@@ -219,10 +219,19 @@ pub struct DynamicArgs {
     #[arg(long, value_parser = parse_range)]
     pub window: Option<(f64, f64)>,
     /// A CSV ride: columns by other names, `roll=ROLL_COL,steer=…,time=…,wheel_speed=…`
-    /// (quantities: time, roll, roll_rate, steer, steer_rate, wheel_speed; a name ending in
-    /// `_deg` is read as degrees).
+    /// (quantities: time, roll, roll_rate, steer, steer_rate, wheel_speed). A unit may follow
+    /// a name after a colon (`roll=lean_angle:deg`; rad or deg, rad_per_s or deg_per_s,
+    /// m_per_s or km_per_h, s or ms); without one a name ending in `_deg` is read as degrees,
+    /// any other as SI. Recognised without it: time_s, time, t; roll_*, lean_*,
+    /// lean_angle_*; steer_*, steer_angle_*, fork_*, handlebar_*; roll_rate_*, lean_rate_*;
+    /// steer_rate_*, fork_rate_*; rear_wheel_speed_*, wheel_speed_*, speed_* (each `_rad` or
+    /// `_deg`, `_rad_per_s` or `_deg_per_s`, `_m_per_s` or `_km_per_h`).
     #[arg(long)]
     pub columns: Option<bikeproc::ride::csv::Columns>,
+    /// A table without a time column (a microcontroller's line per control step, whatever the
+    /// file's extension): its sampling rate (Hz); row k is at k / RATE s.
+    #[arg(long, value_parser = parse_rate)]
+    pub rate: Option<f64>,
     /// The speedometer's reading at the release (m/s), as noted: carried to where the
     /// eigenvalue applies by the slowing the frame sensor measures. Without it the log's `Sync`
     /// pulses give the speed, or else the yaw rate against the steer (rolling kinematics).
@@ -664,6 +673,15 @@ pub fn parse_speed(s: &str) -> Result<f64, String> {
         .parse()
         .map_err(|_| format!("`{s}` is not a number"))?;
     bikeproc::ride::speed::check_reading_mps(v)
+}
+
+/// A sampling rate (Hz) for a table without a time column.
+pub fn parse_rate(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    bikeproc::ride::csv::check_rate_hz(v)
 }
 
 /// A number in `lo..=hi` (finite), for a physical argument: `lo_open` excludes `lo` itself (a

@@ -75,8 +75,18 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
         "a ride (its angles log, a CSV of its signals, or a campaign's rides manifest)",
     )?;
     let extension = a.file.extension().and_then(|e| e.to_str());
-    if extension.is_some_and(|e| e.eq_ignore_ascii_case("csv")) {
+    // A table of time series whatever its name (another lab's `.log` of channels).
+    if extension.is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+        || kind::recognise(&a.file) == Kind::Table
+    {
         return csv_ride(&a, &modal);
+    }
+    if a.rate.is_some() {
+        anyhow::bail!(
+            "{}: --rate is for a table of time series without a time column, not an IMU log \
+             or a manifest",
+            a.file.display()
+        );
     }
     if extension == Some("toml") {
         return campaign(&a, &modal);
@@ -123,7 +133,7 @@ fn campaign(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
 /// `bikeproc dynamic FILE.csv [--window A:B]`: the free decays of another instrument's ride
 /// (one with a window or a short record; every kick of a long recording without).
 fn csv_ride(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
-    let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default())?;
+    let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default(), a.rate)?;
     let model = match &a.bike {
         Some(bike) => Some(load_model(bike, a.controller.as_deref())?),
         None => None,

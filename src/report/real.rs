@@ -144,7 +144,7 @@ pub(super) fn uncontrolled_section(
     let path = reference.join("rides/balanceassist_uncontrolled_18kmh.csv");
     let bike_path = reference.join("bicycleparameters/Balanceassistv1Benchmark.txt");
     progress("the balance-assist bicycle's uncontrolled ride");
-    let ride = read_csv_ride(&path, &Columns::default())?;
+    let ride = read_csv_ride(&path, &Columns::default(), None)?;
     let model = crate::model::uncertain::load(&bike_path)?;
     md.push_str(
         "\n## A real riderless bicycle, uncontrolled\n\n\

@@ -58,21 +58,50 @@ impl Quantity {
         const DEG: f64 = std::f64::consts::PI / 180.0;
         match self {
             Quantity::Time => &[("time_s", 1.0), ("time", 1.0), ("t", 1.0)],
-            Quantity::Roll => &[("roll_rad", 1.0), ("roll_deg", DEG)],
-            Quantity::RollRate => &[("roll_rate_rad_per_s", 1.0), ("roll_rate_deg_per_s", DEG)],
-            Quantity::Steer => &[("steer_rad", 1.0), ("steer_deg", DEG)],
-            Quantity::SteerRate => &[("steer_rate_rad_per_s", 1.0), ("steer_rate_deg_per_s", DEG)],
+            Quantity::Roll => &[
+                ("roll_rad", 1.0),
+                ("roll_deg", DEG),
+                ("lean_rad", 1.0),
+                ("lean_deg", DEG),
+                ("lean_angle_rad", 1.0),
+                ("lean_angle_deg", DEG),
+            ],
+            Quantity::RollRate => &[
+                ("roll_rate_rad_per_s", 1.0),
+                ("roll_rate_deg_per_s", DEG),
+                ("lean_rate_rad_per_s", 1.0),
+                ("lean_rate_deg_per_s", DEG),
+            ],
+            Quantity::Steer => &[
+                ("steer_rad", 1.0),
+                ("steer_deg", DEG),
+                ("steer_angle_rad", 1.0),
+                ("steer_angle_deg", DEG),
+                ("fork_rad", 1.0),
+                ("fork_deg", DEG),
+                ("handlebar_rad", 1.0),
+                ("handlebar_deg", DEG),
+            ],
+            Quantity::SteerRate => &[
+                ("steer_rate_rad_per_s", 1.0),
+                ("steer_rate_deg_per_s", DEG),
+                ("fork_rate_rad_per_s", 1.0),
+                ("fork_rate_deg_per_s", DEG),
+            ],
             Quantity::WheelSpeed => &[
                 ("rear_wheel_speed_m_per_s", 1.0),
                 ("wheel_speed_m_per_s", 1.0),
                 ("speed_m_per_s", 1.0),
+                ("wheel_speed_km_per_h", 1.0 / 3.6),
+                ("speed_km_per_h", 1.0 / 3.6),
             ],
         }
     }
 }
 
 /// Column names given for quantities (`--columns roll_rate=gyro_x,time=time`); a name ending
-/// in `_deg` or `_deg_per_s` is read as degrees, any other as SI.
+/// in `_deg` or `_deg_per_s` is read as degrees, any other as SI, unless a unit follows it
+/// after a colon ([`Unit`]: `roll=lean_angle:deg`, `wheel_speed=v:km_per_h`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Columns(pub Vec<(Quantity, String)>);
 
@@ -94,9 +123,53 @@ impl std::str::FromStr for Columns {
                         Quantity::ALL.map(Quantity::key).join(", ")
                     )
                 })?;
-            out.push((q, name.trim().to_string()));
+            let name = name.trim();
+            if let Some((_, unit)) = name.rsplit_once(':') {
+                unit_factor(q, unit)?;
+            }
+            out.push((q, name.to_string()));
         }
         Ok(Columns(out))
+    }
+}
+
+/// The factor to SI of `unit` written after a column's name for quantity `q`
+/// (`roll=lean_angle:deg`): angles `rad` or `deg`, rates `rad_per_s` or `deg_per_s`, speeds
+/// `m_per_s` or `km_per_h`, time `s` or `ms`.
+fn unit_factor(q: Quantity, unit: &str) -> Result<f64, String> {
+    const DEG: f64 = std::f64::consts::PI / 180.0;
+    let units: &[(&str, f64)] = match q {
+        Quantity::Time => &[("s", 1.0), ("ms", 1e-3)],
+        Quantity::Roll | Quantity::Steer => &[("rad", 1.0), ("deg", DEG)],
+        Quantity::RollRate | Quantity::SteerRate => &[("rad_per_s", 1.0), ("deg_per_s", DEG)],
+        Quantity::WheelSpeed => &[("m_per_s", 1.0), ("km_per_h", 1.0 / 3.6)],
+    };
+    units
+        .iter()
+        .find(|(u, _)| *u == unit.trim())
+        .map(|(_, f)| *f)
+        .ok_or_else(|| {
+            format!(
+                "`{unit}`: not a unit of {} (one of {})",
+                q.key(),
+                units.iter().map(|(u, _)| *u).collect::<Vec<_>>().join(", ")
+            )
+        })
+}
+
+/// The slowest and fastest sampling rates `--rate` takes (Hz).
+pub const RATE_RANGE_HZ: (f64, f64) = (1.0, 100_000.0);
+
+/// Checks a sampling rate given for a table without a time column (`--rate`, `rate_hz`).
+pub fn check_rate_hz(rate: f64) -> Result<f64, String> {
+    let (lo, hi) = RATE_RANGE_HZ;
+    if rate.is_finite() && (lo..=hi).contains(&rate) {
+        Ok(rate)
+    } else {
+        Err(format!(
+            "{} Hz is not a sampling rate (expected from {lo} to {hi} Hz)",
+            crate::inertia::manifest::number_text(rate)
+        ))
     }
 }
 
@@ -123,9 +196,18 @@ fn err(path: &Path, message: impl Into<String>) -> RideError {
 }
 
 /// Reads a ride's CSV: the columns of [`Quantity`] by their recognised names or by `given`.
-/// A time column is required and must advance; a named column that is missing is an error, an
-/// unnamed quantity without a recognised column is simply absent.
-pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError> {
+/// Time comes from a time column, which must advance, or, for a table without one (a
+/// microcontroller's line per control step), from the row's number at `rate_hz`; a rate for a
+/// table that has a time column is refused (two clocks for one table). A named column that
+/// is missing is an error, an unnamed quantity without a recognised column is simply absent.
+pub fn read_csv_ride(
+    path: &Path,
+    given: &Columns,
+    rate_hz: Option<f64>,
+) -> Result<CsvRide, RideError> {
+    if let Some(rate) = rate_hz {
+        check_rate_hz(rate).map_err(|e| err(path, format!("--rate: {e}")))?;
+    }
     let file = crate::kind::open_text(path).map_err(|e| {
         let at = e.line.map_or(String::new(), |l| format!("line {l}: "));
         err(path, format!("{at}{}", e.message))
@@ -134,7 +216,11 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
     let mut found: Vec<(Quantity, usize, f64, String)> = Vec::new();
     for q in Quantity::ALL {
         let pick = match given.0.iter().find(|(g, _)| *g == q) {
-            Some((_, name)) => {
+            Some((_, given_name)) => {
+                let (name, unit) = match given_name.rsplit_once(':') {
+                    Some((n, u)) => (n.trim(), Some(u)),
+                    None => (given_name.as_str(), None),
+                };
                 let k = table.find(&[name]).ok_or_else(|| {
                     err(
                         path,
@@ -147,14 +233,12 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
                 })?;
                 let lower = name.to_ascii_lowercase();
                 let deg = lower.ends_with("_deg") || lower.ends_with("_deg_per_s");
-                Some((
-                    k,
-                    if deg {
-                        std::f64::consts::PI / 180.0
-                    } else {
-                        1.0
-                    },
-                ))
+                let factor = match unit {
+                    Some(u) => unit_factor(q, u).map_err(|e| err(path, e))?,
+                    None if deg => std::f64::consts::PI / 180.0,
+                    None => 1.0,
+                };
+                Some((k, factor))
             }
             None => q
                 .names()
@@ -165,14 +249,31 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
             found.push((q, k, factor, table.headers[k].clone()));
         }
     }
-    if !found.iter().any(|f| f.0 == Quantity::Time) {
-        return Err(err(
-            path,
-            format!(
-                "no time column (time_s, or --columns time=NAME); the columns: {}",
-                table.headers.join(", ")
-            ),
-        ));
+    let time_column = found
+        .iter()
+        .find(|f| f.0 == Quantity::Time)
+        .map(|f| f.3.clone());
+    match (&time_column, rate_hz) {
+        (None, None) => {
+            return Err(err(
+                path,
+                format!(
+                    "no time column (time_s, or --columns time=NAME; a table sampled at a fixed \
+                     rate without one: --rate HZ, or rate_hz in a manifest); the columns: {}",
+                    table.headers.join(", ")
+                ),
+            ))
+        }
+        (Some(name), Some(rate)) => {
+            return Err(err(
+                path,
+                format!(
+                    "it has a time column (`{name}`): a rate ({rate} Hz) is for a table without \
+                     one"
+                ),
+            ))
+        }
+        _ => {}
     }
     let which: Vec<usize> = found.iter().map(|f| f.1).collect();
     let values = table.columns(&which)?;
@@ -237,7 +338,14 @@ pub fn read_csv_ride(path: &Path, given: &Columns) -> Result<CsvRide, RideError>
             Quantity::WheelSpeed => ride.wheel_speed_mps = Some(v),
         }
     }
-    table.advancing(&ride.time_s)?;
+    match rate_hz {
+        Some(rate) => {
+            ride.time_s = (0..table.lines().len()).map(|i| i as f64 / rate).collect();
+            ride.columns
+                .push((Quantity::Time, format!("row number at {rate} Hz")));
+        }
+        None => table.advancing(&ride.time_s)?,
+    }
     Ok(ride)
 }
 

@@ -837,14 +837,20 @@ pub struct RideEntry {
     /// A CSV ride: the free decay's window (s).
     #[serde(default)]
     pub window_s: Option<[f64; 2]>,
+    /// A table without a time column: its sampling rate (Hz), as `--rate`.
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
 }
 
 impl RideEntry {
-    /// Whether the ride is another instrument's CSV.
-    pub fn is_csv(&self) -> bool {
+    /// Whether the ride is another instrument's table of time series: a `.csv`, or a file
+    /// of any other name whose content is a table (a microcontroller's `.log` of comma-separated
+    /// channels). `dir` is the manifest's folder.
+    pub fn is_csv(&self, dir: &Path) -> bool {
         self.log
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+            || crate::kind::recognise(&dir.join(&self.log)) == crate::kind::Kind::Table
     }
 
     /// The ride's name: its log's file name without the extension (`ride_03`), and for a
@@ -921,10 +927,17 @@ impl RideManifest {
                     ));
                 }
             }
-            if !r.is_csv() && (r.columns.is_some() || r.window_s.is_some()) {
+            if let Some(rate) = r.rate_hz {
+                if let Err(e) = super::csv::check_rate_hz(rate) {
+                    return Err(err("rate_hz", format!("{name}: rate_hz: {e}")));
+                }
+            }
+            if !r.is_csv(&m.dir)
+                && (r.columns.is_some() || r.window_s.is_some() || r.rate_hz.is_some())
+            {
                 return Err(err(
                     &name,
-                    format!("{name}: columns and window_s are for CSV rides"),
+                    format!("{name}: columns, window_s and rate_hz are for CSV rides"),
                 ));
             }
         }
@@ -1134,7 +1147,7 @@ pub fn run_campaign(
         };
         let path = manifest.dir.join(&ride.log);
         let name = ride.name();
-        if ride.is_csv() {
+        if ride.is_csv(&manifest.dir) {
             return csv_campaign_ride(&path, &name, ride, noted, model, modal);
         }
         let options = DynamicOptions {
@@ -1194,7 +1207,7 @@ fn csv_campaign_ride(
         .map_or(Ok(Default::default()), str::parse::<super::csv::Columns>)
         .map_err(|e| ride_err(path, format!("columns: {e}")));
     let decays = columns
-        .and_then(|c| super::csv::read_csv_ride(path, &c))
+        .and_then(|c| super::csv::read_csv_ride(path, &c, ride.rate_hz))
         .and_then(|csv| {
             super::csv::ride_decays(
                 &csv,
