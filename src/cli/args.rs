@@ -666,22 +666,23 @@ pub struct ReportArgs {
     pub data: PathBuf,
 }
 
-/// `--speed`: a riding speed (m/s).
-pub fn parse_speed(s: &str) -> Result<f64, String> {
+/// A number, then `check`ed (the library's check of that quantity, with its message).
+fn number_checked(s: &str, check: fn(f64) -> Result<f64, String>) -> Result<f64, String> {
     let v: f64 = s
         .trim()
         .parse()
         .map_err(|_| format!("`{s}` is not a number"))?;
-    bikeproc::ride::speed::check_reading_mps(v)
+    check(v)
 }
 
-/// A sampling rate (Hz) for a table without a time column.
+/// `--speed`: a riding speed (m/s).
+pub fn parse_speed(s: &str) -> Result<f64, String> {
+    number_checked(s, bikeproc::ride::speed::check_reading_mps)
+}
+
+/// `--rate`: a sampling rate (Hz) for a table without a time column.
 pub fn parse_rate(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
-    bikeproc::ride::csv::check_rate_hz(v)
+    number_checked(s, bikeproc::ride::csv::check_rate_hz)
 }
 
 /// A number in `lo..=hi` (finite), for a physical argument: `lo_open` excludes `lo` itself (a
