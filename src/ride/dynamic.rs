@@ -727,10 +727,13 @@ pub fn model_weave_at(
         im_z: (exp.im - lambda.im) / (exp.im_se.powi(2) + im_se.powi(2)).sqrt(),
         shape_ratio: shape.norm(),
         shape_phase_rad: shape.arg(),
-        mode: if is_weave_branch(model, v, lambda) {
-            ModelMode::Weave
-        } else {
-            ModelMode::CapsizeCastor
+        // One oscillatory pair: named as the bands name it (the complex pair beside two real
+        // roots is the weave); two: the weave's branch followed down from high speed.
+        mode: match (candidates.len(), bands.sweep.modes[j]) {
+            (1, crate::model::Mode::Weave | crate::model::Mode::WeaveConjugate) => ModelMode::Weave,
+            (1, _) => ModelMode::CapsizeCastor,
+            _ if is_weave_branch(model, v, lambda) => ModelMode::Weave,
+            _ => ModelMode::CapsizeCastor,
         },
         comparable,
     })

@@ -581,8 +581,9 @@ pub fn sync_speed(log: &Log, t0_s: f64, t1_s: f64, at_s: f64) -> Option<SyncSpee
 }
 
 /// The speed at `at_s` from reed-switch pulse times (s, ascending, each stamped at the first
-/// sample of `rate_hz` after the switch closed) one `circumference_m` apart, as [`sync_speed`] fits it. `None` with fewer than
-/// four pulses, times that do not increase, or a fit that is not finite.
+/// sample of `rate_hz` after the switch closed) one `circumference_m` apart, as
+/// [`sync_speed`] fits it. `None` with fewer than four pulses, times that do not increase, or
+/// a fit that is not finite.
 pub fn speed_from_pulses(
     pulses: &[f64],
     circumference_m: f64,
