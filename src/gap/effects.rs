@@ -412,11 +412,7 @@ pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 
     let s = clock(effects, params);
     match obs.speed_source {
         SpeedSource::Noted | SpeedSource::WheelSpeed => {
-            let k = split(effects, params)
-                .into_iter()
-                .find_map(|(e, ps)| (e == Effect::SpeedScale).then(|| ps.first().copied()))
-                .flatten()
-                .unwrap_or(1.0);
+            let k = first_param(effects, params, Effect::SpeedScale).unwrap_or(1.0);
             (obs.speed_mps - obs.speed_correction_mps) / k + obs.speed_correction_mps / s
         }
         SpeedSource::Sync | SpeedSource::Kinematic => obs.speed_mps * s,
@@ -425,16 +421,15 @@ pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 
 
 /// The sensors' clock scale under `effects` (1 without [`Effect::TimeScale`]).
 pub fn clock(effects: &[Effect], params: &[f64]) -> f64 {
+    first_param(effects, params, Effect::TimeScale).unwrap_or(1.0)
+}
+
+/// The first parameter of `effect` among `effects` at `params`; `None` when it is not there.
+fn first_param(effects: &[Effect], params: &[f64], effect: Effect) -> Option<f64> {
     split(effects, params)
         .into_iter()
-        .find_map(|(e, ps)| {
-            if e == Effect::TimeScale {
-                ps.first().copied()
-            } else {
-                None
-            }
-        })
-        .unwrap_or(1.0)
+        .find(|(e, _)| *e == effect)
+        .and_then(|(_, ps)| ps.first().copied())
 }
 
 /// The weave the extended model predicts for a ride, as the ride would report it: at the

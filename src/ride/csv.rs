@@ -53,48 +53,40 @@ impl Quantity {
         }
     }
 
-    /// The column names recognised without `--columns`, each with its factor to SI.
-    fn names(self) -> &'static [(&'static str, f64)] {
+    /// The column names recognised without `--columns`, each with its factor to SI: every
+    /// common name of the quantity with each of its units as a suffix (`roll_rad`,
+    /// `lean_angle_deg`, `speed_km_per_h`), in order of preference; a time also bare (`time`).
+    fn names(self) -> Vec<(String, f64)> {
+        let bases: &[&str] = match self {
+            Quantity::Time => &["time", "t"],
+            Quantity::Roll => &["roll", "lean", "lean_angle"],
+            Quantity::RollRate => &["roll_rate", "lean_rate"],
+            Quantity::Steer => &["steer", "steer_angle", "fork", "handlebar"],
+            Quantity::SteerRate => &["steer_rate", "fork_rate"],
+            Quantity::WheelSpeed => &["rear_wheel_speed", "wheel_speed", "speed"],
+        };
+        let mut out = Vec::new();
+        for base in bases {
+            out.extend(
+                self.units()
+                    .iter()
+                    .map(|(u, f)| (format!("{base}_{u}"), *f)),
+            );
+            if self == Quantity::Time {
+                out.push((base.to_string(), 1.0));
+            }
+        }
+        out
+    }
+
+    /// Its units as written after a name, each with its factor to SI.
+    fn units(self) -> &'static [(&'static str, f64)] {
         const DEG: f64 = std::f64::consts::PI / 180.0;
         match self {
-            Quantity::Time => &[("time_s", 1.0), ("time", 1.0), ("t", 1.0)],
-            Quantity::Roll => &[
-                ("roll_rad", 1.0),
-                ("roll_deg", DEG),
-                ("lean_rad", 1.0),
-                ("lean_deg", DEG),
-                ("lean_angle_rad", 1.0),
-                ("lean_angle_deg", DEG),
-            ],
-            Quantity::RollRate => &[
-                ("roll_rate_rad_per_s", 1.0),
-                ("roll_rate_deg_per_s", DEG),
-                ("lean_rate_rad_per_s", 1.0),
-                ("lean_rate_deg_per_s", DEG),
-            ],
-            Quantity::Steer => &[
-                ("steer_rad", 1.0),
-                ("steer_deg", DEG),
-                ("steer_angle_rad", 1.0),
-                ("steer_angle_deg", DEG),
-                ("fork_rad", 1.0),
-                ("fork_deg", DEG),
-                ("handlebar_rad", 1.0),
-                ("handlebar_deg", DEG),
-            ],
-            Quantity::SteerRate => &[
-                ("steer_rate_rad_per_s", 1.0),
-                ("steer_rate_deg_per_s", DEG),
-                ("fork_rate_rad_per_s", 1.0),
-                ("fork_rate_deg_per_s", DEG),
-            ],
-            Quantity::WheelSpeed => &[
-                ("rear_wheel_speed_m_per_s", 1.0),
-                ("wheel_speed_m_per_s", 1.0),
-                ("speed_m_per_s", 1.0),
-                ("wheel_speed_km_per_h", 1.0 / 3.6),
-                ("speed_km_per_h", 1.0 / 3.6),
-            ],
+            Quantity::Time => &[("s", 1.0), ("ms", 1e-3)],
+            Quantity::Roll | Quantity::Steer => &[("rad", 1.0), ("deg", DEG)],
+            Quantity::RollRate | Quantity::SteerRate => &[("rad_per_s", 1.0), ("deg_per_s", DEG)],
+            Quantity::WheelSpeed => &[("m_per_s", 1.0), ("km_per_h", 1.0 / 3.6)],
         }
     }
 }
@@ -134,16 +126,9 @@ impl std::str::FromStr for Columns {
 }
 
 /// The factor to SI of `unit` written after a column's name for quantity `q`
-/// (`roll=lean_angle:deg`): angles `rad` or `deg`, rates `rad_per_s` or `deg_per_s`, speeds
-/// `m_per_s` or `km_per_h`, time `s` or `ms`.
+/// (`roll=lean_angle:deg`): [`Quantity::units`].
 fn unit_factor(q: Quantity, unit: &str) -> Result<f64, String> {
-    const DEG: f64 = std::f64::consts::PI / 180.0;
-    let units: &[(&str, f64)] = match q {
-        Quantity::Time => &[("s", 1.0), ("ms", 1e-3)],
-        Quantity::Roll | Quantity::Steer => &[("rad", 1.0), ("deg", DEG)],
-        Quantity::RollRate | Quantity::SteerRate => &[("rad_per_s", 1.0), ("deg_per_s", DEG)],
-        Quantity::WheelSpeed => &[("m_per_s", 1.0), ("km_per_h", 1.0 / 3.6)],
-    };
+    let units = q.units();
     units
         .iter()
         .find(|(u, _)| *u == unit.trim())
@@ -243,7 +228,7 @@ pub fn read_csv_ride(
             None => q
                 .names()
                 .iter()
-                .find_map(|(n, f)| table.find(&[n]).map(|k| (k, *f))),
+                .find_map(|(n, f)| table.find(&[n.as_str()]).map(|k| (k, *f))),
         };
         if let Some((k, factor)) = pick {
             found.push((q, k, factor, table.headers[k].clone()));
