@@ -178,6 +178,20 @@ fn bands_100001_speeds(bencher: divan::Bencher) {
     bencher.bench(|| p.bands(divan::black_box(&speeds)).expect("bands"));
 }
 
+/// `bikeproc stability --bike data/lab_bike.toml`'s whole report by the number of speeds (issue
+/// 33: a million speeds in under 10 s; 35 s when every speed's standard errors took two
+/// eigenvalue problems per measured input).
+#[divan::bench(sample_count = 3, args = [10_001, 100_001, 1_000_001])]
+fn stability_report_by_speeds(bencher: divan::Bencher, n: usize) {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let p = bikeproc::model::uncertain::load(&root.join("data/lab_bike.toml")).expect("lab bike");
+    let step = 10.0 / (n - 1) as f64;
+    bencher.bench(|| {
+        bikeproc::model::report::StabilityReport::over(&p, divan::black_box((0.0, 10.0, step)))
+            .expect("report")
+    });
+}
+
 /// A 10 s coast of the nonlinear Whipple bicycle at 5 m/s after a roll kick, sampled at 100 Hz.
 #[divan::bench(sample_count = 20)]
 fn nonlinear_ride_10_s(bencher: divan::Bencher) {

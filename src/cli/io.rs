@@ -18,7 +18,14 @@ pub fn emit<T: serde::Serialize>(
     text: impl FnOnce() -> String,
 ) -> Result<()> {
     if json {
-        out(&(serde_json::to_string_pretty(value)? + "\n"))
+        // Streamed to standard output: a million speeds' JSON is a gigabyte, never held whole.
+        use std::io::Write as _;
+        let mut stdout = std::io::BufWriter::with_capacity(1 << 16, std::io::stdout().lock());
+        serde_json::to_writer_pretty(&mut stdout, value)
+            .map_err(std::io::Error::from)
+            .and_then(|()| stdout.write_all(b"\n"))
+            .and_then(|()| stdout.flush())
+            .map_err(stdout_error)
     } else {
         out(&text())
     }
@@ -58,14 +65,17 @@ pub fn out(text: &str) -> Result<()> {
     stdout
         .write_all(text.as_bytes())
         .and_then(|()| stdout.flush())
-        .map_err(|e| match e.kind() {
-            std::io::ErrorKind::BrokenPipe => {
-                anyhow::anyhow!(
-                    "standard output: its reader has gone (broken pipe); output cut short"
-                )
-            }
-            _ => anyhow::anyhow!("standard output: {e}"),
-        })
+        .map_err(stdout_error)
+}
+
+/// A failed write to standard output, said as what happened to it.
+fn stdout_error(e: std::io::Error) -> anyhow::Error {
+    match e.kind() {
+        std::io::ErrorKind::BrokenPipe => {
+            anyhow::anyhow!("standard output: its reader has gone (broken pipe); output cut short")
+        }
+        _ => anyhow::anyhow!("standard output: {e}"),
+    }
 }
 
 /// A progress bar on standard error, `[####    ] done/total what`; drawn only on a terminal

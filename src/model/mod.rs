@@ -253,6 +253,30 @@ pub struct Sweep {
     pub modes: [Mode; 4],
 }
 
+/// The 24 orders of four, in lexicographic order (the order [`match_order`] tries them in).
+const ORDERS: [[usize; 4]; 24] = {
+    let mut out = [[0usize; 4]; 24];
+    let mut n = 0;
+    let mut a = 0;
+    while a < 4 {
+        let mut b = 0;
+        while b < 4 {
+            let mut c = 0;
+            while c < 4 {
+                if a != b && a != c && b != c && a + b + c >= 3 {
+                    // The one index left: 0 + 1 + 2 + 3 = 6.
+                    out[n] = [a, b, c, 6 - a - b - c];
+                    n += 1;
+                }
+                c += 1;
+            }
+            b += 1;
+        }
+        a += 1;
+    }
+    out
+};
+
 /// Matches `next` to `prev` (all 24 orders; the closest in total distance).
 pub fn match_order(prev: &[Complex<f64>; 4], next: &[Complex<f64>; 4]) -> [Complex<f64>; 4] {
     let mut best = *next;
@@ -260,28 +284,22 @@ pub fn match_order(prev: &[Complex<f64>; 4], next: &[Complex<f64>; 4]) -> [Compl
     // Ties (a complex pair meeting two reals, as below the weave speed: both assignments are
     // equally near by symmetry) go to the naming of [`name_at`] (the larger real is capsize),
     // not to the last bit of rounding, which a 1e-12 change of a parameter flipped.
-    let named = name_at(next);
-    let off_naming =
-        |c: &[Complex<f64>; 4]| -> f64 { (0..4).map(|i| (c[i] - named[i]).norm_sqr()).sum() };
-    let idx = [0usize, 1, 2, 3];
-    for a in idx {
-        for b in idx {
-            for c in idx {
-                for d in idx {
-                    let p = [a, b, c, d];
-                    if a == b || a == c || a == d || b == c || b == d || c == d {
-                        continue;
-                    }
-                    let dist: f64 = (0..4).map(|i| (prev[i] - next[p[i]]).norm_sqr()).sum();
-                    let candidate = [next[a], next[b], next[c], next[d]];
-                    let tie = (dist - best_d).abs() <= 1e-12 * (1.0 + best_d);
-                    if (dist < best_d && !tie)
-                        || (tie && off_naming(&candidate) < off_naming(&best))
-                    {
-                        best_d = best_d.min(dist);
-                        best = candidate;
-                    }
-                }
+    let mut named: Option<[Complex<f64>; 4]> = None;
+    let mut off_naming = |c: &[Complex<f64>; 4]| -> f64 {
+        let named = named.get_or_insert_with(|| name_at(next));
+        (0..4).map(|i| (c[i] - named[i]).norm_sqr()).sum()
+    };
+    for p in ORDERS {
+        let dist: f64 = (0..4).map(|i| (prev[i] - next[p[i]]).norm_sqr()).sum();
+        let tie = (dist - best_d).abs() <= 1e-12 * (1.0 + best_d);
+        if dist < best_d && !tie {
+            best_d = dist;
+            best = p.map(|k| next[k]);
+        } else if tie {
+            let candidate = p.map(|k| next[k]);
+            if off_naming(&candidate) < off_naming(&best) {
+                best_d = best_d.min(dist);
+                best = candidate;
             }
         }
     }
@@ -312,11 +330,16 @@ impl Canonical {
         let mut order: Vec<usize> = (0..speeds_mps.len()).collect();
         order.sort_by(|&a, &b| speeds_mps[b].total_cmp(&speeds_mps[a]));
         let mut out = vec![[Complex::new(0.0, 0.0); 4]; speeds_mps.len()];
+        // The eigenvalues speed by speed on rayon's threads; their naming in order after.
+        use rayon::prelude::*;
+        let each: Vec<Option<[Complex<f64>; 4]>> = speeds_mps
+            .par_iter()
+            .with_min_len(1024)
+            .map(|&v| self.eigenvalues(v))
+            .collect();
         let mut prev: Option<[Complex<f64>; 4]> = None;
         for i in order {
-            let ev = self
-                .eigenvalues(speeds_mps[i])
-                .ok_or(ParamError::SingularMass)?;
+            let ev = each[i].ok_or(ParamError::SingularMass)?;
             let named = match prev {
                 None => name_at(&ev),
                 Some(p) => match_order(&p, &ev),
