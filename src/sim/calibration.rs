@@ -27,10 +27,19 @@ pub struct Case {
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct TrueFit {
     pub params: Vec<f64>,
+    /// NaN where a parameter has none (at a search's bound), written `null` in the JSON and
+    /// read back as NaN, so that `--results` renders a run's own file.
+    #[serde(deserialize_with = "nan_for_null")]
     pub params_se: Vec<f64>,
     pub at_bound: Vec<bool>,
     /// Its place in the ranking (0 first).
     pub rank: usize,
+}
+
+/// Numbers of which some are `null` (serde_json's NaN), read with NaN in their place.
+fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let values: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
+    Ok(values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect())
 }
 
 /// What the diagnosis said of one blind campaign, beside its truth.
@@ -402,6 +411,23 @@ mod tests {
     /// "Within 30 % of the truth's deviation from no effect": a damper of 0.3 N·m·s/rad is
     /// right from 0.21 to 0.39; a factor of 1.4 from 1.28 to 1.52; tyres (no effect at an
     /// infinite cornering stiffness) within 30 % of the truth itself.
+    /// A parameter at its search's bound has no standard error: NaN, written `null`, and read
+    /// back as NaN (a run's JSON once could not be rendered with `--results`).
+    #[test]
+    fn a_fit_without_a_standard_error_reads_back() {
+        let fit = TrueFit {
+            params: vec![4.42, 0.01],
+            params_se: vec![0.29, f64::NAN],
+            at_bound: vec![false, true],
+            rank: 3,
+        };
+        let text = serde_json::to_string(&fit).unwrap();
+        assert!(text.contains("null"), "{text}");
+        let back: TrueFit = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.params_se[0], 0.29);
+        assert!(back.params_se[1].is_nan());
+    }
+
     #[test]
     fn the_size_is_judged_against_the_deviation_from_no_effect() {
         assert!(size_right(Effect::SteerDamping, &[0.38], &[0.3]));
