@@ -464,10 +464,10 @@ pub enum SimCommand {
     /// The gap diagnosis calibrated: blind campaigns of every effect at the broad sizes a lab
     /// meets, both designs, diagnosed and compared with their truth; writes the tallies
     /// (named, right, tied, the standard errors' coverage, the controls' p-value histogram) as
-    /// Markdown. About 1.5 s a campaign on 2 cores.
+    /// Markdown. About 1 s a campaign on 2 cores.
     #[command(
         name = "gap-calibration",
-        after_help = "Example (docs/gap-calibration.md, about 60 min on 2 cores):\n  bikeproc simulate gap-calibration --campaigns 50 --controls 200 --out docs/gap-calibration.md"
+        after_help = "Example (docs/gap-calibration.md, about 30 min on 2 cores):\n  bikeproc simulate gap-calibration --campaigns 50 --controls 200 --out docs/gap-calibration.md"
     )]
     GapCalibration {
         /// Campaigns per effect and design.
