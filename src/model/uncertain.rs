@@ -167,7 +167,7 @@ pub struct Bands {
     pub se: Vec<[(f64, f64); 4]>,
 }
 
-/// Speeds per chunk of [`Parametrized::bands`]' propagation.
+/// The fewest speeds a thread of [`Parametrized::bands`] takes at a time.
 const BANDS_CHUNK: usize = 512;
 
 /// The speed where `max_real` changes sign within ±0.02 m/s of `v0` (the perturbations of the
@@ -312,44 +312,33 @@ pub fn eigenvalue_gradient(
     v: f64,
     lambda: Complex<f64>,
 ) -> Option<[Complex<f64>; 16]> {
-    type C = Complex<f64>;
-    let a = model.state_matrix(v)?;
-    let minv = model.m.try_inverse()?;
-    let x = |i: usize, j: usize| C::new(a[(2 + i, j)], 0.0);
-    let y = |i: usize, j: usize| C::new(a[(2 + i, 2 + j)], 0.0);
-    let eye = |i: usize, j: usize| {
-        if i == j {
-            C::new(1.0, 0.0)
-        } else {
-            C::new(0.0, 0.0)
-        }
-    };
-    let p = |i: usize, j: usize| lambda * lambda * eye(i, j) - lambda * y(i, j) - x(i, j);
+    use nalgebra::{Matrix2, Vector2};
+    let a = model.state_matrix(v)?.map(|x| Complex::new(x, 0.0));
+    let minv = model.m.try_inverse()?.map(|x| Complex::new(x, 0.0));
+    let x: Matrix2<Complex<f64>> = a.fixed_view::<2, 2>(2, 0).into_owned();
+    let y: Matrix2<Complex<f64>> = a.fixed_view::<2, 2>(2, 2).into_owned();
+    let eye = Matrix2::<Complex<f64>>::identity();
+    let p = eye * (lambda * lambda) - y * lambda - x;
     // Right null vector from P's larger row, left from its larger column.
-    let row = |i: usize| p(i, 0).norm_sqr() + p(i, 1).norm_sqr();
-    let col = |j: usize| p(0, j).norm_sqr() + p(1, j).norm_sqr();
-    let q = if row(0) >= row(1) {
-        [-p(0, 1), p(0, 0)]
+    let q = if p.row(0).norm_squared() >= p.row(1).norm_squared() {
+        Vector2::new(-p[(0, 1)], p[(0, 0)])
     } else {
-        [-p(1, 1), p(1, 0)]
+        Vector2::new(-p[(1, 1)], p[(1, 0)])
     };
-    let w = if col(0) >= col(1) {
-        [-p(1, 0), p(0, 0)]
+    let w = if p.column(0).norm_squared() >= p.column(1).norm_squared() {
+        Vector2::new(-p[(1, 0)], p[(0, 0)])
     } else {
-        [-p(1, 1), p(0, 1)]
+        Vector2::new(-p[(1, 1)], p[(0, 1)])
     };
-    let denom: C = (0..2)
-        .flat_map(|i| (0..2).map(move |j| (i, j)))
-        .map(|(i, j)| w[i] * (2.0 * lambda * eye(i, j) - y(i, j)) * q[j])
-        .sum();
+    let denom = (w.transpose() * (eye * (lambda * 2.0) - y) * q)[(0, 0)];
     let scale = (q[0].norm() + q[1].norm()) * (w[0].norm() + w[1].norm());
     // A (nearly) double eigenvalue, or NaN.
     let floor = 1e-9 * scale * (1.0 + lambda.norm());
     if denom.norm().partial_cmp(&floor) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
-    let u = [0, 1].map(|i| w[0] * minv[(0, i)] + w[1] * minv[(1, i)]);
-    let mut out = [C::new(0.0, 0.0); 16];
+    let u = minv.transpose() * w;
+    let mut out = [Complex::new(0.0, 0.0); 16];
     for i in 0..2 {
         for j in 0..2 {
             let base = -u[i] * q[j] / denom;

@@ -408,9 +408,6 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
 mod tests {
     use super::*;
 
-    /// "Within 30 % of the truth's deviation from no effect": a damper of 0.3 N·m·s/rad is
-    /// right from 0.21 to 0.39; a factor of 1.4 from 1.28 to 1.52; tyres (no effect at an
-    /// infinite cornering stiffness) within 30 % of the truth itself.
     /// A parameter at its search's bound has no standard error: NaN, written `null`, and read
     /// back as NaN (a run's JSON once could not be rendered with `--results`).
     #[test]
@@ -428,6 +425,9 @@ mod tests {
         assert!(back.params_se[1].is_nan());
     }
 
+    /// "Within 30 % of the truth's deviation from no effect": a damper of 0.3 N·m·s/rad is
+    /// right from 0.21 to 0.39; a factor of 1.4 from 1.28 to 1.52; tyres (no effect at an
+    /// infinite cornering stiffness) within 30 % of the truth itself.
     #[test]
     fn the_size_is_judged_against_the_deviation_from_no_effect() {
         assert!(size_right(Effect::SteerDamping, &[0.38], &[0.3]));
