@@ -348,3 +348,38 @@ fn zoom_spectrum_main_peak_60_s_signal(bencher: divan::Bencher) {
         .main_peak(0.05)
     });
 }
+
+/// A treadmill recording of `rows` rows at 100 Hz as a microcontroller writes it (time, roll
+/// rate, steer rate, wheel speed; a kick every 20 s whose weave decays at σ = 1.2 /s, ω = 5
+/// rad/s over 0.02 rad/s of sway), written once per size to a temporary file.
+fn treadmill_csv(rows: usize) -> PathBuf {
+    let path = std::env::temp_dir().join(format!("bikeproc_bench_treadmill_{rows}.csv"));
+    if !path.exists() {
+        use std::io::Write;
+        let mut rng = seeded(5);
+        let mut out = std::io::BufWriter::new(std::fs::File::create(&path).expect("create"));
+        writeln!(out, "time_s,roll_rate_rad_per_s,steer_rate_deg_per_s,rear_wheel_speed_m_per_s")
+            .expect("write");
+        for i in 0..rows {
+            let t = i as f64 / 100.0;
+            let tau = t % 20.0 - 5.0;
+            let kick = if (0.0..5.0).contains(&tau) {
+                0.8 * (-1.2 * tau).exp() * (5.0 * tau + 1.3).sin() * (tau / 0.08).min(1.0)
+            } else {
+                0.0
+            };
+            let r = kick + 0.02 * rng.normal();
+            writeln!(out, "{t:.2},{r:.4},{:.2},{:.3}", 10.0 * r, 5.0 + 0.02 * rng.normal())
+                .expect("write");
+        }
+    }
+    path
+}
+
+/// Issue 32: a long recording read and searched for kicks in one pass (9 bytes a row), by rows.
+#[divan::bench(args = [100_000, 1_000_000], sample_count = 5)]
+fn find_kicks_by_rows(bencher: divan::Bencher, rows: usize) {
+    use bikeproc::ride::csv::{find_kicks_file, Columns};
+    let path = treadmill_csv(rows);
+    bencher.bench(|| find_kicks_file(&path, &Columns::default(), None).expect("reads"));
+}

@@ -219,83 +219,17 @@ impl CsvTable {
     /// Reads a CSV with a header row; every row must have the header's number of fields. A
     /// first row of numbers only is no header but the first sample: the columns are then named
     /// `column 1`, `column 2`, … (a file written without its header row loses no sample and
-    /// gets no number for a name).
+    /// gets no number for a name). [`CsvRows`] reads the same row by row.
     pub fn read<R: std::io::Read>(reader: R, path: &Path) -> Result<CsvTable, SignalError> {
-        let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(true)
-            .trim(csv::Trim::All)
-            .from_reader(reader);
-        let err = |line: u64, column: usize, message: String| SignalError::Csv {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message,
-        };
-        let mut records = rdr.records();
-        let first = match records.next() {
-            Some(r) => r.map_err(|e| err(1, 1, e.to_string()))?,
-            None => csv::StringRecord::new(),
-        };
-        if first.len() == 1 && first.get(0).is_some_and(|f| f.contains(';')) {
-            return Err(err(
-                1,
-                1,
-                "fields separated by ';' (a spreadsheet's export for decimal commas?): bikeproc \
-                 reads comma-separated values with a point as the decimal mark"
-                    .into(),
-            ));
-        }
-        let numbers_only = !first.is_empty()
-            && first
-                .iter()
-                .all(|f| f.parse::<f64>().is_ok_and(|x| x.is_finite()));
-        let (headers, mut rows): (Vec<String>, Vec<(u64, csv::StringRecord)>) = if numbers_only {
-            (
-                (1..=first.len()).map(|k| format!("column {k}")).collect(),
-                vec![(first.position().map_or(1, |p| p.line()), first)],
-            )
-        } else {
-            (first.iter().map(str::to_string).collect(), Vec::new())
-        };
-        for (j, h) in headers.iter().enumerate() {
-            if let Some(i) = headers[..j].iter().position(|g| g == h && !h.is_empty()) {
-                return Err(err(
-                    1,
-                    j + 1,
-                    format!(
-                        "column `{h}` twice (columns {} and {}): which one is meant is not known",
-                        i + 1,
-                        j + 1
-                    ),
-                ));
-            }
-        }
-        for rec in records {
-            let rec = rec.map_err(|e| {
-                let line = e.position().map_or(0, |p| p.line());
-                err(line, 1, e.to_string())
-            })?;
-            let line = rec.position().map_or(0, |p| p.line());
-            if rec.len() != headers.len() {
-                let hint = if rec.len() > headers.len() {
-                    " (decimal commas? bikeproc reads a point as the decimal mark and a comma \
-                     between fields)"
-                } else {
-                    ""
-                };
-                return Err(err(
-                    line,
-                    1,
-                    format!("{} fields, expected {}{hint}", rec.len(), headers.len()),
-                ));
-            }
-            rows.push((line, rec));
+        let mut rows = CsvRows::open(reader, path)?;
+        let mut kept = Vec::new();
+        while let Some(line) = rows.next_row()? {
+            kept.push((line, rows.record().clone()));
         }
         Ok(CsvTable {
             path: path.to_path_buf(),
-            headers,
-            rows,
+            headers: rows.headers,
+            rows: kept,
         })
     }
 
@@ -312,14 +246,7 @@ impl CsvTable {
     /// The index of the first column named any of `names`: an exact match first (a file may
     /// have both `Time` and `time`), else one that differs in case only.
     pub fn find(&self, names: &[&str]) -> Option<usize> {
-        names
-            .iter()
-            .find_map(|n| self.headers.iter().position(|h| h == n))
-            .or_else(|| {
-                names
-                    .iter()
-                    .find_map(|n| self.headers.iter().position(|h| h.eq_ignore_ascii_case(n)))
-            })
+        find_column(&self.headers, names)
     }
 
     /// The line of each data row in the file.
@@ -333,27 +260,7 @@ impl CsvTable {
         let mut out = vec![Vec::with_capacity(self.rows.len()); which.len()];
         for (line, rec) in &self.rows {
             for (col_out, &k) in out.iter_mut().zip(which) {
-                let s = rec.get(k).unwrap_or("");
-                // The field's position: 1 + the fields before it and their separators.
-                let column = 1
-                    + (0..k)
-                        .map(|j| rec.get(j).map_or(0, str::len) + 1)
-                        .sum::<usize>();
-                let x = s
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| {
-                        self.error(
-                            *line,
-                            column,
-                            format!(
-                                "`{s}` in column {}: expected a finite number",
-                                self.headers.get(k).map_or("?", String::as_str)
-                            ),
-                        )
-                    })?;
-                col_out.push(x);
+                col_out.push(number(&self.path, &self.headers, *line, rec, k)?);
             }
         }
         Ok(out)
@@ -382,6 +289,186 @@ impl CsvTable {
         self.advancing(t)?;
         sampling_grid(t).map_err(|(i, message)| self.error(lines[i], 1, message))
     }
+}
+
+/// Field `k` of `rec` (at `line` of `path`) as a finite number; the error names the line and
+/// the field's column in characters.
+fn number(
+    path: &Path,
+    headers: &[String],
+    line: u64,
+    rec: &csv::StringRecord,
+    k: usize,
+) -> Result<f64, SignalError> {
+    let s = rec.get(k).unwrap_or("");
+    s.parse::<f64>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| SignalError::Csv {
+            path: path.to_path_buf(),
+            line,
+            // The field's position: 1 + the fields before it and their separators.
+            column: 1
+                + (0..k)
+                    .map(|j| rec.get(j).map_or(0, str::len) + 1)
+                    .sum::<usize>(),
+            message: format!(
+                "`{s}` in column {}: expected a finite number",
+                headers.get(k).map_or("?", String::as_str)
+            ),
+        })
+}
+
+/// A CSV of named columns read row by row, one record held at a time (a recording of millions
+/// of rows in bounded memory); the same rules and errors as [`CsvTable::read`].
+pub struct CsvRows<R: std::io::Read> {
+    reader: csv::Reader<R>,
+    pub path: PathBuf,
+    /// The header's names, trimmed (`column 1`, … when the file has none).
+    pub headers: Vec<String>,
+    /// The first row, when it was a sample and not a header, until it is read.
+    first: Option<csv::StringRecord>,
+    record: csv::StringRecord,
+}
+
+impl<R: std::io::Read> CsvRows<R> {
+    /// Reads the header row (or takes a first row of numbers only as the first sample).
+    pub fn open(reader: R, path: &Path) -> Result<CsvRows<R>, SignalError> {
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .from_reader(reader);
+        let err = |line: u64, column: usize, message: String| SignalError::Csv {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message,
+        };
+        let mut first = csv::StringRecord::new();
+        reader
+            .read_record(&mut first)
+            .map_err(|e| err(1, 1, e.to_string()))?;
+        if first.len() == 1 && first.get(0).is_some_and(|f| f.contains(';')) {
+            return Err(err(
+                1,
+                1,
+                "fields separated by ';' (a spreadsheet's export for decimal commas?): bikeproc \
+                 reads comma-separated values with a point as the decimal mark"
+                    .into(),
+            ));
+        }
+        let numbers_only = !first.is_empty()
+            && first
+                .iter()
+                .all(|f| f.parse::<f64>().is_ok_and(|x| x.is_finite()));
+        let (headers, first) = if numbers_only {
+            (
+                (1..=first.len()).map(|k| format!("column {k}")).collect(),
+                Some(first),
+            )
+        } else {
+            (first.iter().map(str::to_string).collect::<Vec<_>>(), None)
+        };
+        for (j, h) in headers.iter().enumerate() {
+            if let Some(i) = headers[..j].iter().position(|g| g == h && !h.is_empty()) {
+                return Err(err(
+                    1,
+                    j + 1,
+                    format!(
+                        "column `{h}` twice (columns {} and {}): which one is meant is not known",
+                        i + 1,
+                        j + 1
+                    ),
+                ));
+            }
+        }
+        Ok(CsvRows {
+            reader,
+            path: path.to_path_buf(),
+            headers,
+            first,
+            record: csv::StringRecord::new(),
+        })
+    }
+
+    /// Reads the next row into [`CsvRows::record`] and gives its line; `None` at the end.
+    pub fn next_row(&mut self) -> Result<Option<u64>, SignalError> {
+        let err = |line: u64, message: String| SignalError::Csv {
+            path: self.path.clone(),
+            line,
+            column: 1,
+            message,
+        };
+        if let Some(first) = self.first.take() {
+            self.record = first;
+        } else {
+            match self.reader.read_record(&mut self.record) {
+                Ok(true) => {}
+                Ok(false) => return Ok(None),
+                Err(e) => {
+                    let line = e.position().map_or(0, |p| p.line());
+                    return Err(err(line, e.to_string()));
+                }
+            }
+        }
+        let line = self.record.position().map_or(0, |p| p.line());
+        if self.record.len() != self.headers.len() {
+            let hint = if self.record.len() > self.headers.len() {
+                " (decimal commas? bikeproc reads a point as the decimal mark and a comma \
+                 between fields)"
+            } else {
+                ""
+            };
+            return Err(err(
+                line,
+                format!(
+                    "{} fields, expected {}{hint}",
+                    self.record.len(),
+                    self.headers.len()
+                ),
+            ));
+        }
+        Ok(Some(line))
+    }
+
+    /// An error at `line`, `column` of this file.
+    pub fn error(&self, line: u64, column: usize, message: String) -> SignalError {
+        SignalError::Csv {
+            path: self.path.clone(),
+            line,
+            column,
+            message,
+        }
+    }
+
+    /// The row last read.
+    pub fn record(&self) -> &csv::StringRecord {
+        &self.record
+    }
+
+    /// Field `k` of the row last read (at `line`) as a finite number.
+    pub fn number(&self, line: u64, k: usize) -> Result<f64, SignalError> {
+        number(&self.path, &self.headers, line, &self.record, k)
+    }
+
+    /// The index of the first column named any of `names` ([`CsvTable::find`]'s rule).
+    pub fn find(&self, names: &[&str]) -> Option<usize> {
+        find_column(&self.headers, names)
+    }
+}
+
+/// The index of the first of `headers` named any of `names`: an exact match first (a file may
+/// have both `Time` and `time`), else one that differs in case only.
+fn find_column(headers: &[String], names: &[&str]) -> Option<usize> {
+    names
+        .iter()
+        .find_map(|n| headers.iter().position(|h| h == n))
+        .or_else(|| {
+            names
+                .iter()
+                .find_map(|n| headers.iter().position(|h| h.eq_ignore_ascii_case(n)))
+        })
 }
 
 /// The first sample whose time `t` (s) does not advance from the one before it, with the

@@ -214,8 +214,9 @@ pub struct DynamicArgs {
     /// time series from another instrument (`time_s`, `roll_rad`, `steer_deg`,
     /// `rear_wheel_speed_m_per_s`, …; --window picks one decay).
     pub file: PathBuf,
-    /// A CSV ride: the free decay to fit, seconds `START:END` (without it a record of up to
-    /// 10 s is one free decay; in a longer one every kick is found and each decay fitted).
+    /// A CSV ride: the free decay to fit, seconds `START:END`; the file is read up to END only
+    /// (without it a record of up to 10 s is one free decay; in a longer one every kick is found
+    /// and each decay fitted, the recording read twice in 9 bytes a row, not held whole).
     #[arg(long, value_parser = parse_range)]
     pub window: Option<(f64, f64)>,
     /// A CSV ride: columns by other names, `roll=ROLL_COL,steer=…,time=…,wheel_speed=…`

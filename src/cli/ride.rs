@@ -133,18 +133,21 @@ fn campaign(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
 /// `bikeproc dynamic FILE.csv [--window A:B]`: the free decays of another instrument's ride
 /// (one with a window or a short record; every kick of a long recording without).
 fn csv_ride(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
-    let ride = csv::read_csv_ride(&a.file, &a.columns.clone().unwrap_or_default(), a.rate)?;
     let model = match &a.bike {
         Some(bike) => Some(load_model(bike, a.controller.as_deref())?),
         None => None,
     };
-    let long = a.window.is_none()
-        && ride
-            .time_s
-            .last()
-            .zip(ride.time_s.first())
-            .is_some_and(|(l, f)| l - f > csv::WHOLE_RECORD_MAX_S);
-    let mut kicks = csv::ride_decays(&ride, a.window, noted(a), model.as_ref(), modal)?;
+    let mut kicks = csv::ride_decays_file(
+        &a.file,
+        &a.columns.clone().unwrap_or_default(),
+        a.rate,
+        a.window,
+        noted(a),
+        model.as_ref(),
+        modal,
+    )?;
+    // One decay of a window or a short record, given: the decay alone.
+    let long = !matches!(&kicks[..], [k] if k.kick.starts == csv::DecayStart::Given);
     if !long {
         if let Some(summary) = kicks.pop().and_then(|k| k.decay) {
             return emit(a.json, &summary, || summary.to_text());

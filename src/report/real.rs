@@ -220,14 +220,20 @@ pub(super) fn uncontrolled_section(
         md,
         "\n**Every kick, found.** `bikeproc dynamic FILE.csv` without a window finds {} kicks in the\n\
          recording (roll-rate peaks over {} times its median while the wheel turns and over {} times\n\
-         the largest swing of the second before the kick's motion began; each decay taken from the\n\
-         peak until a swing grows again, at most {} s) and fits each; kicks while the treadmill\n\
-         starts or stops are listed, not fitted:\n\n\
-         | kick (s) | window (s) | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | VAF θ, γ | z σ | z ω |\n\
-         |---|---|---|---|---|---|---|---|\n",
+         the largest swing of the second before the kick's motion began) and fits each; kicks while\n\
+         the treadmill starts or stops are listed, not fitted. Each decay starts where the push is\n\
+         over: at the push's own peak when its swing rose in under {} of its fall (an impulse), else\n\
+         at the swing back (a hand pushing through its swing). It ends where the free motion ends: a\n\
+         swing that grows (a new push), one that lasts over {} times the one before (the swinging\n\
+         stops: held, leaning on the harness, drifting), one within the background sway, the next\n\
+         kick, or {} s. That lab marked 141.28–142.71, 148.53–149.94 and 153.98–155.50 s by hand.\n\n\
+         | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | VAF θ, γ | z σ | z ω |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
         kicks.len(),
         crate::ride::csv::KICK_OVER_BACKGROUND,
         crate::ride::csv::KICK_OVER_SWING,
+        crate::ride::csv::FORCED_RISE_QUARTERS,
+        crate::ride::csv::STALL_RATIO,
         crate::ride::csv::DECAY_MAX_S
     );
     for k in &kicks {
@@ -241,8 +247,9 @@ pub(super) fn uncontrolled_section(
                 });
                 let _ = writeln!(
                     md,
-                    "| {:.2} | {a:.2}–{b:.2} | {v} | {} | {} | {:.3}, {:.3} | {z} |",
+                    "| {:.2} | {a:.2}–{b:.2} | {} | {v} | {} | {} | {:.3}, {:.3} | {z} |",
                     k.kick.at_s,
+                    why_window(&k.kick),
                     pm(-e.re, e.re_se, 3),
                     pm(e.im, e.im_se, 3),
                     d.decay.vaf[0],
@@ -254,8 +261,9 @@ pub(super) fn uncontrolled_section(
                 let why = why.rsplit(".csv: ").next().unwrap_or(why);
                 let _ = writeln!(
                     md,
-                    "| {:.2} | {a:.2}–{b:.2} | not fitted: {why} | | | | | |",
-                    k.kick.at_s
+                    "| {:.2} | {a:.2}–{b:.2} | {} | not fitted: {why} | | | | | |",
+                    k.kick.at_s,
+                    why_window(&k.kick)
                 );
             }
         }
@@ -523,4 +531,24 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
     }
     let _ = write!(md, "\n{}\n", verdict_list(&d.verdict));
     Ok(())
+}
+
+/// A found window's start and end in two words each.
+fn why_window(k: &crate::ride::csv::Kick) -> String {
+    use crate::ride::csv::{DecayEnd as E, DecayStart as S};
+    let starts = match k.starts {
+        S::AtPeak => "push's peak",
+        S::SwingBack => "swing back",
+        S::Given => "given",
+    };
+    let ends = match k.ends {
+        E::Grows => "a swing grows",
+        E::Stalls => "swinging stops",
+        E::NoiseFloor => "background",
+        E::NextKick => "next kick",
+        E::RecordEnds => "record ends",
+        E::Longest => "longest window",
+        E::Given => "given",
+    };
+    format!("{starts}; {ends}")
 }

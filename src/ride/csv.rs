@@ -10,12 +10,16 @@
 //!
 //! What is missing narrows what can be fitted: roll and steer give the eigenvalue and the mode
 //! shape; without a wheel-speed column the speed must be given.
+//!
+//! A long recording (hours at 100 Hz) is never held whole: [`ride_decays_file`] streams it once
+//! into a [`KickSeries`] (time, roll rate, wheel turning: 9 bytes a row) to find its kicks
+//! ([`find_kicks`]: where each push ends and its free decay ends, and why), then again keeping
+//! only the kicks' windows.
 
 use super::modal::{fit_modes, Eigenvalue, ModalFit, ModalOptions, ModeShape};
 use super::read::RideError;
 use super::speed::{NotedReading, SpeedSource};
 use crate::model::uncertain::Parametrized;
-use crate::signal::CsvTable;
 use crate::uncertainty::Measured;
 use std::path::{Path, PathBuf};
 
@@ -180,24 +184,26 @@ fn err(path: &Path, message: impl Into<String>) -> RideError {
     }
 }
 
-/// Reads a ride's CSV: the columns of [`Quantity`] by their recognised names or by `given`.
-/// Time comes from a time column, which must advance, or, for a table without one (a
-/// microcontroller's line per control step), from the row's number at `rate_hz`; a rate for a
-/// table that has a time column is refused (two clocks for one table). A named column that
-/// is missing is an error, an unnamed quantity without a recognised column is simply absent.
-pub fn read_csv_ride(
+/// Which column gives which quantity, with its factor to SI, and the time's source.
+struct Plan {
+    /// (quantity, column, factor, column's name), in [`Quantity::ALL`]'s order.
+    found: Vec<(Quantity, usize, f64, String)>,
+    /// The table's rate where it has no time column.
+    rate_hz: Option<f64>,
+}
+
+/// The columns of [`Quantity`] among `headers`, by their recognised names or by `given`; a
+/// time column, or a rate for a table without one (never both).
+fn plan(
     path: &Path,
+    headers: &[String],
+    find: impl Fn(&[&str]) -> Option<usize>,
     given: &Columns,
     rate_hz: Option<f64>,
-) -> Result<CsvRide, RideError> {
+) -> Result<Plan, RideError> {
     if let Some(rate) = rate_hz {
         check_rate_hz(rate).map_err(|e| err(path, format!("--rate: {e}")))?;
     }
-    let file = crate::kind::open_text(path).map_err(|e| {
-        let at = e.line.map_or(String::new(), |l| format!("line {l}: "));
-        err(path, format!("{at}{}", e.message))
-    })?;
-    let table = CsvTable::read(file, path)?;
     let mut found: Vec<(Quantity, usize, f64, String)> = Vec::new();
     for q in Quantity::ALL {
         let pick = match given.0.iter().find(|(g, _)| *g == q) {
@@ -206,13 +212,13 @@ pub fn read_csv_ride(
                     Some((n, u)) => (n.trim(), Some(u)),
                     None => (given_name.as_str(), None),
                 };
-                let k = table.find(&[name]).ok_or_else(|| {
+                let k = find(&[name]).ok_or_else(|| {
                     err(
                         path,
                         format!(
                             "no column `{name}` for {} (the columns: {})",
                             q.key(),
-                            table.headers.join(", ")
+                            headers.join(", ")
                         ),
                     )
                 })?;
@@ -228,10 +234,10 @@ pub fn read_csv_ride(
             None => q
                 .names()
                 .iter()
-                .find_map(|(n, f)| table.find(&[n.as_str()]).map(|k| (k, *f))),
+                .find_map(|(n, f)| find(&[n.as_str()]).map(|k| (k, *f))),
         };
         if let Some((k, factor)) = pick {
-            found.push((q, k, factor, table.headers[k].clone()));
+            found.push((q, k, factor, headers[k].clone()));
         }
     }
     let time_column = found
@@ -239,99 +245,187 @@ pub fn read_csv_ride(
         .find(|f| f.0 == Quantity::Time)
         .map(|f| f.3.clone());
     match (&time_column, rate_hz) {
-        (None, None) => {
-            return Err(err(
-                path,
-                format!(
-                    "no time column (time_s, or --columns time=NAME; a table sampled at a fixed \
-                     rate without one: --rate HZ, or rate_hz in a manifest); the columns: {}",
-                    table.headers.join(", ")
-                ),
-            ))
-        }
-        (Some(name), Some(rate)) => {
-            return Err(err(
-                path,
-                format!(
-                    "it has a time column (`{name}`): a rate ({rate} Hz) is for a table without \
-                     one"
-                ),
-            ))
-        }
-        _ => {}
+        (None, None) => Err(err(
+            path,
+            format!(
+                "no time column (time_s, or --columns time=NAME; a table sampled at a fixed \
+                 rate without one: --rate HZ, or rate_hz in a manifest); the columns: {}",
+                headers.join(", ")
+            ),
+        )),
+        (Some(name), Some(rate)) => Err(err(
+            path,
+            format!(
+                "it has a time column (`{name}`): a rate ({rate} Hz) is for a table without one"
+            ),
+        )),
+        _ => Ok(Plan { found, rate_hz }),
     }
-    let which: Vec<usize> = found.iter().map(|f| f.1).collect();
-    let values = table.columns(&which)?;
-    let mut ride = CsvRide {
-        path: path.to_path_buf(),
-        time_s: Vec::new(),
-        roll_rad: None,
-        roll_rate_rad_per_s: None,
-        steer_rad: None,
-        steer_rate_rad_per_s: None,
-        wheel_speed_mps: None,
-        columns: found.iter().map(|f| (f.0, f.3.clone())).collect(),
-    };
-    let lines = table.lines();
-    for ((q, k, factor, name), v) in found.iter().zip(values) {
-        let v: Vec<f64> = v.into_iter().map(|x| x * factor).collect();
-        // Each quantity in its physical range where it is read: a wheel speed from −1 m/s (an
-        // encoder's noise at a standstill) to a riding speed's most (−5 gave "speed −5.000",
-        // 1e9 a weave of −4.9e9); an angle within ±π, a rate within ±100 rad/s.
-        let range = match q {
+}
+
+/// One row of a ride's CSV in SI units: the time (s) and each quantity the file has, in
+/// [`Quantity::ALL`]'s order (`NaN` where it has none).
+type Row = [f64; 6];
+
+/// Streams the rows of a ride's CSV through `each(row index, row)`, every value checked where
+/// it is read: a finite number in its quantity's physical range (a wheel speed from −1 m/s, an
+/// encoder's noise at a standstill, to a riding speed's most; an angle within ±π; a rate within
+/// ±100 rad/s), times that advance; a roll or roll rate that never changes is refused (no motion
+/// recorded). Reading stops where `each` returns `false` (the rest of the file unread and
+/// unchecked). Gives the columns used and the number of rows read.
+fn stream_rows(
+    path: &Path,
+    given: &Columns,
+    rate_hz: Option<f64>,
+    mut each: impl FnMut(usize, &Row) -> bool,
+) -> Result<(Vec<(Quantity, String)>, usize), RideError> {
+    let file = crate::kind::open_text(path).map_err(|e| {
+        let at = e.line.map_or(String::new(), |l| format!("line {l}: "));
+        err(path, format!("{at}{}", e.message))
+    })?;
+    let mut rows = crate::signal::CsvRows::open(file, path)?;
+    let plan = plan(path, &rows.headers, |n| rows.find(n), given, rate_hz)?;
+    let ranges: Vec<Option<(f64, f64, &str)>> = plan
+        .found
+        .iter()
+        .map(|f| match f.0 {
             Quantity::Time => None,
             Quantity::WheelSpeed => Some((-1.0, super::speed::MAX_READING_MPS, "m/s")),
             Quantity::Roll | Quantity::Steer => {
                 Some((-std::f64::consts::PI, std::f64::consts::PI, "rad"))
             }
             Quantity::RollRate | Quantity::SteerRate => Some((-100.0, 100.0, "rad/s")),
-        };
-        if let Some((lo, hi, unit)) = range {
-            if let Some(i) = v.iter().position(|x| !(lo..=hi).contains(x)) {
-                return Err(table
-                    .error(
-                        lines.get(i).copied().unwrap_or(0),
-                        k + 1,
-                        format!(
-                            "{} `{name}` = {} {unit}: expected from {lo:.4} to {hi} {unit}",
-                            q.key(),
-                            v[i]
-                        ),
-                    )
-                    .into());
+        })
+        .collect();
+    let slot = |q: Quantity| Quantity::ALL.iter().position(|&a| a == q).unwrap_or(0);
+    let mut row: Row = [f64::NAN; 6];
+    let mut n = 0usize;
+    let mut previous_t: Option<f64> = None;
+    // The first value of the roll and the roll rate, and whether either ever changed.
+    let mut still: [(Option<f64>, bool); 2] = [(None, true), (None, true)];
+    while let Some(line) = rows.next_row()? {
+        for ((q, k, factor, name), range) in plan.found.iter().zip(&ranges) {
+            let x = rows.number(line, *k)? * factor;
+            if let Some((lo, hi, unit)) = range {
+                if !(*lo..=*hi).contains(&x) {
+                    return Err(rows
+                        .error(
+                            line,
+                            k + 1,
+                            format!(
+                                "{} `{name}` = {x} {unit}: expected from {lo:.4} to {hi} {unit}",
+                                q.key()
+                            ),
+                        )
+                        .into());
+                }
+            }
+            if let Some(w) = match q {
+                Quantity::Roll => Some(0),
+                Quantity::RollRate => Some(1),
+                _ => None,
+            } {
+                match still[w].0 {
+                    None => still[w].0 = Some(x),
+                    Some(v) if v != x => still[w].1 = false,
+                    _ => {}
+                }
+            }
+            row[slot(*q)] = x;
+        }
+        if let Some(rate) = plan.rate_hz {
+            row[0] = n as f64 / rate;
+        } else if let Some(t0) = previous_t.filter(|t0| row[0] <= *t0) {
+            return Err(rows
+                .error(
+                    line,
+                    1,
+                    format!("time {} s does not advance from {t0} s", row[0]),
+                )
+                .into());
+        }
+        previous_t = Some(row[0]);
+        let more = each(n, &row);
+        n += 1;
+        if !more {
+            break;
+        }
+    }
+    for (w, q) in [(0, Quantity::Roll), (1, Quantity::RollRate)] {
+        if let (Some(v), true) = still[w] {
+            if n > 1 {
+                let name = plan
+                    .found
+                    .iter()
+                    .find(|f| f.0 == q)
+                    .map_or("", |f| f.3.as_str());
+                return Err(err(
+                    path,
+                    format!(
+                        "{} `{name}` is {v} in every row: no motion was recorded",
+                        q.key()
+                    ),
+                ));
             }
         }
-        if matches!(q, Quantity::Roll | Quantity::RollRate)
-            && v.len() > 1
-            && v.iter().all(|x| *x == v[0])
-        {
-            return Err(err(
-                path,
-                format!(
-                    "{} `{name}` is {} in every row: no motion was recorded",
-                    q.key(),
-                    v[0]
-                ),
-            ));
-        }
-        match q {
-            Quantity::Time => ride.time_s = v,
-            Quantity::Roll => ride.roll_rad = Some(v),
-            Quantity::RollRate => ride.roll_rate_rad_per_s = Some(v),
-            Quantity::Steer => ride.steer_rad = Some(v),
-            Quantity::SteerRate => ride.steer_rate_rad_per_s = Some(v),
-            Quantity::WheelSpeed => ride.wheel_speed_mps = Some(v),
-        }
     }
-    match rate_hz {
-        Some(rate) => {
-            ride.time_s = (0..table.lines().len()).map(|i| i as f64 / rate).collect();
-            ride.columns
-                .push((Quantity::Time, format!("row number at {rate} Hz")));
-        }
-        None => table.advancing(&ride.time_s)?,
+    let mut columns: Vec<(Quantity, String)> =
+        plan.found.iter().map(|f| (f.0, f.3.clone())).collect();
+    if let Some(rate) = plan.rate_hz {
+        columns.push((Quantity::Time, format!("row number at {rate} Hz")));
     }
-    Ok(ride)
+    Ok((columns, n))
+}
+
+/// Reads a ride's CSV: the columns of [`Quantity`] by their recognised names or by `given`.
+/// Time comes from a time column, which must advance, or, for a table without one (a
+/// microcontroller's line per control step), from the row's number at `rate_hz`; a rate for a
+/// table that has a time column is refused (two clocks for one table). A named column that
+/// is missing is an error, an unnamed quantity without a recognised column is simply absent.
+pub fn read_csv_ride(
+    path: &Path,
+    given: &Columns,
+    rate_hz: Option<f64>,
+) -> Result<CsvRide, RideError> {
+    read_csv_ride_within(path, given, rate_hz, None)
+}
+
+/// [`read_csv_ride`] keeping only the rows within one of `windows` (s; every row when
+/// `None`): a long recording's kicks in memory of their own size, the file read (and checked)
+/// up to the last window's end.
+pub fn read_csv_ride_within(
+    path: &Path,
+    given: &Columns,
+    rate_hz: Option<f64>,
+    windows: Option<&[(f64, f64)]>,
+) -> Result<CsvRide, RideError> {
+    let mut values: [Vec<f64>; 6] = Default::default();
+    let last_end = windows.map(|w| w.iter().fold(f64::NEG_INFINITY, |m, &(_, b)| m.max(b)));
+    let (columns, _) = stream_rows(path, given, rate_hz, |_, row| {
+        let keep = windows.is_none_or(|w| w.iter().any(|&(a, b)| row[0] >= a && row[0] <= b));
+        if keep {
+            for (v, x) in values.iter_mut().zip(row) {
+                if !x.is_nan() {
+                    v.push(*x);
+                }
+            }
+        }
+        // Times advance: past the last window's end nothing more is needed.
+        last_end.is_none_or(|end| row[0] <= end)
+    })?;
+    let [time_s, roll, roll_rate, steer, steer_rate, wheel] = values;
+    let has = |q: Quantity| columns.iter().any(|c| c.0 == q);
+    let column = |q: Quantity, v: Vec<f64>| has(q).then_some(v);
+    Ok(CsvRide {
+        path: path.to_path_buf(),
+        time_s,
+        roll_rad: column(Quantity::Roll, roll),
+        roll_rate_rad_per_s: column(Quantity::RollRate, roll_rate),
+        steer_rad: column(Quantity::Steer, steer),
+        steer_rate_rad_per_s: column(Quantity::SteerRate, steer_rate),
+        wheel_speed_mps: column(Quantity::WheelSpeed, wheel),
+        columns,
+    })
 }
 
 /// What a CSV decay was fitted from.
@@ -521,12 +615,76 @@ pub fn decay_speed(
 /// A kick found in a long recording, and the free decay after it.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
 pub struct Kick {
-    /// The roll rate's peak (s): where the kick's push has ended.
+    /// The roll rate's peak (s) of the kick's first swing: the push.
     pub at_s: f64,
     pub peak_roll_rate_rad_per_s: f64,
-    /// The free decay: from the peak until a swing grows again (a hand, the harness, the next
-    /// kick) or [`DECAY_MAX_S`] after it.
+    /// The free decay, from where the push has ended ([`DecayStart`]) to where the free motion
+    /// ends ([`DecayEnd`]).
     pub window_s: (f64, f64),
+    pub starts: DecayStart,
+    pub ends: DecayEnd,
+}
+
+/// Where a kick's free decay starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DecayStart {
+    /// At the push's own peak: the swing rose in less than [`FORCED_RISE_QUARTERS`] of a
+    /// quarter of the weave's period (an impulse, over by the peak).
+    AtPeak,
+    /// At the peak of the swing back: the push's swing rose as slowly as a free one or slower
+    /// (a hand pushing through it), so that swing is forced.
+    SwingBack,
+    /// Where the user's window (or the short record) begins.
+    Given,
+}
+
+/// Why a kick's free decay ends where it does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DecayEnd {
+    /// A half-swing larger than the one before it: a new push (a hand, the harness). Ends where
+    /// that half-swing begins.
+    Grows,
+    /// A half-swing lasting more than [`STALL_RATIO`] times the one before it: the swinging
+    /// stops (the bicycle held, leaning on the harness, drifting). Ends where that half-swing
+    /// should have turned (half the previous one's length after it began) when it follows the
+    /// decay that far ([`FOLLOWS_DECAY`]), else where it begins.
+    Stalls,
+    /// A half-swing within the bicycle's own sway (the noise floor): ends where it begins.
+    NoiseFloor,
+    /// The next kick.
+    NextKick,
+    /// The recording's end.
+    RecordEnds,
+    /// [`DECAY_MAX_S`] after the start, still swinging freely.
+    Longest,
+    /// Where the user's window (or the short record) ends.
+    Given,
+}
+
+impl DecayStart {
+    pub fn words(self) -> &'static str {
+        match self {
+            DecayStart::AtPeak => "at the push's peak (an impulse)",
+            DecayStart::SwingBack => "at the swing back (the push's own swing is forced)",
+            DecayStart::Given => "where the window given begins",
+        }
+    }
+}
+
+impl DecayEnd {
+    pub fn words(self) -> &'static str {
+        match self {
+            DecayEnd::Grows => "where a swing grows (a new push)",
+            DecayEnd::Stalls => "where a swing stalls (held or drifting)",
+            DecayEnd::NoiseFloor => "where the swings sink into the background sway",
+            DecayEnd::NextKick => "at the next kick",
+            DecayEnd::RecordEnds => "at the recording's end",
+            DecayEnd::Longest => "at the longest window taken",
+            DecayEnd::Given => "where the window given ends",
+        }
+    }
 }
 
 /// A kick's peak roll rate is at least this many times the recording's background (the
@@ -534,7 +692,7 @@ pub struct Kick {
 /// without a wheel-speed column): a riderless bicycle on a treadmill sways at the background
 /// level, a kick stands out by an order of magnitude.
 pub const KICK_OVER_BACKGROUND: f64 = 8.0;
-/// Two peaks closer than this (s) are one kick (the larger).
+/// Two peaks closer than this (s) are one kick.
 pub const KICK_SEPARATION_S: f64 = 1.5;
 /// A kick's peak is more than this many times the largest swing of the second before its push.
 pub const KICK_OVER_SWING: f64 = 2.0;
@@ -542,141 +700,375 @@ pub const KICK_OVER_SWING: f64 = 2.0;
 /// 0.1–0.5 s and may swing the bicycle one way before the largest swing back (the real
 /// recording's kicks at 141.3 and 154.0 s: a half-swing of 0.6 rad/s, then the peak 0.4 s on).
 const PUSH_S: f64 = 1.0;
-/// The longest free decay taken after a kick (s).
-pub const DECAY_MAX_S: f64 = 2.5;
+/// The longest free decay taken after a kick (s): a bound on the work, far beyond a stable
+/// weave's decay to the background.
+pub const DECAY_MAX_S: f64 = 10.0;
 /// The shortest (s): less is not a decay to fit.
 pub const DECAY_MIN_S: f64 = 0.8;
-/// A half-swing larger than this times the one before it is a new disturbance: a stable free
-/// decay's swings shrink. (An unstable weave's grow from the start: give its window with
-/// `--window`.)
-const SWING_GROWTH: f64 = 1.0;
+/// A half-swing lasting more than this times the one before it has stopped swinging: a free
+/// decay's half-swings last half its period each (a fifth longer at most where the damping is
+/// heavy and the amplitude-dependent frequency drifts).
+pub const STALL_RATIO: f64 = 1.4;
+/// A stalled half-swing still follows the free decay to its due turning point when it has
+/// reached this fraction of the size the decay predicts there.
+const FOLLOWS_DECAY: f64 = 2.0 / 3.0;
+/// A push whose swing rises over at least this fraction of its fall (peak to crossing, free:
+/// a quarter period) is still pushing at its peak: a free swing rises as long as it falls, an
+/// impulse in its own length (0.1 s against 0.15–0.3 s).
+pub const FORCED_RISE_QUARTERS: f64 = 0.75;
 /// Below this wheel speed (m/s) the bicycle is not riding.
 pub const MOVING_MPS: f64 = 0.5;
 
-/// The roll rate of a ride: its column, or the roll's central difference.
-fn roll_rate_series(ride: &CsvRide) -> Option<Vec<f64>> {
-    if let Some(r) = &ride.roll_rate_rad_per_s {
-        return Some(r.clone());
-    }
-    let roll = ride.roll_rad.as_ref()?;
-    let t = &ride.time_s;
-    let n = t.len();
-    Some(
-        (0..n)
-            .map(|i| {
-                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
-                if b > a && t[b] > t[a] {
-                    (roll[b] - roll[a]) / (t[b] - t[a])
-                } else {
-                    0.0
-                }
-            })
-            .collect(),
-    )
+/// Rows per block of [`Times`].
+const TIME_BLOCK: usize = 1024;
+
+/// A recording's times (s) in 4 bytes a row: each block of [`TIME_BLOCK`] rows as its first
+/// time and every row's offset from it (an f32 offset of at most a block's span: microseconds
+/// at 100 Hz).
+#[derive(Debug, Default)]
+struct Times {
+    base: Vec<f64>,
+    offset: Vec<f32>,
 }
 
-/// Every kick of a long recording: peaks of |roll rate| over [`KICK_OVER_BACKGROUND`] times
-/// the background, at least [`KICK_SEPARATION_S`] apart, each with its free decay (see
-/// [`Kick::window_s`]). Errors when the file has neither roll rate nor roll.
+impl Times {
+    fn push(&mut self, t: f64) {
+        if self.offset.len() % TIME_BLOCK == 0 {
+            self.base.push(t);
+        }
+        let base = self.base[self.base.len() - 1];
+        self.offset.push((t - base) as f32);
+    }
+
+    fn at(&self, i: usize) -> f64 {
+        self.base[i / TIME_BLOCK] + f64::from(self.offset[i])
+    }
+
+    fn len(&self) -> usize {
+        self.offset.len()
+    }
+}
+
+/// What kicks are found in, 9 bytes a row: the times, the roll rate (its column, or the roll's
+/// central difference) and whether the wheel turns at over [`MOVING_MPS`] (every row when the
+/// file has no wheel speed). A day at 100 Hz in under 80 MB.
+#[derive(Debug, Default)]
+pub struct KickSeries {
+    times: Times,
+    rate: Vec<f32>,
+    moving: Vec<bool>,
+}
+
+impl KickSeries {
+    /// From a ride in memory; `None` when it has neither roll rate nor roll.
+    fn of_ride(ride: &CsvRide) -> Option<KickSeries> {
+        let mut series = KickSeries::default();
+        let (values, from_roll) = match (&ride.roll_rate_rad_per_s, &ride.roll_rad) {
+            (Some(r), _) => (r, false),
+            (None, Some(r)) => (r, true),
+            (None, None) => return None,
+        };
+        for (i, &t) in ride.time_s.iter().enumerate() {
+            let moving = ride
+                .wheel_speed_mps
+                .as_ref()
+                .is_none_or(|w| w[i] > MOVING_MPS);
+            series.push(t, values[i], moving);
+        }
+        if from_roll {
+            series.differentiate();
+        }
+        Some(series)
+    }
+
+    /// Streams a ride's CSV into its kick series (every row checked as [`read_csv_ride`]
+    /// checks it), with the columns found.
+    fn read(
+        path: &Path,
+        given: &Columns,
+        rate_hz: Option<f64>,
+    ) -> Result<(KickSeries, Vec<(Quantity, String)>), RideError> {
+        let mut series = KickSeries::default();
+        let (columns, _) = stream_rows(path, given, rate_hz, |_, row| {
+            // Row: time, roll, roll rate, steer, steer rate, wheel speed.
+            let value = if row[2].is_nan() { row[1] } else { row[2] };
+            series.push(row[0], value, row[5].is_nan() || row[5] > MOVING_MPS);
+            true
+        })?;
+        let has = |q: Quantity| columns.iter().any(|c| c.0 == q);
+        if !has(Quantity::RollRate) {
+            if !has(Quantity::Roll) {
+                return Err(err(
+                    path,
+                    "kicks are found in the roll rate or the roll angle: the file has neither",
+                ));
+            }
+            series.differentiate();
+        }
+        Ok((series, columns))
+    }
+
+    fn push(&mut self, t: f64, value: f64, moving: bool) {
+        self.times.push(t);
+        self.rate.push(value as f32);
+        self.moving.push(moving);
+    }
+
+    /// The roll (held in `rate`) replaced by its central difference, in place.
+    fn differentiate(&mut self) {
+        let n = self.rate.len();
+        let mut before = self.rate.first().copied().unwrap_or(0.0);
+        for i in 0..n {
+            let here = self.rate[i];
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            let next = self.rate[b];
+            let dt = self.times.at(b) - self.times.at(a);
+            let previous = if a == i { here } else { before };
+            self.rate[i] = if b > a && dt > 0.0 {
+                ((f64::from(next) - f64::from(previous)) / dt) as f32
+            } else {
+                0.0
+            };
+            before = here;
+        }
+    }
+
+    fn t(&self, i: usize) -> f64 {
+        self.times.at(i)
+    }
+
+    fn rate(&self, i: usize) -> f64 {
+        f64::from(self.rate[i])
+    }
+
+    fn len(&self) -> usize {
+        self.times.len()
+    }
+}
+
+/// One half-swing of the smoothed roll rate: from the zero crossing that begins it to the one
+/// that ends it (sample indices), its peak and |peak|.
+#[derive(Debug, Clone, Copy)]
+struct HalfSwing {
+    begin: usize,
+    peak: usize,
+    end: usize,
+    amplitude: f64,
+}
+
+/// The half-swings of `s` from sample `from` (inside the first) to `until`: a swing changes
+/// sides where `s` passes `level` beyond zero on the other side (noise about a crossing is no
+/// swing), the crossing taken at the last sign change before. The last one ends at `until`
+/// when it does not change sides.
+fn half_swings(s: impl Fn(usize) -> f64, from: usize, until: usize, level: f64) -> Vec<HalfSwing> {
+    let mut swings = Vec::new();
+    let mut side = s(from).signum();
+    let mut begin = (0..=from).rev().find(|&i| s(i) * side <= 0.0).unwrap_or(0);
+    let mut crossing = None;
+    let mut peak = from;
+    for i in from..until {
+        if s(i) * side <= 0.0 && crossing.is_none() {
+            crossing = Some(i);
+        } else if s(i) * side > 0.0 {
+            crossing = None;
+        }
+        if s(i) * side < -level {
+            let end = crossing.unwrap_or(i);
+            swings.push(HalfSwing {
+                begin,
+                peak,
+                end,
+                amplitude: s(peak).abs(),
+            });
+            side = -side;
+            begin = end;
+            peak = i;
+            crossing = None;
+        }
+        if s(i) * side > s(peak) * side {
+            peak = i;
+        }
+    }
+    swings.push(HalfSwing {
+        begin,
+        peak,
+        end: until,
+        amplitude: s(peak).abs(),
+    });
+    swings
+}
+
+/// Every kick of a long recording: the first peak of |roll rate| over [`KICK_OVER_BACKGROUND`]
+/// times the background where none was in the [`KICK_SEPARATION_S`] before it, on a bicycle
+/// not already swinging at its size, and its free decay: from the push's peak, or the swing
+/// back where the push lasted through its swing ([`DecayStart`]), to where the free motion ends
+/// ([`DecayEnd`]). Errors when the file has neither roll rate nor roll.
 pub fn find_kicks(ride: &CsvRide) -> Result<Vec<Kick>, RideError> {
-    let rate = roll_rate_series(ride).ok_or_else(|| {
+    let series = KickSeries::of_ride(ride).ok_or_else(|| {
         err(
             &ride.path,
             "kicks are found in the roll rate or the roll angle: the file has neither",
         )
     })?;
-    let t = &ride.time_s;
-    let n = t.len();
-    let moving: Vec<f64> = match &ride.wheel_speed_mps {
-        Some(v) => (0..n)
-            .filter(|&i| v[i] > MOVING_MPS)
-            .map(|i| rate[i].abs())
-            .collect(),
-        None => rate.iter().map(|r| r.abs()).collect(),
-    };
-    if moving.len() < MIN_WINDOW_SAMPLES {
-        return Ok(Vec::new());
+    Ok(find_kicks_in(&series))
+}
+
+/// The median of `x` (reordered), as [`crate::signal::median`] takes it: the mean of the two
+/// middle values of an even count.
+fn median_f32(x: &mut [f32]) -> f64 {
+    let n = x.len();
+    let (lower, &mut upper, _) = x.select_nth_unstable_by(n / 2, f32::total_cmp);
+    if n % 2 == 1 {
+        return f64::from(upper);
     }
-    let background = crate::signal::median(&moving);
+    let below = lower.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    0.5 * (f64::from(below) + f64::from(upper))
+}
+
+/// [`find_kicks`] on a recording's [`KickSeries`].
+fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
+    let n = series.len();
+    let t = |i: usize| series.t(i);
+    let rate = |i: usize| series.rate(i);
+    let mut moving: Vec<f32> = (0..n)
+        .filter(|&i| series.moving[i])
+        .map(|i| series.rate[i].abs())
+        .collect();
+    if moving.len() < MIN_WINDOW_SAMPLES {
+        return Vec::new();
+    }
+    let background = median_f32(&mut moving);
+    drop(moving);
     let threshold = KICK_OVER_BACKGROUND * background.max(f64::MIN_POSITIVE);
-    // Peaks over the threshold, the larger of two close ones kept.
-    let mut peaks: Vec<usize> = Vec::new();
+    // The swings from the rate's moving mean over about 0.1 s (a sensor's spikes are no swing).
+    let dt = (t(n - 1) - t(0)) / (n - 1) as f64;
+    let half = ((0.05 / dt).round() as usize).max(1);
+    let s = |i: usize| -> f64 {
+        let (a, b) = (i.saturating_sub(half), (i + half + 1).min(n));
+        series.rate[a..b].iter().map(|&x| f64::from(x)).sum::<f64>() / (b - a) as f64
+    };
+    // Each kick's first and largest peaks over the threshold: a peak within KICK_SEPARATION_S
+    // of the last one over it belongs to the same kick.
+    let mut groups: Vec<(usize, usize)> = Vec::new();
+    let mut last_over: Option<usize> = None;
     for i in 1..n.saturating_sub(1) {
-        let a = rate[i].abs();
-        if a <= threshold || a < rate[i - 1].abs() || a < rate[i + 1].abs() {
+        let a = rate(i).abs();
+        if a <= threshold || a < rate(i - 1).abs() || a < rate(i + 1).abs() {
             continue;
         }
-        match peaks.last_mut() {
-            Some(p) if t[i] - t[*p] < KICK_SEPARATION_S => {
-                if a > rate[*p].abs() {
-                    *p = i;
+        match groups.last_mut() {
+            Some((_, largest)) if last_over.is_some_and(|p| t(i) - t(p) < KICK_SEPARATION_S) => {
+                if a > rate(*largest).abs() {
+                    *largest = i;
                 }
             }
-            _ => peaks.push(i),
+            _ => groups.push((i, i)),
         }
+        last_over = Some(i);
     }
-    // The swings' amplitudes from the rate's moving mean over about 0.1 s (a sensor's spikes
-    // are no swing).
-    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
-    let half = ((0.05 / dt).round() as usize).max(1);
-    let smooth = |i: usize| -> f64 {
-        let (a, b) = (i.saturating_sub(half), (i + half + 1).min(n));
-        rate[a..b].iter().sum::<f64>() / (b - a) as f64
-    };
-    // A kick arrives on a bicycle that is not already swinging at its size: a peak no more
-    // than KICK_OVER_SWING times the largest swing of the second before the kick's motion
-    // began is part of a motion under way (a decay's late swings, the capsize's drift).
-    peaks.retain(|&p| {
-        let before = (0..p)
+    // A kick arrives on a bicycle that is not already swinging at its size: a kick whose
+    // largest peak is no more than KICK_OVER_SWING times the largest swing of the second
+    // before its motion began is part of a motion under way (a decay's late swings, the
+    // capsize's drift).
+    groups.retain(|&(_, largest)| {
+        let before = (0..largest)
             .rev()
-            .take_while(|&i| t[p] - t[i] <= 1.0 + PUSH_S)
-            .filter(|&i| t[p] - t[i] >= PUSH_S)
-            .map(|i| smooth(i).abs())
+            .take_while(|&i| t(largest) - t(i) <= 1.0 + PUSH_S)
+            .filter(|&i| t(largest) - t(i) >= PUSH_S)
+            .map(|i| s(i).abs())
             .fold(0.0f64, f64::max);
-        rate[p].abs() > KICK_OVER_SWING * before
+        rate(largest).abs() > KICK_OVER_SWING * before
     });
+    let firsts: Vec<usize> = groups.iter().map(|g| g.0).collect();
     let mut kicks = Vec::new();
-    for (k, &p) in peaks.iter().enumerate() {
-        let limit = peaks
-            .get(k + 1)
-            .map_or(t[n - 1], |&q| t[q])
-            .min(t[p] + DECAY_MAX_S);
-        // Half-swings after the peak: the decay ends where one grows. A swing changes sides
-        // when the rate passes a level beyond zero on the other side (the larger of twice the
-        // background and a tenth of the peak), so that noise about a crossing is no swing.
-        let level = (2.0 * background).max(0.1 * rate[p].abs());
-        let mut end = limit;
-        let mut side = rate[p].signum();
-        let (mut start, mut amplitude, mut previous) = (t[p], 0.0f64, f64::INFINITY);
-        for (i, &ti) in t.iter().enumerate().skip(p) {
-            if ti > limit {
-                break;
+    for (k, &p) in firsts.iter().enumerate() {
+        // The next kick's motion begins where its first swing crossed zero.
+        let (limit_t, limit_end) = match firsts.get(k + 1) {
+            Some(&q) => {
+                let begins = (p..q).rev().find(|&i| s(i) * s(q) <= 0.0).unwrap_or(q);
+                (t(begins), DecayEnd::NextKick)
             }
-            let r = smooth(i);
-            if r * side < -level {
-                if amplitude > SWING_GROWTH * previous {
-                    end = start;
-                    break;
-                }
-                previous = amplitude;
-                side = -side;
-                start = ti;
-                amplitude = 0.0;
+            None => (t(n - 1), DecayEnd::RecordEnds),
+        };
+        let until = (p..n).find(|&i| t(i) >= limit_t).unwrap_or(n - 1);
+        let level = (2.0 * background).max(0.1 * rate(p).abs());
+        let swings = half_swings(s, p, until, level);
+        if swings.len() < 2 {
+            continue;
+        }
+        // The push's swing: its rise from where it left the background (`level`) to its peak,
+        // less the moving mean's half-width (which starts a sharp rise that much early),
+        // against its fall from the peak to the crossing, free: a quarter period.
+        let push = swings[0];
+        let sign = s(push.peak).signum();
+        let rise_from = (0..push.peak)
+            .rev()
+            .find(|&i| s(i) * sign < level)
+            .unwrap_or(0);
+        let rise_s = t(push.peak) - t(rise_from) - half as f64 * dt;
+        let quarter_s = t(push.end) - t(push.peak);
+        let (first, starts) = if rise_s < FORCED_RISE_QUARTERS * quarter_s {
+            (0, DecayStart::AtPeak)
+        } else {
+            (1, DecayStart::SwingBack)
+        };
+        let start = swings[first].peak;
+        let mut end = (t(until), limit_end);
+        for w in first + 1..swings.len() {
+            let (prev, this) = (swings[w - 1], swings[w]);
+            // A push's own swing (an impulse's) is no free half-swing: its fall, doubled, is.
+            let prev_s = if w == 1 && starts == DecayStart::AtPeak {
+                2.0 * (t(prev.end) - t(prev.peak))
+            } else {
+                t(prev.end) - t(prev.begin)
+            };
+            let this_s = t(this.end) - t(this.begin);
+            let complete = w + 1 < swings.len();
+            if this.amplitude > prev.amplitude && complete {
+                end = (t(this.begin), DecayEnd::Grows);
+            } else if this_s > STALL_RATIO * prev_s && prev_s > 0.0 {
+                // The free motion runs into the stalled swing as far as it follows the decay:
+                // to the swing's due turning point where it has reached FOLLOWS_DECAY of the
+                // size the decay predicts by then (the last two swings' ratio; the last's
+                // size where there is one only), else not past its beginning.
+                let ratio = if w >= first + 2 {
+                    prev.amplitude / swings[w - 2].amplitude
+                } else {
+                    1.0
+                };
+                let due_t = t(this.begin) + 0.5 * prev_s;
+                let due = (this.begin..=this.end)
+                    .find(|&i| t(i) >= due_t)
+                    .unwrap_or(this.end);
+                let reached = s(due) * s(this.peak).signum();
+                let at = if reached >= FOLLOWS_DECAY * ratio * prev.amplitude {
+                    due_t
+                } else {
+                    t(this.begin)
+                };
+                end = (at, DecayEnd::Stalls);
+            } else if this.amplitude < level {
+                end = (t(this.begin), DecayEnd::NoiseFloor);
+            } else {
+                continue;
             }
-            amplitude = amplitude.max(r.abs());
+            break;
         }
-        if end == limit && amplitude > SWING_GROWTH * previous {
-            end = start;
+        if end.0 - t(start) > DECAY_MAX_S {
+            end = (t(start) + DECAY_MAX_S, DecayEnd::Longest);
         }
-        if end - t[p] >= DECAY_MIN_S {
+        let end_t = end.0.min(t(until));
+        if end_t - t(start) >= DECAY_MIN_S {
             kicks.push(Kick {
-                at_s: t[p],
-                peak_roll_rate_rad_per_s: rate[p],
-                window_s: (t[p], end),
+                at_s: t(p),
+                peak_roll_rate_rad_per_s: rate(p),
+                window_s: (t(start), end_t),
+                starts,
+                ends: end.1,
             });
         }
     }
-    Ok(kicks)
+    kicks
 }
 
 /// One kick of a long recording and its decay, or why it was not fitted.
@@ -703,12 +1095,14 @@ impl KickReport {
         let mut text = format!("{}: {} kicks found\n", self.file, self.kicks.len());
         for (k, d) in self.kicks.iter().enumerate() {
             text += &format!(
-                "\nkick {} at {:.2} s (roll rate {:+.3} rad/s), free decay {:.2} – {:.2} s\n",
+                "\nkick {} at {:.2} s (roll rate {:+.3} rad/s), free decay {:.2} – {:.2} s: from {}, to {}\n",
                 k + 1,
                 d.kick.at_s,
                 d.kick.peak_roll_rate_rad_per_s,
                 d.kick.window_s.0,
-                d.kick.window_s.1
+                d.kick.window_s.1,
+                d.kick.starts.words(),
+                d.kick.ends.words()
             );
             match (&d.decay, &d.not_fitted) {
                 (Some(s), _) => text += &s.to_text(),
@@ -744,6 +1138,8 @@ pub fn ride_decays(
                 at_s: window.0,
                 peak_roll_rate_rad_per_s: f64::NAN,
                 window_s: window,
+                starts: DecayStart::Given,
+                ends: DecayEnd::Given,
             },
             decay: Some(DecaySummary::new(ride, decay, given, model)?),
             not_fitted: None,
@@ -751,15 +1147,78 @@ pub fn ride_decays(
     }
     let kicks = find_kicks(ride)?;
     if kicks.is_empty() {
-        return Err(err(
-            &ride.path,
-            format!(
-                "no kick found in {:.1} s: no roll-rate peak over {KICK_OVER_BACKGROUND} times the                  background with {DECAY_MIN_S} s of free decay after it (give one with --window START:END)",
-                last - first
-            ),
-        ));
+        return Err(no_kick(&ride.path, last - first));
     }
-    Ok(kicks
+    Ok(decays_of(ride, kicks, given, model, options))
+}
+
+/// The error of a long recording without a kick.
+fn no_kick(path: &Path, span_s: f64) -> RideError {
+    err(
+        path,
+        format!(
+            "no kick found in {span_s:.1} s: no roll-rate peak over {KICK_OVER_BACKGROUND} times \
+             the background with {DECAY_MIN_S} s of free decay after it (give one with --window \
+             START:END)"
+        ),
+    )
+}
+
+/// [`ride_decays`] of a ride's CSV file, read in bounded memory: with a window, only its rows are
+/// kept; without, a first pass finds the kicks in the compact [`KickSeries`] (9 bytes a row) and a
+/// second keeps only the rows of their windows. Every row is checked in each pass.
+pub fn ride_decays_file(
+    path: &Path,
+    columns: &Columns,
+    rate_hz: Option<f64>,
+    window_s: Option<(f64, f64)>,
+    given: Option<NotedReading>,
+    model: Option<&Parametrized>,
+    options: &ModalOptions,
+) -> Result<Vec<KickDecay>, RideError> {
+    if let Some(w) = window_s {
+        let ride = read_csv_ride_within(path, columns, rate_hz, Some(&[w]))?;
+        return ride_decays(&ride, window_s, given, model, options);
+    }
+    let (kicks, span_s) = find_kicks_file(path, columns, rate_hz)?;
+    if span_s <= WHOLE_RECORD_MAX_S {
+        let ride = read_csv_ride(path, columns, rate_hz)?;
+        return ride_decays(&ride, None, given, model, options);
+    }
+    if kicks.is_empty() {
+        return Err(no_kick(path, span_s));
+    }
+    let windows: Vec<(f64, f64)> = kicks.iter().map(|k| k.window_s).collect();
+    let ride = read_csv_ride_within(path, columns, rate_hz, Some(&windows))?;
+    Ok(decays_of(&ride, kicks, given, model, options))
+}
+
+/// The kicks of a ride's CSV file ([`find_kicks`]) found in one pass over it in 9 bytes a row
+/// ([`KickSeries`]), and the span of its times (s).
+pub fn find_kicks_file(
+    path: &Path,
+    columns: &Columns,
+    rate_hz: Option<f64>,
+) -> Result<(Vec<Kick>, f64), RideError> {
+    let (series, _) = KickSeries::read(path, columns, rate_hz)?;
+    let n = series.len();
+    let span_s = if n > 0 {
+        series.t(n - 1) - series.t(0)
+    } else {
+        0.0
+    };
+    Ok((find_kicks_in(&series), span_s))
+}
+
+/// Each of `kicks` fitted on `ride` (which holds at least their windows' rows).
+fn decays_of(
+    ride: &CsvRide,
+    kicks: Vec<Kick>,
+    given: Option<NotedReading>,
+    model: Option<&Parametrized>,
+    options: &ModalOptions,
+) -> Vec<KickDecay> {
+    kicks
         .into_iter()
         .map(|kick| {
             let fitted = fit_decay(ride, Some(kick.window_s), options).and_then(|d| {
@@ -803,7 +1262,7 @@ pub fn ride_decays(
                 },
             }
         })
-        .collect())
+        .collect()
 }
 
 /// √((1 + ρ)/(1 − ρ)) for the residuals' lag-one autocorrelation ρ (1 when ρ ≤ 0; ρ capped at

@@ -1209,17 +1209,17 @@ fn csv_campaign_ride(
         .as_deref()
         .map_or(Ok(Default::default()), str::parse::<super::csv::Columns>)
         .map_err(|e| ride_err(path, format!("columns: {e}")));
-    let decays = columns
-        .and_then(|c| super::csv::read_csv_ride(path, &c, ride.rate_hz))
-        .and_then(|csv| {
-            super::csv::ride_decays(
-                &csv,
-                ride.window_s.map(|[a, b]| (a, b)),
-                Some(noted),
-                Some(model),
-                modal,
-            )
-        });
+    let decays = columns.and_then(|c| {
+        super::csv::ride_decays_file(
+            path,
+            &c,
+            ride.rate_hz,
+            ride.window_s.map(|[a, b]| (a, b)),
+            Some(noted),
+            Some(model),
+            modal,
+        )
+    });
     match decays {
         Err(e) => vec![CampaignRide {
             name: name.to_string(),
