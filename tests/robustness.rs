@@ -39,6 +39,24 @@ fn unbounded_work_is_refused_before_it_starts() {
     );
 }
 
+/// Issue 33's weak messages: a speed grid with an infinite step (was "the mass matrix M is
+/// singular") and a ride that does not exist (was "no bicycle to compare with") name their cause.
+#[test]
+fn weak_messages_name_the_real_cause() {
+    for grid in ["0:10:inf", "0:inf:1", "nan:10:1"] {
+        refused(
+            &bikeproc(&["stability", "--bike", BENCHMARK, "--speeds", grid]),
+            2,
+            "finite",
+        );
+    }
+    refused(
+        &bikeproc(&["dynamic", "/nonexistent/x.log"]),
+        2,
+        "/nonexistent/x.log: cannot read",
+    );
+}
+
 #[test]
 fn speeds_and_resamples_are_checked_before_any_work() {
     for (speed, says) in [

@@ -59,12 +59,16 @@ pub struct StabilityReport {
 
 /// What a speed grid START:END:STEP must be for [`StabilityReport::over`].
 pub const SPEED_GRID_RULE: &str =
-    "expected START:END:STEP with 0 ≤ START < END and 0 < STEP (at most a million speeds)";
+    "expected START:END:STEP, finite, with 0 ≤ START < END and 0 < STEP (at most a million speeds)";
 
 /// Whether `(start, end, step)` is a speed grid [`StabilityReport::over`] takes
 /// ([`SPEED_GRID_RULE`]).
 pub fn valid_speed_grid((start, end, step): (f64, f64, f64)) -> bool {
-    start >= 0.0 && end > start && step > 0.0 && (end - start) / step <= 1e6
+    [start, end, step].iter().all(|x| x.is_finite())
+        && start >= 0.0
+        && end > start
+        && step > 0.0
+        && (end - start) / step <= 1e6
 }
 
 /// The speeds of a grid START:END:STEP: START, START + STEP, … up to END, never beyond it (a

@@ -1095,6 +1095,14 @@ impl CampaignSummary {
 /// The bicycle of a ride given without one: the `lab_bike.toml` beside its log, or the bicycle
 /// of the campaign manifest (`rides.toml`) beside it.
 pub fn bike_beside(ride: &Path) -> Result<PathBuf, ManifestError> {
+    // A ride that cannot be read is that, not a missing bicycle.
+    if let Err(e) = std::fs::metadata(ride) {
+        return Err(ManifestError {
+            path: ride.to_path_buf(),
+            line: None,
+            message: format!("cannot read: {e}"),
+        });
+    }
     let dir = ride.parent().unwrap_or(Path::new(""));
     let dir = if dir.as_os_str().is_empty() {
         Path::new(".")
