@@ -295,6 +295,11 @@ impl Bicycle {
         speeds: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray2<Complex64>>> {
         let speeds = speeds.as_array().to_vec();
+        if let Some((i, v)) = speeds.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(BikeprocError::new_err(format!(
+                "speeds[{i}] = {v}: expected finite speeds (m/s)"
+            )));
+        }
         let canonical = self.model.nominal_canonical();
         let sweep = py.detach(|| canonical.sweep(&speeds)).map_err(err)?;
         let flat: Vec<Complex64> = sweep
@@ -348,8 +353,13 @@ impl Bicycle {
             .map_err(err)?;
         let n = speeds.len();
         let table = |f: &dyn Fn(usize, usize) -> f64| -> PyResult<Bound<'py, PyArray2<f64>>> {
-            let flat: Vec<f64> = (0..n).flat_map(|i| (0..4).map(move |k| (i, k))).map(|(i, k)| f(i, k)).collect();
-            Ok(Array2::from_shape_vec((n, 4), flat).map_err(err)?.into_pyarray(py))
+            let flat: Vec<f64> = (0..n)
+                .flat_map(|i| (0..4).map(move |k| (i, k)))
+                .map(|(i, k)| f(i, k))
+                .collect();
+            Ok(Array2::from_shape_vec((n, 4), flat)
+                .map_err(err)?
+                .into_pyarray(py))
         };
         let eigen: Vec<Complex64> = bands
             .sweep
@@ -361,7 +371,9 @@ impl Bicycle {
         d.set_item("speeds_mps", numpy::PyArray1::from_vec(py, speeds.clone()))?;
         d.set_item(
             "eigenvalues",
-            Array2::from_shape_vec((n, 4), eigen).map_err(err)?.into_pyarray(py),
+            Array2::from_shape_vec((n, 4), eigen)
+                .map_err(err)?
+                .into_pyarray(py),
         )?;
         d.set_item("re_se", table(&|i, k| bands.se[i][k].0)?)?;
         d.set_item("im_se", table(&|i, k| bands.se[i][k].1)?)?;

@@ -175,3 +175,9 @@ def test_dynamic_refuses_a_speed_that_is_no_riding_speed(speed):
     # Issue 33: speed=-1.0 returned speed_mps -1.20.
     with pytest.raises(bikeproc.BikeprocError, match="speed: .* is not a riding speed"):
         bikeproc.dynamic(DATA / "ride_03.log", speed=speed)
+
+
+def test_eigenvalues_refuse_a_speed_that_is_not_finite():
+    bike = bikeproc.Bicycle.from_file(DATA / "lab_bike.toml")
+    with pytest.raises(bikeproc.BikeprocError, match=r"speeds\[1\] = NaN: expected finite speeds"):
+        bike.eigenvalues(np.array([1.0, float("nan")]))
