@@ -57,6 +57,40 @@ fn weak_messages_name_the_real_cause() {
     );
 }
 
+/// A unit hint only where the key it suggests exists: `mass_g` for the rod's `mass_kg` is a
+/// unit to change, `rol_nm_per_rad` in a controller is a typo of `roll_nm_per_rad` (it was told
+/// to write `rol_nm_per_deg`).
+#[test]
+fn a_unit_hint_names_a_key_that_exists() {
+    let dir = scratch("unit_hint");
+    let controller = dir.join("controller.toml");
+    std::fs::write(
+        &controller,
+        "[controller]\nspeeds_mps = [0.0, 20.0]\nrol_nm_per_rad = [1.0, 1.0]\n",
+    )
+    .unwrap();
+    let out = bikeproc(&[
+        "stability",
+        "--bike",
+        "data/lab_bike.toml",
+        "--controller",
+        controller.to_str().unwrap(),
+    ]);
+    refused(&out, 2, "controller.toml:3: unknown key `rol_nm_per_rad`");
+    refused(&out, 2, "`roll_nm_per_rad`");
+    let bar = dir.join("bar");
+    std::fs::create_dir_all(&bar).unwrap();
+    let manifest = std::fs::read_to_string(root().join("data/bar_calibration/manifest.toml"))
+        .unwrap()
+        .replace("mass_kg = 22.31", "mass_g = 22310");
+    std::fs::write(bar.join("manifest.toml"), manifest).unwrap();
+    refused(
+        &bikeproc(&["calibrate-bar", bar.to_str().unwrap()]),
+        2,
+        "`mass_g`: wrong unit; bikeproc takes SI units, write `mass_kg`",
+    );
+}
+
 #[test]
 fn speeds_and_resamples_are_checked_before_any_work() {
     for (speed, says) in [

@@ -193,8 +193,14 @@ pub fn from_toml<T: serde::de::DeserializeOwned>(
             .strip_prefix("unknown field `")
             .and_then(|r| r.split('`').next())
         {
-            if let Some((bad, good)) = UNIT_HINTS.iter().find(|(bad, _)| key.ends_with(bad)) {
-                let want = format!("{}{good}", &key[..key.len() - bad.len()]);
+            // The hint only where the key it suggests is one this table takes (serde lists
+            // them): `rol_nm_per_rad` is a typo of `roll_nm_per_rad`, not a unit to change.
+            let want = UNIT_HINTS
+                .iter()
+                .find(|(bad, _)| key.ends_with(bad))
+                .map(|(bad, good)| format!("{}{good}", &key[..key.len() - bad.len()]))
+                .filter(|want| message.contains(&format!("`{want}`")));
+            if let Some(want) = want {
                 message = format!("`{key}`: wrong unit; bikeproc takes SI units, write `{want}`");
             } else {
                 message = format!(
