@@ -222,7 +222,9 @@ pub fn recognise(path: &Path) -> Kind {
         return Kind::Unknown;
     }
     let text = String::from_utf8_lossy(&head);
-    let lines: Vec<&str> = text.lines().map(str::trim).collect();
+    // Lines end in LF or CRLF, or in CR alone in a file without LF (classic Mac OS text).
+    let end = if text.contains('\n') { '\n' } else { '\r' };
+    let lines: Vec<&str> = text.split(end).map(str::trim).collect();
     if lines.iter().any(|l| l.starts_with("// Sample rate")) {
         let sensors = lines.iter().filter(|l| l.starts_with("// Sensor ")).count();
         let calibrated = lines

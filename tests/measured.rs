@@ -172,6 +172,36 @@ fn bicycles_without_a_published_set_convert_whole() {
     assert!(b.parameters["IDxx"].value > 0.0 && b.parameters["IDyy"].value > 0.0);
 }
 
+/// Issue 33: a file whose lines end in a carriage return alone (classic Mac OS text) is read
+/// line by line as the same file with LF ends: every parameter equal, and recognised as raw
+/// measurements (it was read as one line, "standard error `0.001lP = …`", then as a CSV).
+#[test]
+fn cr_line_ends_read_as_the_same_file() {
+    let path = reference().join("RigidMeasured.txt");
+    let bytes = std::fs::read(&path).unwrap();
+    let cr: Vec<u8> = bytes
+        .iter()
+        .filter(|&&b| b != b'\r')
+        .map(|&b| if b == b'\n' { b'\r' } else { b })
+        .collect();
+    let a = MeasuredBicycle::from_file(&MeasuredFile::parse(&bytes, &path).unwrap()).unwrap();
+    let b = MeasuredBicycle::from_file(&MeasuredFile::parse(&cr, &path).unwrap()).unwrap();
+    assert_eq!(a.parameters.len(), b.parameters.len());
+    for (k, m) in &a.parameters {
+        assert_eq!(m.value, b.parameters[k].value, "{k}");
+        assert_eq!(m.se, b.parameters[k].se, "{k}");
+    }
+    let dir = std::env::temp_dir().join(format!("bikeproc_cr_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("CrMeasured.txt");
+    std::fs::write(&file, &cr).unwrap();
+    assert_eq!(
+        bikeproc::kind::recognise(&file),
+        bikeproc::kind::Kind::MeasuredBicycle
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `--out` read back by `stability --bike` gives the same stable range (1e-9), and `--json`
 /// has every parameter with its value and standard error.
 #[test]

@@ -190,7 +190,10 @@ impl MeasuredFile {
     pub fn parse(bytes: &[u8], path: &Path) -> Result<MeasuredFile, MeasuredError> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
         let mut entries: BTreeMap<String, Entry> = BTreeMap::new();
-        for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+        // Lines end in LF or CRLF, or in CR alone where a file has no LF (classic Mac OS text:
+        // read as one line, its values ran into the next keys).
+        let end = if bytes.contains(&b'\n') { b'\n' } else { b'\r' };
+        for (i, raw) in bytes.split(|&b| b == end).enumerate() {
             let line_no = i + 1;
             let err = |column: usize, message: String| MeasuredError::Parse {
                 path: path.to_path_buf(),
