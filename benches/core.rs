@@ -358,8 +358,11 @@ fn treadmill_csv(rows: usize) -> PathBuf {
         use std::io::Write;
         let mut rng = seeded(5);
         let mut out = std::io::BufWriter::new(std::fs::File::create(&path).expect("create"));
-        writeln!(out, "time_s,roll_rate_rad_per_s,steer_rate_deg_per_s,rear_wheel_speed_m_per_s")
-            .expect("write");
+        writeln!(
+            out,
+            "time_s,roll_rate_rad_per_s,steer_rate_deg_per_s,rear_wheel_speed_m_per_s"
+        )
+        .expect("write");
         for i in 0..rows {
             let t = i as f64 / 100.0;
             let tau = t % 20.0 - 5.0;
@@ -369,8 +372,13 @@ fn treadmill_csv(rows: usize) -> PathBuf {
                 0.0
             };
             let r = kick + 0.02 * rng.normal();
-            writeln!(out, "{t:.2},{r:.4},{:.2},{:.3}", 10.0 * r, 5.0 + 0.02 * rng.normal())
-                .expect("write");
+            writeln!(
+                out,
+                "{t:.2},{r:.4},{:.2},{:.3}",
+                10.0 * r,
+                5.0 + 0.02 * rng.normal()
+            )
+            .expect("write");
         }
     }
     path

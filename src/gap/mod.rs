@@ -10,8 +10,8 @@
 //!   and the model's from the measured parameters, correlated across rides), the residuals by
 //!   speed band, and whether the parameters' own uncertainty could explain the gap;
 //! - **whether**: the campaign's test, either the χ² of every ride with that covariance or the
-//!   likelihood ratio of the single effect that lowers it most (Bonferroni over the library),
-//!   p doubled;
+//!   likelihood ratio of the single effect that lowers it most, the smallest p calibrated on
+//!   draws of the residuals with no effect present (the effects' correlations counted);
 //! - **which**: every effect of [`effects`] fitted to the campaign by generalized least squares
 //!   on the eigenvalues and mode shapes, ranked by leave-one-ride-out prediction (each ride
 //!   predicted by the effect fitted to the others), pairs of the best effects when no single
@@ -102,8 +102,9 @@ pub struct Diagnosis {
     /// The targeted test: the single effect of the library that lowers the campaign's χ² the
     /// most, its likelihood ratio and p-value over all the single effects tried.
     pub targeted: Option<TargetedTest>,
-    /// The campaign's test: the smaller of the χ² test's p and the targeted test's, doubled
-    /// (either may find the gap); significant below [`SIGNIFICANCE`].
+    /// The campaign's test: the smallest of the χ² test's p and the single effects' (either
+    /// may find the gap), calibrated on draws of the residuals with no effect present
+    /// ([`significance::NullTest`]); significant below [`SIGNIFICANCE`].
     pub campaign_p_value: f64,
     /// The variance of θ and γ over the rides' windows that the eigenvalues account for (mean
     /// over rides and the two signals; modes' amplitudes, offsets and trends fitted, eigenvalues
@@ -131,8 +132,8 @@ pub struct Diagnosis {
     /// known mass added) that would split them most, best first.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub next_conditions: Vec<ties::NextCondition>,
-    /// With no significant gap: each one-parameter candidate's smallest size these rides would
-    /// have detected (the campaign's test, 80 % power), what the quiet campaign rules out.
+    /// Each one-parameter candidate's smallest size these rides would have detected (the
+    /// campaign's test, 80 % power): with no significant gap, what the quiet campaign rules out.
     pub detection_limits: Vec<significance::DetectionLimit>,
     pub verdict: String,
 }
@@ -609,12 +610,21 @@ pub fn diagnose_study(
     d.bands = speed_bands(&d.residuals);
     d.conclusive = true;
     d.ranking = rank(&campaign, progress)?;
-    targeted_test(&mut d);
+    let mut singles: Vec<effects::Effect> = d
+        .ranking
+        .iter()
+        .filter_map(|r| match r.effects[..] {
+            [e] => Some(e),
+            _ => None,
+        })
+        .collect();
+    singles.sort();
+    let null = significance::NullTest::new(&campaign, &singles);
+    targeted_test(&mut d, null.as_ref());
     d.significant = d.campaign_p_value < SIGNIFICANCE;
     d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
-    if !d.significant {
-        let tried = d.ranking.iter().filter(|r| r.effects.len() == 1).count();
-        d.detection_limits = significance::detection_limits(&campaign, tried);
+    if let Some(null) = &null {
+        d.detection_limits = significance::detection_limits(&campaign, null);
     }
     if d.significant {
         d.tied = tied(&d.ranking);

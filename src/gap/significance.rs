@@ -1,10 +1,12 @@
 //! Whether the campaign can be concluded on, and whether its gap is significant. In: the
 //! observations, and the χ² of the unextended model and of each single effect fitted. Out: the
 //! reason a campaign is too thin ([`insufficiency`]), the targeted test (the likelihood ratio
-//! of the single effect that lowers χ² most, Bonferroni over the library) and the campaign's
-//! p-value.
+//! of the single effect that lowers χ² most), the campaign's p-value (the smallest of its and
+//! the χ² test's, calibrated on draws of the residuals with no effect present: [`NullTest`])
+//! and, for a quiet campaign, what it would have seen ([`detection_limits`]).
 
 use super::{stats, Diagnosis, Observation, Ranked, MIN_RIDES, MIN_SPEED_SPAN_MPS};
+use nalgebra::{DMatrix, DVector};
 
 /// The targeted part of the campaign's test (see [`Diagnosis::targeted`]).
 #[derive(Debug, Clone, serde::Serialize)]
@@ -16,38 +18,274 @@ pub struct TargetedTest {
     pub likelihood_ratio: f64,
     /// The effect's parameters: the likelihood ratio's degrees of freedom.
     pub dof: usize,
-    /// Its p-value under χ²(dof), times the number of single effects tried (Bonferroni).
+    /// The probability, with no effect present, that some single effect of the library
+    /// lowers χ² at least this much (its own p-value at most this effect's): from
+    /// [`NULL_DRAWS`] draws of the residuals, the effects' correlations included, never above
+    /// the Bonferroni bound (its p-value times the number of effects tried).
     pub p_value: f64,
 }
 
+/// Draws of the residuals with no effect present that calibrate the campaign's test.
+pub const NULL_DRAWS: usize = 10_000;
+
+/// The seed of those draws: a campaign's p-value is the same on every run.
+const NULL_SEED: u64 = 0x006a_705f_6e75_6c6c;
+
+/// One single effect's part of the targeted test, linearized at "no effect": the residuals
+/// whitened by the campaign's covariance (`u = L⁻¹ r`, `Σ = L Lᵀ`) move along `columns` (one
+/// per fitted parameter) as the effect grows from nothing, so its fit lowers χ² by the squared
+/// length of `u`'s projection on them (Gauss–Markov), and by nothing where the fit is held at
+/// "no effect" by a bound (a mass cannot be negative).
+struct Direction {
+    /// An orthonormal basis of the whitened columns.
+    basis: DMatrix<f64>,
+    /// For a one-parameter effect that can only grow from "no effect": the unit direction in
+    /// which the residuals move as it does.
+    one_sided: Option<DVector<f64>>,
+    /// The whitened derivative's squared length per parameter unit (one-parameter effects
+    /// with a finite "no effect"): the fit's information at "no effect", `1/σ₀²`.
+    information: Option<f64>,
+    effect: super::effects::Effect,
+}
+
+impl Direction {
+    /// The drop in χ² that the effect's fit would give on whitened residuals `u`.
+    fn likelihood_ratio(&self, u: &DVector<f64>) -> f64 {
+        match &self.one_sided {
+            Some(d) => d.dot(u).max(0.0).powi(2),
+            None => (self.basis.tr_mul(u)).norm_squared(),
+        }
+    }
+
+    fn dof(&self) -> usize {
+        self.basis.ncols()
+    }
+}
+
+/// The campaign's test under the null: each single effect's direction in the whitened residuals,
+/// and the sorted smallest p-values of [`NULL_DRAWS`] draws of `u ~ N(0, I)` (over the χ² test
+/// and every single effect: `campaign`; over the single effects: `targeted`).
+pub(super) struct NullTest {
+    directions: Vec<Direction>,
+    campaign: Vec<f64>,
+    targeted: Vec<f64>,
+}
+
+/// P(χ²_k > x) with the closed forms of one and two degrees of freedom (the draws need
+/// millions of them).
+fn sf(x: f64, k: usize) -> f64 {
+    match k {
+        1 => statrs::function::erf::erfc((0.5 * x.max(0.0)).sqrt()),
+        2 => (-0.5 * x.max(0.0)).exp(),
+        _ => stats::chi2_sf(x, k),
+    }
+}
+
+/// The p-value of a single effect's likelihood ratio `lr` (raw) when the campaign's χ² is
+/// `chi2` on `dof`: the ratio over the Birge factor of the fit, `max(1, (χ² − lr)/(dof − k))`.
+fn single_p(lr: f64, k: usize, chi2: f64, dof: usize) -> f64 {
+    let birge = ((chi2 - lr) / dof.saturating_sub(k).max(1) as f64).max(1.0);
+    sf(lr / birge, k)
+}
+
+impl NullTest {
+    /// The directions of the campaign's single effects (`effects`, those the ranking fitted)
+    /// and the draws. `None` when the covariance is singular or the unextended model fails.
+    pub(super) fn new(
+        campaign: &super::fit::Campaign<'_>,
+        effects: &[super::effects::Effect],
+    ) -> Option<NullTest> {
+        let all: Vec<usize> = (0..campaign.obs.len()).collect();
+        let r0 = campaign.residuals(&[], &[], &all)?;
+        let chol = campaign.cov.clone().cholesky()?;
+        let directions: Vec<Direction> = effects
+            .iter()
+            .filter_map(|&e| direction(campaign, &chol, &r0, &all, e))
+            .collect();
+        let (campaign_p, targeted_p) = null_draws(&directions, r0.len());
+        Some(NullTest {
+            directions,
+            campaign: campaign_p,
+            targeted: targeted_p,
+        })
+    }
+
+    /// The fraction of the draws (sorted) whose smallest p is at most `p`, counted as one more
+    /// draw (`(k + 1)/(N + 1)`, a valid p-value).
+    fn tail(sorted: &[f64], p: f64) -> f64 {
+        let k = sorted.partition_point(|&x| x <= p);
+        (k as f64 + 1.0) / (sorted.len() as f64 + 1.0)
+    }
+
+    /// The smallest p that the draws reach with probability `alpha`: the campaign's test
+    /// rejects when its smallest p is below it.
+    fn critical(&self, alpha: f64) -> f64 {
+        let k = ((alpha * (self.campaign.len() as f64 + 1.0)).floor() as usize).max(1);
+        self.campaign[(k - 1).min(self.campaign.len() - 1)]
+    }
+}
+
+/// [`NULL_DRAWS`] draws of whitened residuals `u ~ N(0, I_n)` (no effect present): the sorted
+/// smallest p-values over the χ² test (on `n` degrees of freedom) and every direction's, and over
+/// the directions alone.
+fn null_draws(directions: &[Direction], n: usize) -> (Vec<f64>, Vec<f64>) {
+    use rand::{RngExt as _, SeedableRng as _};
+    let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(NULL_SEED);
+    // Standard normal deviates in pairs (Box–Muller), from xoshiro256**'s uniform ones.
+    let mut pair = move || {
+        let u: f64 = 1.0 - rng.random::<f64>();
+        let v: f64 = rng.random::<f64>();
+        let r = (-2.0 * u.ln()).sqrt();
+        let a = std::f64::consts::TAU * v;
+        [r * a.cos(), r * a.sin()]
+    };
+    let mut u = DVector::zeros(n);
+    let (mut campaign, mut targeted) = (
+        Vec::with_capacity(NULL_DRAWS),
+        Vec::with_capacity(NULL_DRAWS),
+    );
+    for _ in 0..NULL_DRAWS {
+        for k in (0..n).step_by(2) {
+            let z = pair();
+            u[k] = z[0];
+            if k + 1 < n {
+                u[k + 1] = z[1];
+            }
+        }
+        let chi2 = u.norm_squared();
+        let best = directions
+            .iter()
+            .map(|d| single_p(d.likelihood_ratio(&u), d.dof(), chi2, n))
+            .fold(1.0, f64::min);
+        targeted.push(best);
+        campaign.push(best.min(stats::chi2_sf(chi2, n)));
+    }
+    campaign.sort_by(f64::total_cmp);
+    targeted.sort_by(f64::total_cmp);
+    (campaign, targeted)
+}
+
+/// The whitened direction of one single effect at "no effect"; `None` when its prediction
+/// fails there or does not move the residuals.
+fn direction(
+    campaign: &super::fit::Campaign<'_>,
+    chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    r0: &DVector<f64>,
+    all: &[usize],
+    e: super::effects::Effect,
+) -> Option<Direction> {
+    let layout = campaign.layout(&[e]);
+    let specs = e.params();
+    let none: Vec<f64> = specs.iter().map(|s| s.none).collect();
+    let mut columns: Vec<DVector<f64>> = Vec::new();
+    let mut one_sided = false;
+    if none.iter().all(|v| v.is_finite()) {
+        let base = layout.expand(&none);
+        for (j, spec) in layout.specs.iter().enumerate() {
+            let h = 1e-3 * (spec.hi - spec.lo);
+            let at = |p: f64| {
+                let mut params = base.clone();
+                params[j] = p;
+                campaign.residuals(&[e], &params, all)
+            };
+            let sided = spec.none <= spec.lo;
+            one_sided |= sided;
+            // The residual moves by −(the prediction's change): sign kept, so that a
+            // one-sided effect's growth is told from its impossible shrinking.
+            let derivative = if sided {
+                (at(spec.none + h)? - r0) / h
+            } else {
+                (at(spec.none + h)? - at(spec.none - h)?) / (2.0 * h)
+            };
+            columns.push(derivative);
+        }
+    } else {
+        // An effect absent at an infinite value (the tyres, rolling without slip as their
+        // cornering stiffness grows without bound): its size is the inverse of that value, and
+        // its direction at nothing depends on the other parameters, spanned by their bounds.
+        let j = none.iter().position(|v| !v.is_finite())?;
+        let small = 1e-3 / specs[j].lo.abs().max(1.0);
+        let ends: &[bool] = if specs.len() > 1 {
+            &[false, true]
+        } else {
+            &[false]
+        };
+        for &high in ends {
+            let mut at: Vec<f64> = specs
+                .iter()
+                .map(|s| if high { s.hi } else { s.lo })
+                .collect();
+            at[j] = 1.0 / small;
+            columns.push((campaign.residuals(&[e], &layout.expand(&at), all)? - r0) / small);
+        }
+    }
+    let whitened: Vec<DVector<f64>> = columns
+        .iter()
+        .map(|c| chol.l().solve_lower_triangular(c))
+        .collect::<Option<_>>()?;
+    let w = DMatrix::from_columns(&whitened);
+    if !w.iter().all(|x| x.is_finite()) || w.norm() == 0.0 {
+        return None;
+    }
+    let information = (w.ncols() == 1 && none[0].is_finite()).then(|| w.column(0).norm_squared());
+    // The fit lowers χ² = |u + W δ|² along −W: a one-sided effect only where −wᵀu > 0.
+    let one_sided = (one_sided && w.ncols() == 1).then(|| -w.column(0).normalize());
+    let basis = orthonormal(&w)?;
+    Some(Direction {
+        basis,
+        one_sided,
+        information,
+        effect: e,
+    })
+}
+
+/// An orthonormal basis of `w`'s columns (by its thin SVD, dropping directions below 1e-9 of
+/// the largest); `None` when it has none.
+fn orthonormal(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let svd = w.clone().svd(true, false);
+    let u = svd.u?;
+    let largest = svd.singular_values.max();
+    let keep: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&i| svd.singular_values[i] > 1e-9 * largest)
+        .collect();
+    (!keep.is_empty()).then(|| u.select_columns(keep.iter()))
+}
+
 /// The campaign's targeted test: among the single effects of the ranking, the one whose fit
-/// lowers the campaign's χ² the most; its likelihood ratio is χ²-distributed with as many
-/// degrees of freedom as it has parameters when the model is right (Wilks), and the p-value is
-/// multiplied by the number of effects tried. Sets `targeted` and `campaign_p_value`.
-pub(super) fn targeted_test(d: &mut Diagnosis) {
+/// gives the smallest p-value (its likelihood ratio χ²-distributed with as many degrees of
+/// freedom as it has parameters when the model is right, Wilks); that smallest p calibrated on
+/// the null draws of [`NullTest`], so that effects that move the weave alike (a trail and a
+/// front frame's inertia) count once and not as independent tries. The campaign's p-value is
+/// the same for the smaller of it and the χ² test's p. Each is capped by its Bonferroni bound
+/// (the draws resolve p-values down to 1/[`NULL_DRAWS`]; the bound below that). Sets `targeted`
+/// and `campaign_p_value`.
+pub(super) fn targeted_test(d: &mut Diagnosis, null: Option<&NullTest>) {
     let chi2_before = d.chi2;
     let singles: Vec<&Ranked> = d.ranking.iter().filter(|r| r.effects.len() == 1).collect();
     let tried = singles.len().max(1) as f64;
-    d.targeted = singles
+    let best = singles
         .iter()
         .map(|r| {
             let k = r.params.len();
             let birge = (r.chi2 / d.dof.saturating_sub(k).max(1) as f64).max(1.0);
             let lr = ((chi2_before - r.chi2) / birge).max(0.0);
-            TargetedTest {
-                effect: r.effect.clone(),
-                likelihood_ratio: lr,
-                dof: k,
-                p_value: (stats::chi2_sf(lr, k) * tried).min(1.0),
-            }
+            (r.effect.clone(), lr, k, stats::chi2_sf(lr, k))
         })
-        .min_by(|a, b| {
-            a.p_value
-                .total_cmp(&b.p_value)
-                .then(b.likelihood_ratio.total_cmp(&a.likelihood_ratio))
-        });
-    let p_targeted = d.targeted.as_ref().map_or(1.0, |t| t.p_value);
-    d.campaign_p_value = (2.0 * d.p_value.min(p_targeted)).min(1.0);
+        .min_by(|a, b| a.3.total_cmp(&b.3).then(b.1.total_cmp(&a.1)));
+    let p_single = best.as_ref().map_or(1.0, |b| b.3);
+    let bonferroni = (p_single * tried).min(1.0);
+    let p_targeted = null.map_or(bonferroni, |n| {
+        NullTest::tail(&n.targeted, p_single).min(bonferroni)
+    });
+    d.targeted = best.map(|(effect, lr, k, _)| TargetedTest {
+        effect,
+        likelihood_ratio: lr,
+        dof: k,
+        p_value: p_targeted,
+    });
+    let smallest = d.p_value.min(p_single);
+    let bound = (2.0 * d.p_value.min(bonferroni)).min(1.0);
+    d.campaign_p_value = null.map_or(bound, |n| NullTest::tail(&n.campaign, smallest).min(bound));
 }
 
 /// Why a campaign cannot support a conclusion, if it cannot.
@@ -104,65 +342,40 @@ pub struct DetectionLimit {
 /// Power asked of a detection limit.
 pub const DETECTION_POWER: f64 = 0.8;
 
-/// Each single one-parameter candidate's detection limit on this campaign: the campaign's
-/// targeted test (Bonferroni over the `tried` single effects, the p doubled with the χ² test's)
-/// rejects at [`super::SIGNIFICANCE`] when the likelihood ratio of the effect's fit exceeds
-/// z² with z the normal quantile at 1 − α/(4·tried); at the effect's true size δ the ratio is
-/// about (δ/σ₀)² (σ₀ the standard error of its fit at "no effect", from the whitened derivative
-/// of the residuals, the full covariance with the model's correlated error included), so it
-/// is seen with power 1 − β when δ ≥ (z + z_β) σ₀. Linear in the effect: the size where its
-/// effect on the weave stops being linear is beyond what the rides see anyway.
+/// Each single one-parameter candidate's detection limit on this campaign: the campaign's test
+/// rejects at [`super::SIGNIFICANCE`] when its smallest p is below the null draws' critical
+/// value p* ([`NullTest`]), so for one effect when the likelihood ratio of its fit exceeds z²
+/// with z the normal quantile at 1 − p*/2; at the effect's true size δ the ratio is about
+/// (δ/σ₀)² (σ₀ the standard error of its fit at "no effect", from the whitened derivative of
+/// the residuals, the full covariance with the model's correlated error included), so it is
+/// seen with power 1 − β when δ ≥ (z + z_β) σ₀. Linear in the effect: the size where its effect
+/// on the weave stops being linear is beyond what the rides see anyway.
 pub(super) fn detection_limits(
     campaign: &super::fit::Campaign<'_>,
-    tried: usize,
+    null: &NullTest,
 ) -> Vec<DetectionLimit> {
     use statrs::distribution::{ContinuousCDF, Normal};
-    let all: Vec<usize> = (0..campaign.obs.len()).collect();
-    let (Some(r0), Some(chol)) = (
-        campaign.residuals(&[], &[], &all),
-        campaign.cov.clone().cholesky(),
-    ) else {
-        return Vec::new();
-    };
     let Ok(normal) = Normal::new(0.0, 1.0) else {
         return Vec::new();
     };
-    let alpha = super::SIGNIFICANCE / (2.0 * tried.max(1) as f64);
-    let z = normal.inverse_cdf(1.0 - alpha / 2.0) + normal.inverse_cdf(DETECTION_POWER);
-    campaign
-        .library()
-        .into_iter()
-        .filter_map(|e| {
-            let [spec] = e.params()[..] else {
+    let critical = null.critical(super::SIGNIFICANCE);
+    let z = normal.inverse_cdf(1.0 - critical / 2.0) + normal.inverse_cdf(DETECTION_POWER);
+    null.directions
+        .iter()
+        .filter_map(|d| {
+            let information = d.information.filter(|i| i.is_finite() && *i > 0.0)?;
+            let [spec] = d.effect.params()[..] else {
                 return None;
             };
-            let layout = campaign.layout(&[e]);
-            if !spec.none.is_finite() {
-                return None;
-            }
-            let one_sided = spec.none <= spec.lo;
-            let h = 1e-3 * (spec.hi - spec.lo);
-            let at = |p: f64| campaign.residuals(&[e], &layout.expand(&[p]), &all);
-            let derivative = if one_sided {
-                (at(spec.none + h)? - &r0) / h
-            } else {
-                (at(spec.none + h)? - at(spec.none - h)?) / (2.0 * h)
-            };
-            // The residual moves by −prediction's change; the sign does not matter here.
-            let whitened = chol.l().solve_lower_triangular(&derivative)?;
-            let information = whitened.norm_squared();
-            if !(information.is_finite() && information > 0.0) {
-                return None;
-            }
             let size = z / information.sqrt();
             Some(DetectionLimit {
-                effect: e.name().to_string(),
+                effect: d.effect.name().to_string(),
                 param: spec.name,
                 unit: spec.unit,
                 size,
-                absolute: absolute(e, &campaign.conditions[0].base, size),
+                absolute: absolute(d.effect, &campaign.conditions[0].base, size),
                 none: spec.none,
-                one_sided,
+                one_sided: spec.none <= spec.lo,
             })
         })
         .collect()
@@ -207,4 +420,59 @@ pub fn detection_text(limits: &[DetectionLimit]) -> String {
         100.0 * DETECTION_POWER,
         parts.join("; ")
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gap::effects::Effect;
+
+    /// A direction along the unit vector `axis` of `n` dimensions.
+    fn along(n: usize, axis: usize, one_sided: bool) -> Direction {
+        let e = DVector::from_fn(n, |i, _| if i == axis { 1.0 } else { 0.0 });
+        Direction {
+            basis: DMatrix::from_columns(std::slice::from_ref(&e)),
+            one_sided: one_sided.then_some(e),
+            information: Some(1.0),
+            effect: Effect::Trail,
+        }
+    }
+
+    /// Closed forms on many residuals (n = 2000, where the Birge factor is 1 within 3 %): the
+    /// smallest of m independent two-sided p-values falls below x with probability
+    /// 1 − (1 − x)^m (Šidák); m copies of one direction count once; a one-sided direction's p
+    /// (taken two-sided) falls below x half as often. Tolerances: three of the draws' standard
+    /// errors (√(p(1 − p)/10⁴) ≤ 0.004) and 0.006 for the Birge factor.
+    #[test]
+    fn the_null_draws_match_closed_forms() {
+        let n = 2000;
+        let independent: Vec<Direction> = (0..4).map(|a| along(n, a, false)).collect();
+        let (_, targeted) = null_draws(&independent, n);
+        let sidak = 1.0 - 0.95_f64.powi(4);
+        let got = NullTest::tail(&targeted, 0.05);
+        assert!((got - sidak).abs() < 0.018, "{got} against {sidak}");
+
+        let copies: Vec<Direction> = (0..4).map(|_| along(n, 0, false)).collect();
+        let (_, targeted) = null_draws(&copies, n);
+        let got = NullTest::tail(&targeted, 0.05);
+        assert!((got - 0.05).abs() < 0.013, "{got} against 0.05");
+
+        let (_, targeted) = null_draws(&[along(n, 0, true)], n);
+        let got = NullTest::tail(&targeted, 0.1);
+        assert!((got - 0.05).abs() < 0.013, "{got} against 0.05");
+    }
+
+    /// With the χ² test alone (no direction) the campaign's smallest p is the χ² test's, uniform:
+    /// its critical value at 0.01 is 0.01 within the draws' error (three SE, 0.003).
+    #[test]
+    fn the_chi2_test_alone_is_uniform() {
+        let (campaign, _) = null_draws(&[], 60);
+        let test = NullTest {
+            directions: Vec::new(),
+            campaign,
+            targeted: Vec::new(),
+        };
+        let critical = test.critical(0.01);
+        assert!((critical - 0.01).abs() < 0.003, "{critical}");
+    }
 }
