@@ -1,5 +1,5 @@
 //! Statistics shared by the stages: the χ² distribution's upper tail (the inertia tensor's fit, the
-//! gap's campaign test; statrs) and how a p-value is written.
+//! gap's campaign test; statrs) and how a p-value, or any number in a message, is written.
 
 /// P(χ²_k > x): the probability that a χ² variable with `k` degrees of freedom exceeds `x`.
 /// statrs' χ² distribution (its regularized upper incomplete gamma function); `NaN` for
@@ -20,6 +20,16 @@ pub fn p_is(p: f64) -> String {
         format!("p {f}")
     } else {
         format!("p = {f}")
+    }
+}
+
+/// A number as a person reads it: plain, or in exponent form when very large or small (a value
+/// of 1e300 in a message is `1e300`, not three hundred digits).
+pub fn number_text(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
     }
 }
 

@@ -91,6 +91,36 @@ fn a_unit_hint_names_a_key_that_exists() {
     );
 }
 
+/// A benchmark parameter no bicycle reaches is named with its file (1e300 in `mH` said "the
+/// eigenvalues could not be computed (non-finite state matrix)" without a file; `c` printed
+/// three hundred digits).
+#[test]
+fn a_benchmark_parameter_beyond_any_bicycle_is_named() {
+    let dir = scratch("huge_benchmark");
+    let text = std::fs::read_to_string(root().join(BENCHMARK)).unwrap();
+    for (key, says) in [
+        ("mH", "mH = 1e300 kg: beyond any bicycle's"),
+        ("IBxx", "IBxx = 1e300 kg·m²: beyond any bicycle's"),
+        ("rF", "rF = 1e300 m: beyond any bicycle's"),
+        ("c", "trail c = 1e300 m"),
+    ] {
+        let edited: String = text
+            .lines()
+            .map(|l| {
+                if l.split('=').next().is_some_and(|k| k.trim() == key) {
+                    format!("{key} = 1e300\n")
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        let file = dir.join(format!("Huge{key}Benchmark.txt"));
+        std::fs::write(&file, edited).unwrap();
+        let out = bikeproc(&["stability", "--bike", file.to_str().unwrap()]);
+        refused(&out, 2, &format!("Huge{key}Benchmark.txt: {says}"));
+    }
+}
+
 #[test]
 fn speeds_and_resamples_are_checked_before_any_work() {
     for (speed, says) in [

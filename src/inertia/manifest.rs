@@ -217,14 +217,7 @@ pub fn from_toml<T: serde::de::DeserializeOwned>(
     })
 }
 
-/// A number as a person reads it: plain, or in exponent form when very large or small.
-pub fn number_text(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
-}
+pub use crate::stats::number_text;
 
 /// Whether the relative path `rel` stays inside the folder it is relative to: not absolute,
 /// and no `..` that climbs above it.

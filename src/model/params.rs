@@ -267,30 +267,33 @@ impl Benchmark {
                 message,
             })
         };
+        let n = crate::stats::number_text;
         for ((name, v), se) in Benchmark::NAMES.iter().zip(self.to_array()).zip(self.se) {
             if !(se.is_finite() && se >= 0.0 && se <= 10.0 * v.abs() + 1.0) {
                 return bad(format!(
-                    "{name} = {v} ± {se}: a standard error from 0 to ten times the value plus one \
-                     (SI units)"
+                    "{name} = {} ± {}: a standard error from 0 to ten times the value plus one \
+                     (SI units)",
+                    n(v),
+                    n(se)
                 ));
             }
         }
         if !is_positive(self.w) {
-            return bad(format!("wheelbase w = {} m: expected positive", self.w));
+            return bad(format!("wheelbase w = {} m: expected positive", n(self.w)));
         }
         if !is_positive(std::f64::consts::FRAC_PI_2 - self.lambda.abs()) {
             return bad(format!(
                 "steer axis tilt lam = {} rad: expected within ±π/2",
-                self.lambda
+                n(self.lambda)
             ));
         }
         if !is_positive(self.g) {
-            return bad(format!("g = {}: expected positive", self.g));
+            return bad(format!("g = {}: expected positive", n(self.g)));
         }
         if !is_positive(self.m_b) {
             return bad(format!(
                 "rear body mass mB = {} kg: expected positive",
-                self.m_b
+                n(self.m_b)
             ));
         }
         for (name, v) in [
@@ -301,7 +304,7 @@ impl Benchmark {
             ("rF", self.r_f),
         ] {
             if !is_non_negative(v) {
-                return bad(format!("{name} = {v}: expected zero or positive"));
+                return bad(format!("{name} = {}: expected zero or positive", n(v)));
             }
         }
         for (name, r, iyy) in [
@@ -310,7 +313,8 @@ impl Benchmark {
         ] {
             if r == 0.0 && iyy != 0.0 {
                 return bad(format!(
-                    "{name} wheel: zero radius with spin inertia {iyy}: I/r has no limit"
+                    "{name} wheel: zero radius with spin inertia {}: I/r has no limit",
+                    n(iyy)
                 ));
             }
         }
@@ -319,7 +323,12 @@ impl Benchmark {
             ("H", self.i_hxx, self.i_hzz, self.i_hxz),
         ] {
             if xx < 0.0 || zz < 0.0 || xx * zz - xz * xz < -1e-12 {
-                return bad(format!("I{body}xx = {xx}, I{body}zz = {zz}, I{body}xz = {xz}: not positive semi-definite"));
+                return bad(format!(
+                    "I{body}xx = {}, I{body}zz = {}, I{body}xz = {}: not positive semi-definite",
+                    n(xx),
+                    n(zz),
+                    n(xz)
+                ));
             }
         }
         // Centres of mass above the ground (z points down) and within a few metres of the
@@ -330,20 +339,57 @@ impl Benchmark {
         ] {
             if m > 0.0 && !(z < 0.0 && z > -10.0) {
                 return bad(format!(
-                    "z{name} = {z} m: the centre of mass of a body with mass is above the ground \
-                     (z points down: expected from −10 m to below 0)"
+                    "z{name} = {} m: the centre of mass of a body with mass is above the ground \
+                     (z points down: expected from −10 m to below 0)",
+                    n(z)
                 ));
             }
             if x.abs() > 10.0 {
                 return bad(format!(
-                    "x{name} = {x} m: expected within 10 m of the rear contact"
+                    "x{name} = {} m: expected within 10 m of the rear contact",
+                    n(x)
                 ));
             }
+        }
+        // Sizes no bicycle reaches (with a rider, a cargo load or a tandem's frame well inside):
+        // beyond them the state matrix overflows and the model has nothing to say.
+        let limits: [(&str, f64, f64, &str); 19] = [
+            ("w", self.w, 10.0, "m"),
+            ("rR", self.r_r, 5.0, "m"),
+            ("rF", self.r_f, 5.0, "m"),
+            ("mR", self.m_r, 1000.0, "kg"),
+            ("mB", self.m_b, 1000.0, "kg"),
+            ("mH", self.m_h, 1000.0, "kg"),
+            ("mF", self.m_f, 1000.0, "kg"),
+            ("IRxx", self.i_rxx, 1000.0, "kg·m²"),
+            ("IRyy", self.i_ryy, 1000.0, "kg·m²"),
+            ("IFxx", self.i_fxx, 1000.0, "kg·m²"),
+            ("IFyy", self.i_fyy, 1000.0, "kg·m²"),
+            ("IBxx", self.i_bxx, 1000.0, "kg·m²"),
+            ("IByy", self.i_byy, 1000.0, "kg·m²"),
+            ("IBzz", self.i_bzz, 1000.0, "kg·m²"),
+            ("IBxz", self.i_bxz, 1000.0, "kg·m²"),
+            ("IHxx", self.i_hxx, 1000.0, "kg·m²"),
+            ("IHyy", self.i_hyy, 1000.0, "kg·m²"),
+            ("IHzz", self.i_hzz, 1000.0, "kg·m²"),
+            ("IHxz", self.i_hxz, 1000.0, "kg·m²"),
+        ];
+        for (name, v, most, unit) in limits {
+            if v.abs() > most {
+                return bad(format!(
+                    "{name} = {} {unit}: beyond any bicycle's (at most {most} {unit} in size)",
+                    n(v)
+                ));
+            }
+        }
+        if !(self.g < 100.0) {
+            return bad(format!("g = {} m/s²: expected below 100 m/s²", n(self.g)));
         }
         if self.c.abs() >= self.w {
             return bad(format!(
                 "trail c = {} m: expected shorter than the wheelbase w = {} m",
-                self.c, self.w
+                n(self.c),
+                n(self.w)
             ));
         }
         for (name, v) in [
@@ -355,7 +401,7 @@ impl Benchmark {
             ("IHyy", self.i_hyy),
         ] {
             if v < 0.0 {
-                return bad(format!("{name} = {v}: expected zero or positive"));
+                return bad(format!("{name} = {}: expected zero or positive", n(v)));
             }
         }
         Ok(())
