@@ -235,12 +235,7 @@ impl CsvTable {
 
     /// An error at `line`, `column` of this file.
     pub fn error(&self, line: u64, column: usize, message: String) -> SignalError {
-        SignalError::Csv {
-            path: self.path.clone(),
-            line,
-            column,
-            message,
-        }
+        csv_error(&self.path, line, column, message)
     }
 
     /// The index of the first column named any of `names`: an exact match first (a file may
@@ -288,6 +283,16 @@ impl CsvTable {
         }
         self.advancing(t)?;
         sampling_grid(t).map_err(|(i, message)| self.error(lines[i], 1, message))
+    }
+}
+
+/// An error at `line`, `column` of the CSV file `path`.
+fn csv_error(path: &Path, line: u64, column: usize, message: String) -> SignalError {
+    SignalError::Csv {
+        path: path.to_path_buf(),
+        line,
+        column,
+        message,
     }
 }
 
@@ -339,12 +344,8 @@ impl<R: std::io::Read> CsvRows<R> {
             .flexible(true)
             .trim(csv::Trim::All)
             .from_reader(reader);
-        let err = |line: u64, column: usize, message: String| SignalError::Csv {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message,
-        };
+        let err =
+            |line: u64, column: usize, message: String| csv_error(path, line, column, message);
         let mut first = csv::StringRecord::new();
         reader
             .read_record(&mut first)
@@ -394,12 +395,7 @@ impl<R: std::io::Read> CsvRows<R> {
 
     /// Reads the next row into [`CsvRows::record`] and gives its line; `None` at the end.
     pub fn next_row(&mut self) -> Result<Option<u64>, SignalError> {
-        let err = |line: u64, message: String| SignalError::Csv {
-            path: self.path.clone(),
-            line,
-            column: 1,
-            message,
-        };
+        let err = |line: u64, message: String| csv_error(&self.path, line, 1, message);
         if let Some(first) = self.first.take() {
             self.record = first;
         } else {
@@ -434,12 +430,7 @@ impl<R: std::io::Read> CsvRows<R> {
 
     /// An error at `line`, `column` of this file.
     pub fn error(&self, line: u64, column: usize, message: String) -> SignalError {
-        SignalError::Csv {
-            path: self.path.clone(),
-            line,
-            column,
-            message,
-        }
+        csv_error(&self.path, line, column, message)
     }
 
     /// The row last read.

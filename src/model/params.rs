@@ -382,7 +382,7 @@ impl Benchmark {
                 ));
             }
         }
-        if !(self.g < 100.0) {
+        if self.g >= 100.0 {
             return bad(format!("g = {} m/s²: expected below 100 m/s²", n(self.g)));
         }
         if self.c.abs() >= self.w {
