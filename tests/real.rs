@@ -221,6 +221,44 @@ fn the_found_windows_are_the_marked_ones() {
     }
 }
 
+/// Issue 32 item 3: a window of a file with roll, steer and roll rate is fitted both ways, the
+/// roll-rate fit beside the roll-and-steer one equal to the fit of the roll rate alone (the
+/// same file without its angles), and a disagreement beyond two combined standard errors said.
+#[test]
+fn both_fits_of_one_window_are_shown() {
+    use bikeproc::ride::csv::{fit_decay, read_csv_ride, Columns, FittedFrom};
+    use bikeproc::ride::modal::ModalOptions;
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv");
+    let ride = read_csv_ride(&path, &Columns::default(), None).unwrap();
+    let rate_only = bikeproc::ride::csv::CsvRide {
+        roll_rad: None,
+        steer_rad: None,
+        ..ride.clone()
+    };
+    for w in [(141.28, 142.71), (148.53, 149.94), (153.98, 155.50)] {
+        let both = fit_decay(&ride, Some(w), &ModalOptions::default()).unwrap();
+        let alone = fit_decay(&rate_only, Some(w), &ModalOptions::default()).unwrap();
+        assert_eq!(both.fitted_from, FittedFrom::RollAndSteer);
+        assert_eq!(alone.fitted_from, FittedFrom::RollRate);
+        let beside = both.roll_rate_weave.expect("the roll rate's fit beside");
+        assert_eq!(
+            [beside.re, beside.im, beside.re_se, beside.im_se],
+            [
+                alone.weave.re,
+                alone.weave.im,
+                alone.weave.re_se,
+                alone.weave.im_se
+            ]
+        );
+        let (a, b) = (both.weave, beside);
+        let apart = (a.re - b.re).abs() > 2.0 * a.re_se.hypot(b.re_se)
+            || (a.im - b.im).abs() > 2.0 * a.im_se.hypot(b.im_se);
+        assert_eq!(both.fits_disagree(), apart, "{w:?}");
+        println!("{w:?}: {a:?} against {b:?}: disagree {apart}");
+    }
+}
+
 /// Item 2 on the simulator's truth: a ride at constant speed written as another instrument
 /// would write it (roll in rad with noise, steer in degrees in 0.1° steps on an offset, a
 /// receiver clock jittering ±1 ms, a wheel-speed column), one free decay fitted from the CSV

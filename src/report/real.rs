@@ -227,8 +227,8 @@ pub(super) fn uncontrolled_section(
          swing that grows (a new push), one that lasts over {} times the one before (the swinging\n\
          stops: held, leaning on the harness, drifting), one within the background sway, the next\n\
          kick, or {} s. That lab marked 141.28–142.71, 148.53–149.94 and 153.98–155.50 s by hand.\n\n\
-         | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | VAF θ, γ | z σ | z ω |\n\
-         |---|---|---|---|---|---|---|---|---|\n",
+         | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | roll rate alone: σ, ω | VAF θ, γ | z σ | z ω |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
         kicks.len(),
         crate::ride::csv::KICK_OVER_BACKGROUND,
         crate::ride::csv::KICK_OVER_SWING,
@@ -247,11 +247,21 @@ pub(super) fn uncontrolled_section(
                 });
                 let _ = writeln!(
                     md,
-                    "| {:.2} | {a:.2}–{b:.2} | {} | {v} | {} | {} | {:.3}, {:.3} | {z} |",
+                    "| {:.2} | {a:.2}–{b:.2} | {} | {v} | {} | {} | {} | {:.3}, {:.3} | {z} |",
                     k.kick.at_s,
                     why_window(&k.kick),
                     pm(-e.re, e.re_se, 3),
                     pm(e.im, e.im_se, 3),
+                    d.decay.roll_rate_weave.map_or("—".to_string(), |r| format!(
+                        "{}, {}{}",
+                        pm(-r.re, r.re_se, 3),
+                        pm(r.im, r.im_se, 3),
+                        if d.decay.fits_disagree() {
+                            " (disagrees)"
+                        } else {
+                            ""
+                        }
+                    )),
                     d.decay.vaf[0],
                     d.decay.vaf[1]
                 );
@@ -261,7 +271,7 @@ pub(super) fn uncontrolled_section(
                 let why = why.rsplit(".csv: ").next().unwrap_or(why);
                 let _ = writeln!(
                     md,
-                    "| {:.2} | {a:.2}–{b:.2} | {} | not fitted: {why} | | | | | |",
+                    "| {:.2} | {a:.2}–{b:.2} | {} | not fitted: {why} | | | | | | |",
                     k.kick.at_s,
                     why_window(&k.kick)
                 );

@@ -455,9 +455,26 @@ pub struct CsvDecay {
     /// The rear wheel's speed over the window (m/s): its mean, with the larger of the standard
     /// error of that mean and the change over the window over √12 (a drift, uniform over it).
     pub wheel_speed_mps: Option<Measured>,
+    /// Where the file has a roll-rate column beside roll and steer: the same window fitted from
+    /// the roll rate alone, shown beside the roll-and-steer fit. On simulated rides with a fused
+    /// roll and a clean steer the roll-and-steer σ came out biased toward more damping (mean z
+    /// −0.8) where the roll rate's was not (−0.1): the two are shown together so that a
+    /// disagreement is seen ([`CsvDecay::fits_disagree`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub roll_rate_weave: Option<Eigenvalue>,
 }
 
 impl CsvDecay {
+    /// The roll-and-steer and the roll-rate-only fits of the window differ by more than two
+    /// combined standard errors in σ or ω.
+    pub fn fits_disagree(&self) -> bool {
+        self.roll_rate_weave.is_some_and(|r| {
+            let w = &self.weave;
+            (w.re - r.re).abs() > 2.0 * w.re_se.hypot(r.re_se)
+                || (w.im - r.im).abs() > 2.0 * w.im_se.hypot(r.im_se)
+        })
+    }
+
     /// Whether the fit resolved an oscillation: ω's standard error below ω. A window that is
     /// no free decay (the roll wandering under a hand) gives a fit whose ω could be zero.
     pub fn resolves_weave(&self) -> bool {
@@ -523,7 +540,7 @@ pub fn fit_decay(
         let change = (v[v.len() - 1] - v[0]).abs();
         Measured::new(mean, (sd / n.sqrt()).max(change / 12f64.sqrt()))
     });
-    let decay = |fitted_from, weave, shape, real_modes, vaf| CsvDecay {
+    let decay = |fitted_from, weave, shape, real_modes, vaf, roll_rate_weave| CsvDecay {
         window_s: (a, b),
         samples: idx.len(),
         fitted_from,
@@ -532,62 +549,35 @@ pub fn fit_decay(
         real_modes,
         vaf,
         wheel_speed_mps,
+        roll_rate_weave,
     };
+    let roll_rate_fit = |rate: &[f64]| roll_rate_weave(&t, &pick(rate), path, (a, b));
     match (&ride.roll_rad, &ride.steer_rad, &ride.roll_rate_rad_per_s) {
-        (Some(roll), Some(steer), _) => {
+        (Some(roll), Some(steer), rate) => {
             let fit: ModalFit = fit_modes(&t, &pick(roll), &pick(steer), options)
                 .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
+            let beside = rate
+                .as_ref()
+                .and_then(|r| roll_rate_fit(r).ok())
+                .map(|(e, _)| e);
             Ok(decay(
                 FittedFrom::RollAndSteer,
                 fit.weave,
                 Some(fit.shape),
                 fit.real_modes.clone(),
                 fit.vaf,
+                beside,
             ))
         }
         (_, _, Some(rate)) => {
-            let x = pick(rate);
-            let f = crate::fit::fit_short_decay(&t, &x, ROLL_RATE_OMEGA_RANGE)
-                .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
-            let (sg, om) = (f.sigma(), f.omega_d());
-            let corr = f.covariance[(3, 4)] / (sg.se * om.se);
-            // The fit's errors assume white residuals; a short record's are correlated (the
-            // sensor's filter, the modes the one sinusoid leaves out), and n samples then hold
-            // fewer independent ones: the errors grow by √((1 + ρ)/(1 − ρ)), ρ the residuals'
-            // lag-one autocorrelation (an AR(1) noise's variance inflation).
-            let resid: Vec<f64> = t.iter().zip(&x).map(|(&ti, &xi)| xi - f.eval(ti)).collect();
-            let inflation = ar1_inflation(&resid);
-            let (sg, om) = (
-                crate::fit::Estimate {
-                    value: sg.value,
-                    se: sg.se * inflation,
-                },
-                crate::fit::Estimate {
-                    value: om.value,
-                    se: om.se * inflation,
-                },
-            );
-            let mean = x.iter().sum::<f64>() / x.len() as f64;
-            let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
-            let vaf = 1.0 - f.residual_rms.powi(2) * (x.len() - f.params.len()) as f64 / var;
+            let (weave, vaf) = roll_rate_fit(rate)?;
             Ok(decay(
                 FittedFrom::RollRate,
-                Eigenvalue {
-                    re: -sg.value,
-                    im: om.value,
-                    re_se: sg.se,
-                    im_se: om.se,
-                    re_se_noise: sg.se / inflation,
-                    im_se_noise: om.se / inflation,
-                    re_im_corr: -corr,
-                    re_se_resampled: f64::NAN,
-                    im_se_resampled: f64::NAN,
-                    re_se_drift: 0.0,
-                    im_se_drift: 0.0,
-                },
+                weave,
                 None,
                 Vec::new(),
                 [vaf, vaf],
+                None,
             ))
         }
         _ => Err(err(
@@ -597,6 +587,45 @@ pub fn fit_decay(
              (name other columns with --columns roll=…,steer=… or roll_rate=…)",
         )),
     }
+}
+
+/// The weave of a window `(a, b)` from its roll rate `x` at times `t` alone (one damped
+/// sinusoid on an offset, [`crate::fit::fit_short_decay`]), and the variance it accounts for.
+fn roll_rate_weave(
+    t: &[f64],
+    x: &[f64],
+    path: &Path,
+    (a, b): (f64, f64),
+) -> Result<(Eigenvalue, f64), RideError> {
+    let f = crate::fit::fit_short_decay(t, x, ROLL_RATE_OMEGA_RANGE)
+        .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
+    let (sg, om) = (f.sigma(), f.omega_d());
+    let corr = f.covariance[(3, 4)] / (sg.se * om.se);
+    // The fit's errors assume white residuals; a short record's are correlated (the sensor's
+    // filter, the modes the one sinusoid leaves out), and n samples then hold fewer independent
+    // ones: the errors grow by √((1 + ρ)/(1 − ρ)), ρ the residuals' lag-one autocorrelation (an
+    // AR(1) noise's variance inflation).
+    let resid: Vec<f64> = t.iter().zip(x).map(|(&ti, &xi)| xi - f.eval(ti)).collect();
+    let inflation = ar1_inflation(&resid);
+    let mean = x.iter().sum::<f64>() / x.len() as f64;
+    let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+    let vaf = 1.0 - f.residual_rms.powi(2) * (x.len() - f.params.len()) as f64 / var;
+    Ok((
+        Eigenvalue {
+            re: -sg.value,
+            im: om.value,
+            re_se: sg.se * inflation,
+            im_se: om.se * inflation,
+            re_se_noise: sg.se,
+            im_se_noise: om.se,
+            re_im_corr: -corr,
+            re_se_resampled: f64::NAN,
+            im_se_resampled: f64::NAN,
+            re_se_drift: 0.0,
+            im_se_drift: 0.0,
+        },
+        vaf,
+    ))
 }
 
 /// The speed where a decay applies: its wheel-speed column over the window when the file has
@@ -1365,6 +1394,22 @@ impl DecaySummary {
             let _ = writeln!(
                 out,
                 "                 no weave resolved: ω's standard error exceeds ω (no free decay here?)"
+            );
+        }
+        if let Some(r) = &d.roll_rate_weave {
+            let _ = writeln!(
+                out,
+                "  roll rate alone {:.3} ± {:.3} {} {:.3} ± {:.3}i 1/s{}",
+                r.re,
+                r.re_se,
+                if r.im < 0.0 { "-" } else { "+" },
+                r.im.abs(),
+                r.im_se,
+                if d.fits_disagree() {
+                    ": the two fits disagree beyond two combined standard errors"
+                } else {
+                    ""
+                }
             );
         }
         match &d.shape {
