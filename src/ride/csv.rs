@@ -589,6 +589,19 @@ pub fn fit_decay(
     }
 }
 
+/// An eigenvalue with its standard errors as the text output writes it: `-1.437 ± 0.061 + 4.925
+/// ± 0.078i 1/s`.
+fn eigenvalue_text(e: &Eigenvalue) -> String {
+    format!(
+        "{:.3} ± {:.3} {} {:.3} ± {:.3}i 1/s",
+        e.re,
+        e.re_se,
+        if e.im < 0.0 { "-" } else { "+" },
+        e.im.abs(),
+        e.im_se
+    )
+}
+
 /// The weave of a window `(a, b)` from its roll rate `x` at times `t` alone (one damped
 /// sinusoid on an offset, [`crate::fit::fit_short_decay`]), and the variance it accounts for.
 fn roll_rate_weave(
@@ -1381,15 +1394,7 @@ impl DecaySummary {
             "window           {:.2} – {:.2} s ({} samples)",
             d.window_s.0, d.window_s.1, d.samples
         );
-        let _ = writeln!(
-            out,
-            "weave            {:.3} ± {:.3} {} {:.3} ± {:.3}i 1/s",
-            w.re,
-            w.re_se,
-            if w.im < 0.0 { "-" } else { "+" },
-            w.im.abs(),
-            w.im_se
-        );
+        let _ = writeln!(out, "weave            {}", eigenvalue_text(w));
         if !d.resolves_weave() {
             let _ = writeln!(
                 out,
@@ -1399,12 +1404,8 @@ impl DecaySummary {
         if let Some(r) = &d.roll_rate_weave {
             let _ = writeln!(
                 out,
-                "  roll rate alone {:.3} ± {:.3} {} {:.3} ± {:.3}i 1/s{}",
-                r.re,
-                r.re_se,
-                if r.im < 0.0 { "-" } else { "+" },
-                r.im.abs(),
-                r.im_se,
+                "  roll rate alone {}{}",
+                eigenvalue_text(r),
                 if d.fits_disagree() {
                     ": the two fits disagree beyond two combined standard errors"
                 } else {
