@@ -545,20 +545,5 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
 
 /// A found window's start and end in two words each.
 fn why_window(k: &crate::ride::csv::Kick) -> String {
-    use crate::ride::csv::{DecayEnd as E, DecayStart as S};
-    let starts = match k.starts {
-        S::AtPeak => "push's peak",
-        S::SwingBack => "swing back",
-        S::Given => "given",
-    };
-    let ends = match k.ends {
-        E::Grows => "a swing grows",
-        E::Stalls => "swinging stops",
-        E::NoiseFloor => "background",
-        E::NextKick => "next kick",
-        E::RecordEnds => "record ends",
-        E::Longest => "longest window",
-        E::Given => "given",
-    };
-    format!("{starts}; {ends}")
+    format!("{}; {}", k.starts.short(), k.ends.short())
 }

@@ -715,7 +715,31 @@ impl DecayStart {
     }
 }
 
+impl DecayStart {
+    /// The same in two words, for a table.
+    pub fn short(self) -> &'static str {
+        match self {
+            DecayStart::AtPeak => "push's peak",
+            DecayStart::SwingBack => "swing back",
+            DecayStart::Given => "given",
+        }
+    }
+}
+
 impl DecayEnd {
+    /// The same in two words, for a table.
+    pub fn short(self) -> &'static str {
+        match self {
+            DecayEnd::Grows => "a swing grows",
+            DecayEnd::Stalls => "swinging stops",
+            DecayEnd::NoiseFloor => "background",
+            DecayEnd::NextKick => "next kick",
+            DecayEnd::RecordEnds => "record ends",
+            DecayEnd::Longest => "longest window",
+            DecayEnd::Given => "given",
+        }
+    }
+
     pub fn words(self) -> &'static str {
         match self {
             DecayEnd::Grows => "where a swing grows (a new push)",
@@ -840,10 +864,7 @@ impl KickSeries {
         let has = |q: Quantity| columns.iter().any(|c| c.0 == q);
         if !has(Quantity::RollRate) {
             if !has(Quantity::Roll) {
-                return Err(err(
-                    path,
-                    "kicks are found in the roll rate or the roll angle: the file has neither",
-                ));
+                return Err(no_roll(path));
             }
             series.differentiate();
         }
@@ -946,13 +967,16 @@ fn half_swings(s: impl Fn(usize) -> f64, from: usize, until: usize, level: f64) 
 /// back where the push lasted through its swing ([`DecayStart`]), to where the free motion ends
 /// ([`DecayEnd`]). Errors when the file has neither roll rate nor roll.
 pub fn find_kicks(ride: &CsvRide) -> Result<Vec<Kick>, RideError> {
-    let series = KickSeries::of_ride(ride).ok_or_else(|| {
-        err(
-            &ride.path,
-            "kicks are found in the roll rate or the roll angle: the file has neither",
-        )
-    })?;
+    let series = KickSeries::of_ride(ride).ok_or_else(|| no_roll(&ride.path))?;
     Ok(find_kicks_in(&series))
+}
+
+/// The error of a file without roll rate or roll, where kicks are looked for.
+fn no_roll(path: &Path) -> RideError {
+    err(
+        path,
+        "kicks are found in the roll rate or the roll angle: the file has neither",
+    )
 }
 
 /// The median of `x` (reordered), as [`crate::signal::median`] takes it: the mean of the two
