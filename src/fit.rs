@@ -532,6 +532,22 @@ pub(crate) trait LeastSquares {
     ) -> Option<f64> {
         None
     }
+    /// `JᵀJ` and `Jᵀr` at `p` for a problem without [`LeastSquares::normal_equations`] (its
+    /// trials judged by their cost alone), `r` left holding the residuals: by default through
+    /// the stored Jacobian (`jac`: work space); a problem whose Jacobian is mostly zeros sums
+    /// its rows' nonzero products instead.
+    fn accepted_normal_equations(
+        &self,
+        p: &[f64],
+        jac: &mut DMatrix<f64>,
+        r: &mut DVector<f64>,
+        h: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+    ) {
+        self.residuals_and_jacobian(p, jac, r);
+        *h = jac.tr_mul(jac);
+        *g = jac.tr_mul(r);
+    }
 }
 
 /// Where [`levenberg_marquardt`] stopped: the parameters, the cost there, the iterations used,
@@ -541,21 +557,6 @@ pub(crate) struct Solution {
     pub cost: f64,
     pub iterations: usize,
     pub normal: DMatrix<f64>,
-}
-
-/// `JᵀJ` and `Jᵀr` at `p` through the stored Jacobian and residuals (`jac`, `r`: work space,
-/// left holding them), for a problem without [`LeastSquares::normal_equations`].
-fn stored_normal_equations(
-    problem: &dyn LeastSquares,
-    p: &[f64],
-    jac: &mut DMatrix<f64>,
-    r: &mut DVector<f64>,
-    h: &mut DMatrix<f64>,
-    g: &mut DVector<f64>,
-) {
-    problem.residuals_and_jacobian(p, jac, r);
-    *h = jac.tr_mul(jac);
-    *g = jac.tr_mul(r);
 }
 
 /// Levenberg–Marquardt on all parameters from `p0` (`n` residuals), with Marquardt's diagonal
@@ -580,7 +581,7 @@ pub(crate) fn levenberg_marquardt(
     let mut cost = match first {
         Some(cost) => cost,
         None => {
-            stored_normal_equations(problem, &p, &mut jac, &mut r, &mut h, &mut g);
+            problem.accepted_normal_equations(&p, &mut jac, &mut r, &mut h, &mut g);
             r.norm_squared()
         }
     };
@@ -637,7 +638,7 @@ pub(crate) fn levenberg_marquardt(
             lambda *= 10.0;
         }
         if !fused {
-            stored_normal_equations(problem, &p, &mut jac, &mut r, &mut h, &mut g);
+            problem.accepted_normal_equations(&p, &mut jac, &mut r, &mut h, &mut g);
         }
         if !improved || small_step {
             break;
