@@ -13,7 +13,12 @@ use super::conditions::{ConditionModel, Layout};
 use super::effects::{linear_bike_assuming, predict_weave, specs, Assumed, Effect};
 use super::linear::LinearBike;
 use super::Observation;
+use crate::model::uncertain::Parametrized;
+use crate::model::Benchmark;
 use nalgebra::{Complex, DMatrix, DVector};
+
+/// A ride's predicted weave and, where asked for, its mode shape γ/θ.
+type Prediction = (Complex<f64>, Option<Complex<f64>>);
 
 /// A campaign (or a study of several conditions, each a campaign) ready to fit: the rides,
 /// each condition's measured bicycle, each ride's condition and unextended weave (the branch
@@ -36,6 +41,14 @@ pub struct Campaign<'a> {
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
     pub assumed: Assumed,
+    /// The experimental part of `cov` (the rides' fit and speed errors, the scatter between
+    /// kicks, the coasting correction's); the rest is the model's, from the measured
+    /// parameters' errors: at the unextended model in `cov`, at a candidate's fit in
+    /// [`Campaign::at_fit`].
+    pub exp_cov: &'a DMatrix<f64>,
+    /// Each condition's bicycle as a function of the measured inputs (with the condition's
+    /// known masses and controller): what [`Campaign::at_fit`] propagates their errors through.
+    pub models: &'a [Parametrized],
 }
 
 /// Where each ride's parts lie in the residual vector: 2 (the eigenvalue's real and imaginary
@@ -181,6 +194,71 @@ impl<'a> Campaign<'a> {
             at += self.parts.of(i);
         }
         Some(r)
+    }
+
+    /// Every ride's predicted weave and (where its parts include it) mode shape under
+    /// `effects` at `params` (the fitted vector of their layout), each condition's bicycle
+    /// `base(c)`, each ride's branch followed from `guesses`; `None` when a ride has none.
+    fn predictions(
+        &self,
+        effects: &[Effect],
+        params: &[f64],
+        base: &dyn Fn(usize) -> Benchmark,
+        guesses: &[Complex<f64>],
+    ) -> Option<Vec<Prediction>> {
+        let layout = self.layout(effects);
+        let mut bikes: Vec<Option<(LinearBike, Vec<f64>)>> = vec![None; self.conditions.len()];
+        (0..self.obs.len())
+            .map(|i| {
+                let c = self.ride_condition[i];
+                let (bike, own) = bikes[c].get_or_insert_with(|| {
+                    let own = layout.condition_params(params, c);
+                    let cond = &self.conditions[c];
+                    let bike =
+                        linear_bike_assuming(&base(c), &cond.control, effects, &own, self.assumed);
+                    (bike, own)
+                });
+                let with_shape = self.parts.of(i) > 2;
+                predict_weave(bike, effects, own, &self.obs[i], guesses[i], with_shape)
+            })
+            .collect()
+    }
+
+    /// The campaign with the model's part of its covariance taken where `effects` at `params`
+    /// put the bicycle, the measured inputs' errors propagated through those predictions
+    /// (Gauss, central differences) — generalized least squares with the covariance of the
+    /// model being fitted. The unextended model's covariance misstates a large effect's: with a
+    /// steer motor's rotor of 0.05 kg·m² withheld from eight blind studies, the inertia fitted
+    /// with it had z of sd 1.6 (−1.0 … +3.4) against its truth, with its own 1.1. `None` when a
+    /// prediction fails at a perturbed input or the result is not a covariance.
+    pub fn at_fit(&self, effects: &[Effect], params: &[f64]) -> Option<Campaign<'a>> {
+        let models = self.models;
+        let nominal_base = |c: usize| self.conditions[c].base;
+        let at = self.predictions(effects, params, &nominal_base, &self.guesses)?;
+        let guesses: Vec<Complex<f64>> = at.iter().map(|(w, _)| *w).collect();
+        let inputs = &models.first()?.inputs;
+        let (_, model_cov) = crate::uncertainty::propagate(inputs, |x| {
+            let base = |c: usize| models[c].benchmark_at(x);
+            let Some(pred) = self.predictions(effects, params, &base, &guesses) else {
+                return vec![f64::NAN; self.parts.total()];
+            };
+            let mut out = Vec::with_capacity(self.parts.total());
+            for ((w, s), (_, s0)) in pred.iter().zip(&at) {
+                out.extend([w.re, w.im]);
+                if let (Some(s), Some(s0)) = (s, s0) {
+                    out.extend([s.norm(), crate::signal::wrap_near(s.arg(), s0.arg())]);
+                }
+            }
+            out
+        });
+        if model_cov.nrows() != self.parts.total() || model_cov.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        Some(Campaign {
+            cov: self.exp_cov + model_cov,
+            inverse: std::sync::OnceLock::new(),
+            ..self.clone()
+        })
     }
 
     /// The indices of `rides`' parts in the residual vector.

@@ -526,6 +526,8 @@ pub fn diagnose_study(
         }
     }
     let all: Vec<usize> = (0..n).collect();
+    let condition_inputs: Vec<Parametrized> =
+        per_condition.iter().map(|(m, _)| m.clone()).collect();
     let campaign = Campaign {
         obs: rides,
         conditions: &condition_models,
@@ -535,6 +537,8 @@ pub fn diagnose_study(
         cov: &exp_cov + &model_cov,
         inverse: std::sync::OnceLock::new(),
         assumed: effects::Assumed::NOMINAL,
+        exp_cov: &exp_cov,
+        models: &condition_inputs,
     };
     d.parts_per_ride = parts.most();
     d.dof = total;

@@ -293,8 +293,20 @@ pub(super) fn rank(
     let done = std::sync::atomic::AtomicUsize::new(0);
     let evaluate = |effects: &[Effect]| -> Option<Ranked> {
         let effects = effects.to_vec();
+        let first = fit_effects(&campaign.subset((0..n).collect())?, &effects);
+        // Fitted again with the model's covariance where the first fit puts the bicycle
+        // ([`Campaign::at_fit`]); its errors, χ² and held-out predictions are then those of
+        // the model being fitted.
+        let own = campaign.at_fit(&effects, &first.params);
+        let campaign = own.as_ref().unwrap_or(campaign);
         let full = campaign.subset((0..n).collect())?;
-        let f = fit_effects(&full, &effects);
+        let f = refine(
+            &full,
+            &effects,
+            &first.params,
+            &steps(campaign, &effects),
+            &[],
+        );
         let se: Vec<f64> = param_se(&full, &effects, &f)
             .iter()
             .zip(assumed_se(campaign, &effects, &f))
