@@ -85,23 +85,47 @@ fn write_new(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
 /// symlink, a folder or a device at `path` is refused, not written through; the folder it
 /// goes in is created.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    check_destination(path, false)?;
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
-    if let Some(dir) = dir {
-        std::fs::create_dir_all(dir).map_err(io(dir))?;
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", unique_suffix()));
-    let result = write_new(&tmp, bytes).and_then(|()| {
-        // Checked again: something may have appeared meanwhile.
+    write_atomic_set(&[(path, bytes)])
+}
+
+/// Writes several files whole, as [`write_atomic`] one: every destination is checked before
+/// any is written, and every temporary file written before any is renamed into place, so a
+/// refused or failed one leaves none of the set behind (a log and its `_cal.log`, one of them
+/// a symlink, used to leave the log written and the command failed).
+pub fn write_atomic_set(files: &[(&Path, &[u8])]) -> Result<(), OutputError> {
+    for (path, _) in files {
         check_destination(path, false)?;
-        std::fs::rename(&tmp, path).map_err(io(path))
+    }
+    let mut temps: Vec<PathBuf> = Vec::with_capacity(files.len());
+    let staged = files.iter().try_for_each(|(path, bytes)| {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(io(dir))?;
+        }
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let tmp = path.with_file_name(format!(".{name}.{}.tmp", unique_suffix()));
+        temps.push(tmp.clone());
+        write_new(&tmp, bytes)
     });
+    // Checked again: something may have appeared meanwhile.
+    let result = staged
+        .and_then(|()| {
+            files
+                .iter()
+                .try_for_each(|(p, _)| check_destination(p, false).map(|_| ()))
+        })
+        .and_then(|()| {
+            files
+                .iter()
+                .zip(&temps)
+                .try_for_each(|((path, _), tmp)| std::fs::rename(tmp, path).map_err(io(path)))
+        });
     if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+        for tmp in &temps {
+            let _ = std::fs::remove_file(tmp);
+        }
     }
     result
 }

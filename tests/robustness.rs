@@ -250,6 +250,23 @@ fn an_out_that_is_a_symlink_or_a_device_is_refused() {
         1,
         "a device",
     );
+    // Issue 33: the log's companion `_cal.log` a symlink: refused, and the log itself not
+    // written either (it was, before the set was checked whole).
+    let log = d.join("p.log");
+    std::os::unix::fs::symlink(&target, d.join("p_cal.log")).unwrap();
+    refused(
+        &bikeproc(&["simulate", "torsion", "--out", log.to_str().unwrap()]),
+        1,
+        "a symlink",
+    );
+    assert!(!log.exists(), "{} left behind", log.display());
+    let leftovers: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
     std::fs::remove_dir_all(&d).ok();
 }
 

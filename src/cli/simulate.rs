@@ -6,6 +6,7 @@ use super::io::{note, out, write_atomic};
 use anyhow::{Context, Result};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::log::Log;
+use bikeproc::output::write_atomic_set;
 use bikeproc::sim::{self, campaign, pendulum, ride};
 use std::path::Path;
 
@@ -130,8 +131,10 @@ pub fn simulate(s: SimCommand) -> Result<()> {
         seed: c.seed,
     });
     let cal = Log::cal_path(&c.out);
-    write_atomic(&c.out, rec.angles_log.as_bytes())?;
-    write_atomic(&cal, rec.cal_log.as_bytes())?;
+    write_atomic_set(&[
+        (&c.out, rec.angles_log.as_bytes()),
+        (&cal, rec.cal_log.as_bytes()),
+    ])?;
     out(&(serde_json::to_string_pretty(&rec.truth)? + "\n"))?;
     note!("wrote {} and {}", c.out.display(), cal.display());
     Ok(())
@@ -161,9 +164,12 @@ fn simulate_ride(r: RideArgs) -> Result<()> {
             .unwrap_or_default();
         r.out.with_file_name("truth").join(format!("{stem}.json"))
     });
-    write_atomic(&r.out, ride.angles_log.as_bytes())?;
-    write_atomic(&Log::cal_path(&r.out), ride.cal_log.as_bytes())?;
-    write_atomic(&truth, serde_json::to_string(&ride.truth)?.as_bytes())?;
+    let truth_json = serde_json::to_string(&ride.truth)?;
+    write_atomic_set(&[
+        (&r.out, ride.angles_log.as_bytes()),
+        (&Log::cal_path(&r.out), ride.cal_log.as_bytes()),
+        (&truth, truth_json.as_bytes()),
+    ])?;
     let t = &ride.truth;
     note!(
         "wrote {} (release {:.2} s, kick {:.2} s, catch {:.2} s; speedometer {:.2} m/s) and the truth {}",
