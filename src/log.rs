@@ -59,6 +59,24 @@ impl OutputMode {
         }
     }
 
+    /// The largest magnitude channel `channel` of this mode can read, with room for the
+    /// exporter's rounding: Euler roll and yaw wrap at ±180°, pitch stays within ±90° (the
+    /// format's contract); a unit quaternion's and a rotation matrix's entries lie within ±1;
+    /// a calibrated sensor's accelerations within ±1000 m/s² (100 g), its angular rates within
+    /// ±100 rad/s (a MEMS gyroscope's range is ±35 at most), its magnetic field (about 1 in
+    /// the lab) within ±1000. A value beyond is a corrupted packet, not a reading.
+    pub fn limit(self, channel: &str) -> f64 {
+        const ROUNDING: f64 = 0.01;
+        match (self, channel) {
+            (OutputMode::Euler, "Pitch") => 90.0 + ROUNDING,
+            (OutputMode::Euler, _) => 180.0 + ROUNDING,
+            (OutputMode::Quaternion | OutputMode::Matrix, _) => 1.0 + ROUNDING,
+            (OutputMode::Calibrated, c) if c.starts_with("Acc") => 1000.0,
+            (OutputMode::Calibrated, c) if c.starts_with("Gyr") => 100.0,
+            (OutputMode::Calibrated, _) => 1000.0,
+        }
+    }
+
     /// The name the header's `Output mode:` line uses.
     pub fn name(self) -> &'static str {
         match self {
@@ -204,11 +222,11 @@ impl fmt::Display for LogErrorKind {
             ),
             TooManyCorruptRun { run, limit } => write!(
                 f,
-                "{run} corrupt rows (cut short or NaN) in a row: more than the limit of {limit}"
+                "{run} corrupt rows (cut short, NaN, or a value beyond its channel's range) in a row: more than the limit of {limit}"
             ),
             TooManyCorrupt { corrupt, rows, limit_percent } => write!(
                 f,
-                "{corrupt} of {rows} rows are corrupt (cut short or NaN): more than {limit_percent} %"
+                "{corrupt} of {rows} rows are corrupt (cut short, NaN, or a value beyond its channel's range): more than {limit_percent} %"
             ),
             NoData => write!(f, "no data rows"),
         }
@@ -239,7 +257,7 @@ impl fmt::Display for LogError {
     }
 }
 
-/// Limits on corrupt rows (cut short, or holding NaN) that are kept as gaps.
+/// Limits on corrupt rows (cut short, holding NaN, or a value beyond its channel's range) that are kept as gaps.
 #[derive(Debug, Clone, Copy)]
 pub struct ReadOptions {
     /// Longest run of consecutive corrupt rows accepted (default 25 rows = 0.25 s at 100 Hz).
@@ -279,7 +297,7 @@ pub struct GapReport {
     pub gaps: usize,
     /// The longest hole, in samples.
     pub longest_gap_samples: u64,
-    /// Rows that were cut short or held NaN (counted in `missing_samples` too).
+    /// Rows that were cut short, held NaN or a value beyond its channel's range (counted in `missing_samples` too).
     pub corrupt_rows: usize,
     /// Line of the first corrupt row.
     pub first_corrupt_line: Option<usize>,
@@ -647,6 +665,16 @@ impl<'a> Parser<'a> {
 
         // Data rows.
         let n_fields = names.len();
+        // Each field's physical range (a sensor's channel; the others unbounded).
+        let limits: Vec<f64> = names_text
+            .iter()
+            .map(|n| {
+                channels
+                    .iter()
+                    .find(|ch| n == *ch || n.strip_suffix(**ch).is_some_and(|p| p.ends_with('_')))
+                    .map_or(f64::INFINITY, |ch| mode.limit(ch))
+            })
+            .collect();
         let mut data: Vec<Vec<f64>> = vec![Vec::new(); columns.len()];
         let mut grid_index: Vec<u64> = Vec::new();
         let mut row_lines: Vec<usize> = Vec::new();
@@ -695,7 +723,8 @@ impl<'a> Parser<'a> {
                     continue;
                 }
                 match parse_number(t, decimal_comma) {
-                    Some(v) if v.is_finite() => values[fi] = v,
+                    Some(v) if v.abs() <= limits[fi] => values[fi] = v,
+                    // Not finite, or beyond its channel's range.
                     Some(_) => corrupt = true,
                     None if t.is_empty() && fi + 1 == n_fields => corrupt = true,
                     None => {
@@ -821,7 +850,7 @@ impl<'a> Parser<'a> {
         }
         if gaps.corrupt_rows > 0 {
             warnings.push(format!(
-                "{}:{}: {} corrupt rows (cut short or NaN) kept as gaps",
+                "{}:{}: {} corrupt rows (cut short, NaN, or a value beyond its channel's range) kept as gaps",
                 self.path.display(),
                 gaps.first_corrupt_line.unwrap_or(0),
                 gaps.corrupt_rows
@@ -1091,6 +1120,31 @@ mod tests {
         let log = parse(&text).unwrap();
         assert_eq!(log.grid_index, (0..400).collect::<Vec<u64>>());
         assert_eq!(log.gaps.gaps, 0);
+    }
+
+    /// Issue 33: a roll of 400° or 1e300° in one row (beyond the ±180° the format allows) is a
+    /// corrupted packet: that row is a gap, counted with its line, not a reading (1e300 was
+    /// read as an angle, 400 unwrapped into the roll and ended the ride's free motion).
+    #[test]
+    fn a_value_beyond_its_channels_range_is_a_corrupt_row() {
+        for bad in ["400", "1e300", "-90.5"] {
+            // Roll, pitch, yaw: the bad value in the roll, or -90.5 in the pitch.
+            let row = if bad == "-90.5" {
+                format!("2\t0.01\t1\t{bad}\t3\n")
+            } else {
+                format!("2\t0.01\t{bad}\t2\t3\n")
+            };
+            // The range's own ends are readings; 40 rows keep one corrupt below the 5 % limit.
+            let mut text = format!("{HEAD}1\t0.00\t1\t2\t3\n{row}");
+            for k in 3..=40 {
+                text += &format!("{k}\t{:.2}\t180.0\t-90\t-180\n", (k - 1) as f64 / 100.0);
+            }
+            let log = parse(&text).unwrap();
+            assert_eq!(log.gaps.corrupt_rows, 1, "{bad}");
+            assert_eq!(log.gaps.first_corrupt_line, Some(6), "{bad}");
+            assert_eq!(log.grid_index[..2], [0, 2], "{bad}");
+            assert_eq!(log.grid_index.len(), 39, "{bad}");
+        }
     }
 
     #[test]
