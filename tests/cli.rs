@@ -268,6 +268,12 @@ fn a_noted_speed_the_log_contradicts_is_refused_with_a_hint() {
     let (code, out, err) = bikeproc(&["dynamic", ride, "--speed", "4.1"]);
     assert_eq!(code, 0, "{err}");
     assert!(!out.contains("DISAGREE"), "{out}");
+    // What the reader kept as gaps is said, as `period` says it: ride_03's one corrupt row
+    // (line 1058, written so by the generator) and its six dropped packets.
+    assert!(
+        err.contains("ride_03.log:1058: 1 corrupt rows") && err.contains("6 missing samples"),
+        "{err}"
+    );
 }
 
 /// Issue 31: a CSV written without its header row is read from its first row: the same

@@ -2,7 +2,7 @@
 //! their weave eigenvalues against the model, and a campaign to its sim-to-real gap.
 
 use super::args::{DynamicArgs, GapArgs};
-use super::io::{advance, emit, progress};
+use super::io::{advance, emit, note, progress};
 use super::model::load_model;
 use super::NoRideAnalysed;
 use anyhow::Result;
@@ -101,7 +101,11 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
         prefer_sync: false,
         modal,
     };
-    let summary = dynamic::dynamic_test(&a.file, &model, &options)?.summary();
+    let test = dynamic::dynamic_test(&a.file, &model, &options)?;
+    for w in &test.warnings {
+        note!("warning: {w}");
+    }
+    let summary = test.summary();
     emit(a.json, &summary, || summary.to_text())
 }
 

@@ -147,6 +147,9 @@ pub struct DynamicTest {
     /// θ and γ from half a second before the kick to half a second after the window (for
     /// plots): time (s), roll (rad), steer (rad).
     pub trace: Vec<[f64; 3]>,
+    /// What the log reader found in the angles file and kept as gaps (dropped packets,
+    /// corrupt rows), each naming the file and line.
+    pub warnings: Vec<String>,
 }
 
 fn ride_err(path: &Path, message: impl Into<String>) -> RideError {
@@ -275,6 +278,7 @@ pub fn dynamic_test(
         coasting_bias,
         model,
         trace,
+        warnings: signals.log.warnings.clone(),
     })
 }
 
