@@ -159,9 +159,21 @@ impl<'a> Campaign<'a> {
         params: &[f64],
         c: usize,
     ) -> (LinearBike, Vec<f64>) {
+        self.bike_on(&self.conditions[c].base, effects, layout, params, c)
+    }
+
+    /// [`Campaign::bike`] on the measured bicycle `base` in place of condition `c`'s own.
+    fn bike_on(
+        &self,
+        base: &Benchmark,
+        effects: &[Effect],
+        layout: &Layout,
+        params: &[f64],
+        c: usize,
+    ) -> (LinearBike, Vec<f64>) {
         let own = layout.condition_params(params, c);
-        let cond = &self.conditions[c];
-        let bike = linear_bike_assuming(&cond.base, &cond.control, effects, &own, self.assumed);
+        let control = &self.conditions[c].control;
+        let bike = linear_bike_assuming(base, control, effects, &own, self.assumed);
         (bike, own)
     }
 
@@ -174,17 +186,12 @@ impl<'a> Campaign<'a> {
         params: &[f64],
         rides: &[usize],
     ) -> Option<DVector<f64>> {
-        let layout = self.layout(effects);
-        let mut bikes: Vec<Option<(LinearBike, Vec<f64>)>> = vec![None; self.conditions.len()];
+        let base = |c: usize| self.conditions[c].base;
+        let predicted = self.predictions(effects, params, &base, &self.guesses, rides)?;
         let mut r = DVector::zeros(self.parts.count(rides));
         let mut at = 0;
-        for &i in rides {
+        for (&i, (w, shape)) in rides.iter().zip(predicted) {
             let o = &self.obs[i];
-            let c = self.ride_condition[i];
-            let (bike, own) =
-                bikes[c].get_or_insert_with(|| self.bike(effects, &layout, params, c));
-            let with_shape = self.parts.of(i) > 2;
-            let (w, shape) = predict_weave(bike, effects, own, o, self.guesses[i], with_shape)?;
             r[at] = o.weave.re - w.re;
             r[at + 1] = o.weave.im - w.im;
             if let Some(s) = shape {
@@ -196,28 +203,26 @@ impl<'a> Campaign<'a> {
         Some(r)
     }
 
-    /// Every ride's predicted weave and (where its parts include it) mode shape under
+    /// The predicted weave and (where its parts include it) mode shape of each of `rides` under
     /// `effects` at `params` (the fitted vector of their layout), each condition's bicycle
-    /// `base(c)`, each ride's branch followed from `guesses`; `None` when a ride has none.
+    /// `base(c)`, each ride's branch followed from `guesses` (indexed by ride); `None` when a
+    /// ride has none.
     fn predictions(
         &self,
         effects: &[Effect],
         params: &[f64],
         base: &dyn Fn(usize) -> Benchmark,
         guesses: &[Complex<f64>],
+        rides: &[usize],
     ) -> Option<Vec<Prediction>> {
         let layout = self.layout(effects);
         let mut bikes: Vec<Option<(LinearBike, Vec<f64>)>> = vec![None; self.conditions.len()];
-        (0..self.obs.len())
-            .map(|i| {
+        rides
+            .iter()
+            .map(|&i| {
                 let c = self.ride_condition[i];
-                let (bike, own) = bikes[c].get_or_insert_with(|| {
-                    let own = layout.condition_params(params, c);
-                    let cond = &self.conditions[c];
-                    let bike =
-                        linear_bike_assuming(&base(c), &cond.control, effects, &own, self.assumed);
-                    (bike, own)
-                });
+                let (bike, own) = bikes[c]
+                    .get_or_insert_with(|| self.bike_on(&base(c), effects, &layout, params, c));
                 let with_shape = self.parts.of(i) > 2;
                 predict_weave(bike, effects, own, &self.obs[i], guesses[i], with_shape)
             })
@@ -233,13 +238,14 @@ impl<'a> Campaign<'a> {
     /// prediction fails at a perturbed input or the result is not a covariance.
     pub fn at_fit(&self, effects: &[Effect], params: &[f64]) -> Option<Campaign<'a>> {
         let models = self.models;
+        let all: Vec<usize> = (0..self.obs.len()).collect();
         let nominal_base = |c: usize| self.conditions[c].base;
-        let at = self.predictions(effects, params, &nominal_base, &self.guesses)?;
+        let at = self.predictions(effects, params, &nominal_base, &self.guesses, &all)?;
         let guesses: Vec<Complex<f64>> = at.iter().map(|(w, _)| *w).collect();
         let inputs = &models.first()?.inputs;
         let (_, model_cov) = crate::uncertainty::propagate(inputs, |x| {
             let base = |c: usize| models[c].benchmark_at(x);
-            let Some(pred) = self.predictions(effects, params, &base, &guesses) else {
+            let Some(pred) = self.predictions(effects, params, &base, &guesses, &all) else {
                 return vec![f64::NAN; self.parts.total()];
             };
             let mut out = Vec::with_capacity(self.parts.total());

@@ -171,6 +171,10 @@ fn carrier(p: &[f64], st: Structure, tau: f64) -> (f64, f64, f64) {
     (e, cos, sin)
 }
 
+/// The most parameters one residual depends on: the nonlinear ones (σ, ω, their drifts, the
+/// real modes' rates) and its own signal's linear ones.
+const MAX_ROW: usize = 2 + 2 + MAX_REAL_MODES + (2 + MAX_REAL_MODES + 2);
+
 /// The weighted least-squares problem: rows 0..n are θ, n..2n are γ, each times its weight.
 struct Problem<'a> {
     t: &'a [f64],
@@ -251,13 +255,7 @@ impl Problem<'_> {
         }
         row
     }
-}
 
-/// The most parameters one residual depends on: the nonlinear ones (σ, ω, their drifts, the
-/// real modes' rates) and its own signal's linear ones.
-const MAX_ROW: usize = 2 + 2 + MAX_REAL_MODES + (2 + MAX_REAL_MODES + 2);
-
-impl Problem<'_> {
     /// Sample `i`'s two weighted residuals and their Jacobian rows, each row held sparse: its
     /// first `nonlinear()` entries are the columns `0..nonlinear()`, the next `linear()` its
     /// signal's linear columns (θ's, then γ's); every other column of the row is zero.
@@ -314,12 +312,17 @@ impl Problem<'_> {
             j + s * self.st.linear()
         }
     }
+
+    /// The nonzero entries of a sparse row: the nonlinear parameters and one signal's linear ones.
+    fn row_width(&self) -> usize {
+        self.st.nonlinear() + self.st.linear()
+    }
 }
 
 impl LeastSquares for Problem<'_> {
     fn residuals_and_jacobian(&self, p: &[f64], jac: &mut DMatrix<f64>, r: &mut DVector<f64>) {
         let n = self.n();
-        let width = self.st.nonlinear() + self.st.linear();
+        let width = self.row_width();
         jac.fill(0.0);
         for i in 0..n {
             for (s, (row, res)) in self.sparse_rows(p, i).into_iter().enumerate() {
@@ -348,7 +351,7 @@ impl LeastSquares for Problem<'_> {
         g: &mut DVector<f64>,
     ) {
         let n = self.n();
-        let width = self.st.nonlinear() + self.st.linear();
+        let width = self.row_width();
         // Per signal, the sums over its sparse rows; scattered into h and g at the end.
         let mut hs = [[[0.0; MAX_ROW]; MAX_ROW]; 2];
         let mut gs = [[0.0; MAX_ROW]; 2];
