@@ -333,6 +333,27 @@ fn a_full_stderr_or_help_into_a_full_stdout_is_no_panic() {
     assert_eq!(run(&["no-such-command"], false), Some(2));
 }
 
+/// Issue 33: `--version` and `period …` into a closed standard output (`>&-`) ended with 0, the
+/// output silently lost (Rust's standard library ignores EBADF there): now a message and 1.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_closed_stdout_is_said_and_ends_with_1() {
+    for args in [
+        vec!["--version"],
+        vec!["period", "data/frame_torsion/frame_torsion_1a.log"],
+    ] {
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg("exec \"$0\" \"$@\" >&-")
+            .arg(env!("CARGO_BIN_EXE_bikeproc"))
+            .args(&args)
+            .current_dir(root())
+            .output()
+            .unwrap();
+        refused(&out, 1, "standard output is closed");
+    }
+}
+
 /// A ride log of 1 s, a `_cal` file of another ride or of half the ride, and one sensor's data
 /// written for both: each refused with its real cause, not a misleading one ("the frame sensor
 /// did not move", "too short … caught").

@@ -31,6 +31,20 @@ pub fn emit<T: serde::Serialize>(
     }
 }
 
+/// Whether standard output was closed when bikeproc started (`>&-`). Rust's runtime opens
+/// `/dev/null` read-write on a standard descriptor it finds closed, before `main`, so what is
+/// written there is lost and `--version >&-` ended with 0. A shell's `> /dev/null` opens it
+/// write-only: `/dev/null` open read-write on descriptor 1 is taken as closed.
+pub fn stdout_closed() -> bool {
+    use rustix::fs::{fcntl_getfl, fstat, stat, OFlags};
+    let out = std::io::stdout();
+    let (Ok(mode), Ok(st), Ok(null)) = (fcntl_getfl(&out), fstat(&out), stat("/dev/null")) else {
+        return false;
+    };
+    let same_device = st.st_rdev == null.st_rdev && st.st_ino == null.st_ino;
+    same_device && (mode & OFlags::RWMODE) == OFlags::RDWR
+}
+
 /// Whether a message to standard error could not be written (a full disk, a closed or gone
 /// reader): the command then ends with exit code 1 ([`super::main`]).
 pub static STDERR_FAILED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);

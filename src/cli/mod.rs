@@ -26,6 +26,13 @@ struct NoRideAnalysed(PathBuf);
 /// Parses the arguments, runs the command, prints an error with its causes and maps it to the
 /// exit code.
 pub fn main() -> ExitCode {
+    if io::stdout_closed() {
+        io::note_line(
+            "error: standard output is closed (`>&-`): what the command prints would be lost; \
+             redirect it to a file or to /dev/null",
+        );
+        return ExitCode::from(1);
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         // `--help` and `--version` go to standard output, checked as every output is.
