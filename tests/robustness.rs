@@ -350,7 +350,7 @@ fn a_closed_stdout_is_said_and_ends_with_1() {
             .current_dir(root())
             .output()
             .unwrap();
-        refused(&out, 1, "standard output is closed");
+        refused(&out, 1, "standard output goes nowhere");
     }
 }
 

@@ -28,8 +28,9 @@ struct NoRideAnalysed(PathBuf);
 pub fn main() -> ExitCode {
     if io::stdout_closed() {
         io::note_line(
-            "error: standard output is closed (`>&-`): what the command prints would be lost; \
-             redirect it to a file or to /dev/null",
+            "error: standard output goes nowhere (closed with `>&-`, or /dev/null open \
+             read-write as a closed descriptor or a daemon leaves it): what the command prints \
+             would be lost; redirect it to a file, or discard it with `> /dev/null`",
         );
         return ExitCode::from(1);
     }
