@@ -182,6 +182,7 @@ fn report_killed_at_random_or_run_twice_at_once_leaves_one_whole_set() {
             .arg("--out")
             .arg(&out)
             .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null())
             .spawn()
             .unwrap()
