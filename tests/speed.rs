@@ -233,7 +233,7 @@ fn a_campaign_from_2_8_to_6_3_m_per_s_loses_at_most_15_percent() {
 /// The reed switch's speed over many rides at one speed, as a lab rides them: the wheel's
 /// magnet stands anywhere at the start, so each ride's pulses fall on other samples and their
 /// quantization errors are independent draws. Over 40 rides released at 5.05 m/s (the `Sync`
-/// design's fifth ride) the `Sync` speed's normalized error against the simulator's truth at
+/// design's sixth ride) the `Sync` speed's normalized error against the simulator's truth at
 /// the eigenvalue's time has a mean within ±0.35 (about twice its standard error over 40
 /// draws) and a spread of 0.4–1.4. Measured: mean +0.08, spread 0.58 (the standard error's
 /// floor of one sample's quantization is conservative at this speed; over 119 rides at
