@@ -391,3 +391,14 @@ fn find_kicks_by_rows(bencher: divan::Bencher, rows: usize) {
     let path = treadmill_csv(rows);
     bencher.bench(|| find_kicks_file(&path, &Columns::default(), None).expect("reads"));
 }
+
+/// Issue 34: `bikeproc sensitivity` on a real bicycle: the characteristic speeds (0–10 m/s
+/// in steps of 0.01 m/s, refined), every parameter's derivatives and the variance budget
+/// (acceptance: under 10 ms).
+#[divan::bench]
+fn sensitivity_rigid(bencher: divan::Bencher) {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/reference/bicycleparameters/RigidBenchmark.txt");
+    let model = bikeproc::model::uncertain::load(&path).expect("RigidBenchmark.txt");
+    bencher.bench(|| bikeproc::model::sensitivity::sensitivity(&model, &[5.0], 10.0).unwrap());
+}

@@ -101,6 +101,30 @@ pub enum Command {
         "Exit codes: 0 done; 2 the bicycle file is malformed or gives no dynamics; 1 anything else."
     ))]
     Stability(StabilityArgs),
+    /// How the weave and capsize speeds move with each benchmark parameter (the model's own
+    /// derivatives), and each parameter's share of their uncertainty.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc sensitivity --bike data/lab_bike.toml\n",
+        "  bikeproc sensitivity --bike RigidBenchmark.txt --rider JasonRigidBenchmark.txt\n",
+        "  bikeproc sensitivity --bike BenchmarkBenchmark.txt --speeds 4,5,6 --json\n\n",
+        "Derivatives: the implicit function of the critical eigenvalue (Re λ(v, p) = 0, so ",
+        "dv/dp = −(∂Re λ/∂p)/(∂Re λ/∂v)), the eigenvalue's by first-order perturbation theory, ",
+        "the canonical matrices' by dual numbers through Meijaard et al. 2007's (A 1)–(A 27). ",
+        "Elasticity: (p/v) dv/dp. Variance share: g_k (C g)_k / gᵀCg, C the parameters' ",
+        "covariance from the file's standard errors (propagated from the measurements for a lab ",
+        "bicycle), g the gradient; the shares add up to 1.\n\n",
+        "JSON (--json): {\"bike\", \"weave_speed_mps\": {\"value\", \"se\"}, ",
+        "\"capsize_speed_mps\": {\"value\", \"se\"}, \"parameters\": [{\"name\", \"unit\", ",
+        "\"value\", \"se\", \"d_weave_speed\", \"d_capsize_speed\", \"weave_elasticity\", ",
+        "\"capsize_elasticity\", \"weave_variance_share\", \"capsize_variance_share\"} ×26], ",
+        "\"weave_derivatives\": [{\"speed_mps\", \"re\", \"im\", \"d_re\", \"d_im\"}]} ",
+        "(derivatives in m/s, or 1/s, per the parameter's unit; d_re and d_im in the order of ",
+        "\"parameters\").\n\n",
+        "Exit codes: 0 done; 2 the bicycle or rider file is malformed or gives no dynamics; 1 ",
+        "anything else."
+    ))]
+    Sensitivity(SensitivityArgs),
     /// Experimental weave eigenvalue of a ride (its angles log, `_cal` beside it) or of every
     /// ride of a campaign (rides.toml), against the model at the ride's speed.
     #[command(after_help = concat!(
@@ -329,9 +353,47 @@ pub struct StabilityArgs {
     /// A steer controller closing the loop (a TOML file with a `[controller]` table).
     #[arg(long)]
     pub controller: Option<PathBuf>,
+    /// A rider joining the rear frame (BicycleParameters' benchmark form of a rider, as
+    /// `JasonRigidBenchmark.txt`: mB, xB, zB, IBxx, IByy, IBzz, IBxz).
+    #[arg(long)]
+    pub rider: Option<PathBuf>,
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(Args)]
+pub struct SensitivityArgs {
+    /// A bicycle: BicycleParameters text (`*Benchmark.txt`), benchmark TOML, or a lab bicycle
+    /// (`data/lab_bike.toml`).
+    #[arg(long)]
+    pub bike: PathBuf,
+    /// A rider joining the rear frame (BicycleParameters' benchmark form of a rider).
+    #[arg(long)]
+    pub rider: Option<PathBuf>,
+    /// Speeds (m/s, comma-separated, each above the weave's merge speed) at which to give the
+    /// weave eigenvalue's derivatives by every parameter.
+    #[arg(long, value_delimiter = ',', value_parser = parse_positive_speed)]
+    pub speeds: Vec<f64>,
+    /// The characteristic speeds are searched in 0 to this speed (m/s).
+    #[arg(long, default_value_t = 10.0, value_parser = parse_positive_speed)]
+    pub max_speed: f64,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// A speed in m/s: a finite number in (0, 100].
+fn parse_positive_speed(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number (m/s)"))?;
+    if v.is_finite() && v > 0.0 && v <= 100.0 {
+        Ok(v)
+    } else {
+        Err(format!("{s} m/s: a speed above 0 and at most 100 m/s"))
+    }
 }
 
 pub fn parse_speeds(s: &str) -> Result<(f64, f64, f64), String> {

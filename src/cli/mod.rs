@@ -70,6 +70,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Inertia(a) => measure::inertia(a),
         Command::Measured(a) => measure::measured(a),
         Command::Stability(a) => model::stability(a),
+        Command::Sensitivity(a) => model::sensitivity(a),
         Command::Dynamic(a) => ride::dynamic(a),
         Command::Gap(a) => ride::gap(a),
         Command::Simulate(s) => simulate::simulate(s),
@@ -102,6 +103,7 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             || c.is::<inertia::manifest::ManifestError>()
             || c.is::<inertia::measured::MeasuredError>()
             || c.is::<bikeproc::model::ParamError>()
+            || c.is::<bikeproc::model::sensitivity::SensitivityError>()
             || c.is::<bikeproc::ride::RideError>()
             || c.is::<bikeproc::model::control::ControlError>()
             || c.is::<NoRideAnalysed>()

@@ -1,8 +1,9 @@
-//! `stability`: a bicycle file to its eigenvalues against speed, the weave and capsize speeds
-//! and the stable range, with standard errors; and the loading of a model (with a controller)
+//! `stability`: a bicycle file (and a rider) to its eigenvalues against speed, the weave and
+//! capsize speeds and the stable range, with standard errors; `sensitivity`: how those speeds
+//! move with every parameter; and the loading of a model (with a controller)
 //! that the ride commands share.
 
-use super::args::StabilityArgs;
+use super::args::{SensitivityArgs, StabilityArgs};
 use super::io::emit;
 use anyhow::Result;
 use bikeproc::kind::{self, Kind};
@@ -15,9 +16,30 @@ pub fn stability(a: StabilityArgs) -> Result<()> {
         let b = p.nominal().with_handlebar_cg_on_steer_axis();
         p = Parametrized::from_benchmark(&p.name, &b);
     }
+    let p = with_rider(p, a.rider.as_deref())?;
     let p = with_controller(p, a.controller.as_deref())?;
     let report = model::report::StabilityReport::over(&p, a.speeds)?;
     emit(a.json, &report, || report.to_text())
+}
+
+pub fn sensitivity(a: SensitivityArgs) -> Result<()> {
+    let p = with_rider(load_bike(&a.bike)?, a.rider.as_deref())?;
+    let s = model::sensitivity::sensitivity(&p, &a.speeds, a.max_speed)?;
+    emit(a.json, &s, || s.to_text())
+}
+
+/// `model` with the rider of the file `rider` joined to its rear frame, named in the model's
+/// name.
+fn with_rider(mut model: Parametrized, rider: Option<&Path>) -> Result<Parametrized> {
+    if let Some(r) = rider {
+        let rider = model::Rider::load(r)?;
+        let file = r
+            .file_name()
+            .map_or_else(|| r.display().to_string(), |f| f.to_string_lossy().into());
+        model.name = format!("{} with the rider of {file}", model.name);
+        model = model.with_rider(&rider);
+    }
+    Ok(model)
 }
 
 /// A bicycle file as a model, with the controller of `controller` (a TOML `[controller]`

@@ -9,14 +9,17 @@
 //! their standard errors propagated from the parameters'.
 
 pub mod control;
+pub mod dual;
 pub mod lab;
 pub mod params;
 pub mod report;
+pub mod sensitivity;
 pub mod uncertain;
 
 pub use control::SteerControl;
+use dual::Real;
 use nalgebra::{Complex, Matrix2, Matrix4};
-pub use params::{Benchmark, ParamError};
+pub use params::{Benchmark, BenchmarkOf, ParamError, Rider, RigidBody};
 
 /// The canonical matrices of the linearized Whipple bicycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,79 +36,110 @@ pub struct Canonical {
 
 /// `I/r` with the two-mass-skate limit: zero inertia on a zero radius is zero (Kooijman et
 /// al. 2011), not 0/0.
-fn spin_over_radius(inertia: f64, radius: f64) -> f64 {
-    if inertia == 0.0 {
-        0.0
+fn spin_over_radius<T: Real>(inertia: T, radius: T) -> T {
+    if inertia.value() == 0.0 && radius.value() == 0.0 {
+        T::from(0.0)
     } else {
         inertia / radius
     }
 }
 
+/// The canonical matrices' entries in any arithmetic: M, C₁, K₀, K₂ row by row, and g.
+#[derive(Debug, Clone, Copy)]
+pub struct CanonicalTerms<T> {
+    pub m: [T; 4],
+    pub c1: [T; 4],
+    pub k0: [T; 4],
+    pub k2: [T; 4],
+    pub g: T,
+}
+
+/// Meijaard et al. 2007, Appendix A, equations (A 1)–(A 27), term by term, in any arithmetic
+/// ([`Real`]): with `f64` the model ([`Canonical::from_benchmark`]), with dual numbers its
+/// exact derivatives by a parameter ([`dual`]).
+pub fn canonical_terms<T: Real>(p: &BenchmarkOf<T>) -> CanonicalTerms<T> {
+    let n = |x: f64| T::from(x);
+    let (sl, cl) = p.lambda.sin_cos();
+    // (A 1)–(A 6): the whole bicycle's mass, centre of mass and inertia (rear contact, z down).
+    let m_t = p.m_r + p.m_b + p.m_h + p.m_f;
+    let x_t = (p.x_b * p.m_b + p.x_h * p.m_h + p.w * p.m_f) / m_t;
+    let z_t = (-p.r_r * p.m_r + p.z_b * p.m_b + p.z_h * p.m_h - p.r_f * p.m_f) / m_t;
+    let i_txx = p.i_rxx
+        + p.i_bxx
+        + p.i_hxx
+        + p.i_fxx
+        + p.m_r * p.r_r * p.r_r
+        + p.m_b * p.z_b * p.z_b
+        + p.m_h * p.z_h * p.z_h
+        + p.m_f * p.r_f * p.r_f;
+    let i_txz =
+        p.i_bxz + p.i_hxz - p.m_b * p.x_b * p.z_b - p.m_h * p.x_h * p.z_h + p.m_f * p.w * p.r_f;
+    // (A 7): wheels are symmetric, I_zz = I_xx.
+    let (i_rzz, i_fzz) = (p.i_rxx, p.i_fxx);
+    let i_tzz = i_rzz
+        + p.i_bzz
+        + p.i_hzz
+        + i_fzz
+        + p.m_b * p.x_b * p.x_b
+        + p.m_h * p.x_h * p.x_h
+        + p.m_f * p.w * p.w;
+    // (A 9)–(A 15): the front assembly A = handlebar and fork + front wheel.
+    let m_a = p.m_h + p.m_f;
+    let x_a = (p.x_h * p.m_h + p.w * p.m_f) / m_a;
+    let z_a = (p.z_h * p.m_h - p.r_f * p.m_f) / m_a;
+    let i_axx =
+        p.i_hxx + p.i_fxx + p.m_h * (p.z_h - z_a).squared() + p.m_f * (p.r_f + z_a).squared();
+    let i_axz =
+        p.i_hxz - p.m_h * (p.x_h - x_a) * (p.z_h - z_a) + p.m_f * (p.w - x_a) * (p.r_f + z_a);
+    let i_azz = p.i_hzz + i_fzz + p.m_h * (p.x_h - x_a).squared() + p.m_f * (p.w - x_a).squared();
+    // (A 16)–(A 19): about the steer axis.
+    let u_a = (x_a - p.w - p.c) * cl - z_a * sl;
+    let i_all = m_a * u_a * u_a + i_axx * sl * sl + n(2.0) * i_axz * sl * cl + i_azz * cl * cl;
+    let i_alx = -m_a * u_a * z_a + i_axx * sl + i_axz * cl;
+    let i_alz = m_a * u_a * x_a + i_axz * sl + i_azz * cl;
+    // (A 20)–(A 22): trail ratio and gyrostatic coefficients.
+    let mu = p.c / p.w * cl;
+    let s_r = spin_over_radius(p.i_ryy, p.r_r);
+    let s_f = spin_over_radius(p.i_fyy, p.r_f);
+    let s_t = s_r + s_f;
+    let s_a = m_a * u_a + mu * m_t * x_t;
+    // (A 23)–(A 27).
+    let m12 = i_alx + mu * i_txz;
+    CanonicalTerms {
+        m: [
+            i_txx,
+            m12,
+            m12,
+            i_all + n(2.0) * mu * i_alz + mu * mu * i_tzz,
+        ],
+        k0: [m_t * z_t, -s_a, -s_a, -s_a * sl],
+        k2: [
+            n(0.0),
+            (s_t - m_t * z_t) / p.w * cl,
+            n(0.0),
+            (s_a + s_f * sl) / p.w * cl,
+        ],
+        c1: [
+            n(0.0),
+            mu * s_t + s_f * cl + i_txz / p.w * cl - mu * m_t * z_t,
+            -(mu * s_t + s_f * cl),
+            i_alz / p.w * cl + mu * (s_a + i_tzz / p.w * cl),
+        ],
+        g: p.g,
+    }
+}
+
 impl Canonical {
-    /// Meijaard et al. 2007, Appendix A, equations (A 1)–(A 27), term by term.
+    /// Meijaard et al. 2007, Appendix A, equations (A 1)–(A 27) ([`canonical_terms`]).
     pub fn from_benchmark(p: &Benchmark) -> Canonical {
-        let (sl, cl) = p.lambda.sin_cos();
-        // (A 1)–(A 6): the whole bicycle's mass, centre of mass and inertia (rear contact, z down).
-        let m_t = p.m_r + p.m_b + p.m_h + p.m_f;
-        let x_t = (p.x_b * p.m_b + p.x_h * p.m_h + p.w * p.m_f) / m_t;
-        let z_t = (-p.r_r * p.m_r + p.z_b * p.m_b + p.z_h * p.m_h - p.r_f * p.m_f) / m_t;
-        let i_txx = p.i_rxx
-            + p.i_bxx
-            + p.i_hxx
-            + p.i_fxx
-            + p.m_r * p.r_r * p.r_r
-            + p.m_b * p.z_b * p.z_b
-            + p.m_h * p.z_h * p.z_h
-            + p.m_f * p.r_f * p.r_f;
-        let i_txz =
-            p.i_bxz + p.i_hxz - p.m_b * p.x_b * p.z_b - p.m_h * p.x_h * p.z_h + p.m_f * p.w * p.r_f;
-        // (A 7): wheels are symmetric, I_zz = I_xx.
-        let (i_rzz, i_fzz) = (p.i_rxx, p.i_fxx);
-        let i_tzz = i_rzz
-            + p.i_bzz
-            + p.i_hzz
-            + i_fzz
-            + p.m_b * p.x_b * p.x_b
-            + p.m_h * p.x_h * p.x_h
-            + p.m_f * p.w * p.w;
-        // (A 9)–(A 15): the front assembly A = handlebar and fork + front wheel.
-        let m_a = p.m_h + p.m_f;
-        let x_a = (p.x_h * p.m_h + p.w * p.m_f) / m_a;
-        let z_a = (p.z_h * p.m_h - p.r_f * p.m_f) / m_a;
-        let i_axx =
-            p.i_hxx + p.i_fxx + p.m_h * (p.z_h - z_a).powi(2) + p.m_f * (p.r_f + z_a).powi(2);
-        let i_axz =
-            p.i_hxz - p.m_h * (p.x_h - x_a) * (p.z_h - z_a) + p.m_f * (p.w - x_a) * (p.r_f + z_a);
-        let i_azz = p.i_hzz + i_fzz + p.m_h * (p.x_h - x_a).powi(2) + p.m_f * (p.w - x_a).powi(2);
-        // (A 16)–(A 19): about the steer axis.
-        let u_a = (x_a - p.w - p.c) * cl - z_a * sl;
-        let i_all = m_a * u_a * u_a + i_axx * sl * sl + 2.0 * i_axz * sl * cl + i_azz * cl * cl;
-        let i_alx = -m_a * u_a * z_a + i_axx * sl + i_axz * cl;
-        let i_alz = m_a * u_a * x_a + i_axz * sl + i_azz * cl;
-        // (A 20)–(A 22): trail ratio and gyrostatic coefficients.
-        let mu = p.c / p.w * cl;
-        let s_r = spin_over_radius(p.i_ryy, p.r_r);
-        let s_f = spin_over_radius(p.i_fyy, p.r_f);
-        let s_t = s_r + s_f;
-        let s_a = m_a * u_a + mu * m_t * x_t;
-        // (A 23)–(A 27).
-        let m12 = i_alx + mu * i_txz;
+        let t = canonical_terms(&BenchmarkOf::from_array(p.to_array()));
+        let mat = |e: [f64; 4]| Matrix2::new(e[0], e[1], e[2], e[3]);
         Canonical {
-            m: Matrix2::new(i_txx, m12, m12, i_all + 2.0 * mu * i_alz + mu * mu * i_tzz),
-            k0: Matrix2::new(m_t * z_t, -s_a, -s_a, -s_a * sl),
-            k2: Matrix2::new(
-                0.0,
-                (s_t - m_t * z_t) / p.w * cl,
-                0.0,
-                (s_a + s_f * sl) / p.w * cl,
-            ),
-            c1: Matrix2::new(
-                0.0,
-                mu * s_t + s_f * cl + i_txz / p.w * cl - mu * m_t * z_t,
-                -(mu * s_t + s_f * cl),
-                i_alz / p.w * cl + mu * (s_a + i_tzz / p.w * cl),
-            ),
-            g: p.g,
+            m: mat(t.m),
+            c1: mat(t.c1),
+            k0: mat(t.k0),
+            k2: mat(t.k2),
+            g: t.g,
             control: SteerControl::NONE,
         }
     }

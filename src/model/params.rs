@@ -52,6 +52,21 @@ macro_rules! benchmark_params {
                 Benchmark { $( $field: it.next().unwrap_or(0.0), )* se: [0.0; 26] }
             }
         }
+
+        /// The benchmark parameters in any arithmetic ([`super::dual::Real`]): `f64` for the
+        /// model, dual numbers for its derivatives.
+        #[derive(Debug, Clone, Copy)]
+        pub struct BenchmarkOf<T> {
+            $( #[doc = $doc] pub $field: T, )*
+        }
+
+        impl<T: Copy> BenchmarkOf<T> {
+            /// From values in the order of [`Benchmark::NAMES`].
+            pub fn from_array(v: [T; 26]) -> BenchmarkOf<T> {
+                let [$( $field, )*] = v;
+                BenchmarkOf { $( $field, )* }
+            }
+        }
     };
 }
 
@@ -120,48 +135,7 @@ impl Benchmark {
     /// Reads BicycleParameters' text format. Keys that are not benchmark parameters (`lcs`,
     /// `hbb`, rider geometry) are skipped; a missing parameter is an error.
     pub fn parse_text(text: &str, path: &Path) -> Result<Benchmark, ParamError> {
-        let mut values = [f64::NAN; 26];
-        let mut se = [0.0; 26];
-        let mut first_line = [0usize; 26];
-        for (i, raw) in text.lines().enumerate() {
-            let line = raw.trim();
-            if line.is_empty() || line.starts_with('#') {
-                continue;
-            }
-            let err = |message: String| ParamError::Parse {
-                path: path.to_path_buf(),
-                line: i + 1,
-                message,
-            };
-            let (name, rest) = line
-                .split_once('=')
-                .ok_or_else(|| err(format!("`{line}`: expected `name = value+/-sigma`")))?;
-            let name = name.trim();
-            let (v, s) = match rest.split_once("+/-") {
-                Some((v, s)) => (v.trim(), Some(s.trim())),
-                None => (rest.trim(), None),
-            };
-            let Some(k) = Benchmark::NAMES.iter().position(|n| *n == name) else {
-                continue;
-            };
-            if first_line[k] > 0 {
-                return Err(err(format!(
-                    "`{name}` is given twice (first on line {}): which is meant?",
-                    first_line[k]
-                )));
-            }
-            first_line[k] = i + 1;
-            let num = |t: &str| t.parse::<f64>().ok().filter(|x| x.is_finite());
-            values[k] = num(v)
-                .ok_or_else(|| err(format!("`{name} = {}`: expected a number", rest.trim())))?;
-            if let Some(s) = s {
-                se[k] = num(s).filter(|x| *x >= 0.0).ok_or_else(|| {
-                    err(format!(
-                        "`{name}`: standard error `{s}` is not a non-negative number"
-                    ))
-                })?;
-            }
-        }
+        let (values, se) = parse_named(text, path, &Benchmark::NAMES)?;
         if let Some(k) = values.iter().position(|v| v.is_nan()) {
             if values[..4].iter().all(|v| v.is_nan()) {
                 return Err(ParamError::Invalid {
@@ -428,6 +402,59 @@ impl Benchmark {
     }
 }
 
+/// The values and standard errors of the parameters `names` in BicycleParameters' text format
+/// (`name = value+/-sigma` or `name = value`, one a line; other keys skipped): NaN for a
+/// parameter not given, 0 for a standard error not given.
+fn parse_named<const N: usize>(
+    text: &str,
+    path: &Path,
+    names: &[&str; N],
+) -> Result<([f64; N], [f64; N]), ParamError> {
+    let mut values = [f64::NAN; N];
+    let mut se = [0.0; N];
+    let mut first_line = [0usize; N];
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let err = |message: String| ParamError::Parse {
+            path: path.to_path_buf(),
+            line: i + 1,
+            message,
+        };
+        let (name, rest) = line
+            .split_once('=')
+            .ok_or_else(|| err(format!("`{line}`: expected `name = value+/-sigma`")))?;
+        let name = name.trim();
+        let (v, s) = match rest.split_once("+/-") {
+            Some((v, s)) => (v.trim(), Some(s.trim())),
+            None => (rest.trim(), None),
+        };
+        let Some(k) = names.iter().position(|n| *n == name) else {
+            continue;
+        };
+        if first_line[k] > 0 {
+            return Err(err(format!(
+                "`{name}` is given twice (first on line {}): which is meant?",
+                first_line[k]
+            )));
+        }
+        first_line[k] = i + 1;
+        let num = |t: &str| t.parse::<f64>().ok().filter(|x| x.is_finite());
+        values[k] =
+            num(v).ok_or_else(|| err(format!("`{name} = {}`: expected a number", rest.trim())))?;
+        if let Some(s) = s {
+            se[k] = num(s).filter(|x| *x >= 0.0).ok_or_else(|| {
+                err(format!(
+                    "`{name}`: standard error `{s}` is not a non-negative number"
+                ))
+            })?;
+        }
+    }
+    Ok((values, se))
+}
+
 /// `x > 0`, and false for NaN.
 fn is_positive(x: f64) -> bool {
     x > 0.0
@@ -460,16 +487,73 @@ pub struct PointMass {
     pub z_m: f64,
 }
 
+/// A rigid body in the benchmark's axes (x forward, z down, from the rear contact, upright):
+/// its mass, centre of mass and inertia about that centre (the product of inertia as the
+/// tensor's off-diagonal element, as in Meijaard et al. 2007, Table 1).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct RigidBody {
+    pub mass_kg: f64,
+    pub x_m: f64,
+    pub z_m: f64,
+    pub ixx_kgm2: f64,
+    pub iyy_kgm2: f64,
+    pub izz_kgm2: f64,
+    pub ixz_kgm2: f64,
+}
+
+impl RigidBody {
+    /// The body's values in the order of [`Rider::NAMES`].
+    pub fn to_array(&self) -> [f64; 7] {
+        [
+            self.mass_kg,
+            self.x_m,
+            self.z_m,
+            self.ixx_kgm2,
+            self.iyy_kgm2,
+            self.izz_kgm2,
+            self.ixz_kgm2,
+        ]
+    }
+
+    /// A body from values in the order of [`Rider::NAMES`].
+    pub fn from_array(v: &[f64; 7]) -> RigidBody {
+        RigidBody {
+            mass_kg: v[0],
+            x_m: v[1],
+            z_m: v[2],
+            ixx_kgm2: v[3],
+            iyy_kgm2: v[4],
+            izz_kgm2: v[5],
+            ixz_kgm2: v[6],
+        }
+    }
+}
+
 impl Benchmark {
-    /// The bicycle with `p` added to its frame: the frame's mass grows, its centre of mass
+    /// The bicycle with `p` added to its frame: [`Benchmark::with_body`] with no inertia of
+    /// its own.
+    pub fn with_point_mass(&self, p: &PointMass) -> Benchmark {
+        let body = RigidBody {
+            mass_kg: p.mass_kg,
+            x_m: p.x_m,
+            z_m: p.z_m,
+            ixx_kgm2: 0.0,
+            iyy_kgm2: 0.0,
+            izz_kgm2: 0.0,
+            ixz_kgm2: 0.0,
+        };
+        self.with_body(p.frame, &body)
+    }
+
+    /// The bicycle with `body` joined to `frame`: the frame's mass grows, its centre of mass
     /// moves to the joint one, and its inertia about that centre is each part's about its own
     /// centre plus its mass times its offset's parallel-axis term (Steiner; for an offset
     /// (dx, 0, dz) in the x–z plane: `I_xx += m dz²`, `I_yy += m (dx² + dz²)`, `I_zz += m dx²`,
     /// `I_xz −= m dx dz`, the product of inertia being the tensor's off-diagonal element as in
     /// Meijaard et al. 2007, Table 1).
-    pub fn with_point_mass(&self, p: &PointMass) -> Benchmark {
+    pub fn with_body(&self, frame: Frame, body: &RigidBody) -> Benchmark {
         let mut b = *self;
-        let (m, x, z, ixx, iyy, izz, ixz) = match p.frame {
+        let (m, x, z, ixx, iyy, izz, ixz) = match frame {
             Frame::Rear => (
                 &mut b.m_b,
                 &mut b.x_b,
@@ -489,15 +573,19 @@ impl Benchmark {
                 &mut b.i_hxz,
             ),
         };
-        let total = *m + p.mass_kg;
+        let total = *m + body.mass_kg;
         if total <= 0.0 {
             return b;
         }
         let centre = [
-            (*m * *x + p.mass_kg * p.x_m) / total,
-            (*m * *z + p.mass_kg * p.z_m) / total,
+            (*m * *x + body.mass_kg * body.x_m) / total,
+            (*m * *z + body.mass_kg * body.z_m) / total,
         ];
-        for (mass, at) in [(*m, [*x, *z]), (p.mass_kg, [p.x_m, p.z_m])] {
+        *ixx += body.ixx_kgm2;
+        *iyy += body.iyy_kgm2;
+        *izz += body.izz_kgm2;
+        *ixz += body.ixz_kgm2;
+        for (mass, at) in [(*m, [*x, *z]), (body.mass_kg, [body.x_m, body.z_m])] {
             let (dx, dz) = (at[0] - centre[0], at[1] - centre[1]);
             *ixx += mass * dz * dz;
             *iyy += mass * (dx * dx + dz * dz);
@@ -506,6 +594,100 @@ impl Benchmark {
         }
         (*m, *x, *z) = (total, centre[0], centre[1]);
         b
+    }
+}
+
+/// A rider as BicycleParameters gives one (the `Jason*Benchmark.txt` files): a rigid body in
+/// the benchmark's axes named as the rear frame's parameters (`mB`, `xB`, `zB`, `IBxx`,
+/// `IByy`, `IBzz`, `IBxz`, each with `+/-sigma` or without), who joins the rear frame.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Rider {
+    pub body: RigidBody,
+    /// Standard errors in the order of [`Rider::NAMES`] (0 where the file gives none).
+    pub se: [f64; 7],
+}
+
+impl Rider {
+    /// The rider's parameters as BicycleParameters names them.
+    pub const NAMES: [&'static str; 7] = ["mB", "xB", "zB", "IBxx", "IByy", "IBzz", "IBxz"];
+
+    /// Reads a rider file; every one of [`Rider::NAMES`] is needed, in a physical range (a
+    /// mass of 1–300 kg, a centre of mass within 3 m of the rear contact and above the ground,
+    /// inertias of 0–100 kg·m² that a body can have), and `yB`, where given, within 5 cm of the
+    /// plane of symmetry (the model is symmetric).
+    pub fn parse_text(text: &str, path: &Path) -> Result<Rider, ParamError> {
+        let (values, se) = parse_named(text, path, &Rider::NAMES)?;
+        let invalid = |message: String| ParamError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        };
+        if let Some(k) = values.iter().position(|v| v.is_nan()) {
+            return Err(ParamError::Missing {
+                path: path.to_path_buf(),
+                name: Rider::NAMES[k].into(),
+            });
+        }
+        let (geometry, _) = parse_named(text, path, &["w", "c", "lam"])?;
+        if geometry.iter().any(|v| !v.is_nan()) {
+            return Err(invalid(
+                "a bicycle's parameters (it gives w, c or lam), not a rider's: a rider file gives \
+                 mB, xB, zB and the inertias IBxx, IByy, IBzz, IBxz alone"
+                    .into(),
+            ));
+        }
+        let (y, _) = parse_named(text, path, &["yB"])?;
+        if y[0].abs() > 0.05 {
+            return Err(invalid(format!(
+                "yB = {} m: a rider off the plane of symmetry (the model is symmetric; at most 0.05 m)",
+                y[0]
+            )));
+        }
+        let body = RigidBody::from_array(&values);
+        if !(1.0..=300.0).contains(&body.mass_kg) {
+            return Err(invalid(format!(
+                "mB = {} kg: a rider's mass is 1–300 kg",
+                body.mass_kg
+            )));
+        }
+        if body.x_m.abs() > 3.0 || !(-3.0..0.0).contains(&body.z_m) {
+            return Err(invalid(format!(
+                "the rider's centre of mass (xB, zB) = ({}, {}) m: within 3 m of the rear contact and above the ground (z down, negative)",
+                body.x_m, body.z_m
+            )));
+        }
+        let (ixx, iyy, izz) = (body.ixx_kgm2, body.iyy_kgm2, body.izz_kgm2);
+        let principal_ok = [ixx, iyy, izz].iter().all(|i| (0.0..=100.0).contains(i))
+            && body.ixz_kgm2.abs() <= 100.0
+            // The x–z block positive semi-definite, and each moment at most the sum of the
+            // other two (a body's inertia).
+            && ixx * izz - body.ixz_kgm2 * body.ixz_kgm2 >= 0.0
+            && iyy <= ixx + izz + 1e-9
+            && ixx <= iyy + izz + 1e-9
+            && izz <= ixx + iyy + 1e-9;
+        if !principal_ok {
+            return Err(invalid(format!(
+                "the rider's inertia (IBxx, IByy, IBzz, IBxz) = ({ixx}, {iyy}, {izz}, {}) kg·m² is not a body's (0–100 kg·m², positive semi-definite, each moment at most the sum of the other two)",
+                body.ixz_kgm2
+            )));
+        }
+        for (k, (&s, &v)) in se.iter().zip(&values).enumerate() {
+            if s > 10.0 * v.abs() + 1.0 {
+                return Err(invalid(format!(
+                    "`{}`: standard error {s} larger than ten times the value plus one",
+                    Rider::NAMES[k]
+                )));
+            }
+        }
+        Ok(Rider { body, se })
+    }
+
+    /// Reads a rider file ([`Rider::parse_text`]).
+    pub fn load(path: &Path) -> Result<Rider, ParamError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Rider::parse_text(&text, path)
     }
 }
 

@@ -115,6 +115,24 @@ impl Parametrized {
         self
     }
 
+    /// The same bicycle with `rider` joined to its rear frame
+    /// ([`Benchmark::with_body`]): the rider's seven parameters become inputs beside the
+    /// bicycle's, with their standard errors, so that both propagate.
+    pub fn with_rider(mut self, rider: &super::params::Rider) -> Parametrized {
+        let n = self.inputs.values().len();
+        for (v, s) in rider.body.to_array().iter().zip(rider.se) {
+            self.inputs.push(Measured::new(*v, s));
+        }
+        let build = self.build.clone();
+        self.build = std::sync::Arc::new(move |x: &[f64]| {
+            let mut r = [0.0; 7];
+            r.copy_from_slice(&x[n..n + 7]);
+            let body = super::params::RigidBody::from_array(&r);
+            build(&x[..n]).with_body(super::params::Frame::Rear, &body)
+        });
+        self
+    }
+
     /// The same bicycle with `control` closing the loop.
     pub fn with_control(mut self, control: SteerControl) -> Parametrized {
         self.control = control;
