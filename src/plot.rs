@@ -829,6 +829,69 @@ pub fn continuation_svg(
     y_range: (f64, f64),
     extra: &[Series],
 ) -> Result<String, PlotError> {
+    let (mut series, shades) = continuation_layers(bikes);
+    series.extend_from_slice(extra);
+    chart_svg(&Chart {
+        title,
+        x_label: "speed (m/s)",
+        y_label: "eigenvalue: real part (1/s), imaginary (rad/s)",
+        series: &series,
+        shades: &shades,
+        y_range: Some(y_range),
+        ..Chart::default()
+    })
+}
+
+/// Several bicycles' continuation diagrams overlaid (as [`continuation_svg`], y in
+/// `y_range`), and under them a detail of the real parts near zero (y in `±detail`), where the
+/// weave and capsize speeds are read (as the seed's Figs. 16–17).
+pub fn comparison_svg(
+    title: &str,
+    bikes: &[Continuation<'_>],
+    y_range: (f64, f64),
+    detail: f64,
+) -> Result<String, PlotError> {
+    let (series, shades) = continuation_layers(bikes);
+    // The detail repeats the real parts without legend entries (the panel above names them).
+    let detail_series: Vec<Series> = series
+        .iter()
+        .filter(|s| !matches!(s.mark, Mark::Dashed))
+        .map(|s| Series {
+            name: String::new(),
+            ..s.clone()
+        })
+        .collect();
+    let detail_title = format!("detail: real parts near zero (±{detail} 1/s)");
+    stacked_svg(&[
+        (
+            HEIGHT,
+            Chart {
+                title,
+                x_label: "speed (m/s)",
+                y_label: "eigenvalue: real part (1/s), imaginary (rad/s)",
+                series: &series,
+                shades: &shades,
+                y_range: Some(y_range),
+                ..Chart::default()
+            },
+        ),
+        (
+            HEIGHT * 3 / 4,
+            Chart {
+                title: &detail_title,
+                x_label: "speed (m/s)",
+                y_label: "real part (1/s)",
+                series: &detail_series,
+                y_range: Some((-detail, detail)),
+                ..Chart::default()
+            },
+        ),
+    ])
+}
+
+/// The series and shades of overlaid continuation diagrams: per bicycle the weave's real and
+/// imaginary parts, capsize and castor, their ±2 SE bands and the stable ranges.
+fn continuation_layers(bikes: &[Continuation<'_>]) -> (Vec<Series>, Vec<Shade>) {
     let mut series = Vec::new();
     let mut shades = Vec::new();
     for b in bikes {
@@ -925,16 +988,7 @@ pub fn continuation_svg(
             });
         }
     }
-    series.extend_from_slice(extra);
-    chart_svg(&Chart {
-        title,
-        x_label: "speed (m/s)",
-        y_label: "eigenvalue: real part (1/s), imaginary (rad/s)",
-        series: &series,
-        shades: &shades,
-        y_range: Some(y_range),
-        ..Chart::default()
-    })
+    (series, shades)
 }
 
 #[cfg(test)]

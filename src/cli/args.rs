@@ -125,6 +125,23 @@ pub enum Command {
         "anything else."
     ))]
     Sensitivity(SensitivityArgs),
+    /// Several bicycles side by side: weave and capsize speeds with standard errors, each
+    /// against the first, and their continuation diagrams overlaid (--svg).
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc compare ../shared/reference/bicycleparameters/BenchmarkBenchmark.txt data/lab_bike.toml --svg both.svg\n",
+        "  bikeproc compare RigidBenchmark.txt BrowserBenchmark.txt --rider JasonRigidBenchmark.txt\n\n",
+        "A difference's standard error combines the two bicycles' in quadrature (measured ",
+        "apart). The figure: real parts solid, imaginary parts dashed, ±2 SE thin, stable ",
+        "ranges shaded, and under it a detail of the real parts near zero (seed Figs. 16–17).\n\n",
+        "JSON (--json): {\"max_speed_mps\", \"bikes\": [{\"bike\", \"stable_ranges_mps\", ",
+        "\"weave_speed_mps\": {\"value\", \"se\"}, \"capsize_speed_mps\", ",
+        "\"weave_speed_difference_mps\": {\"value\", \"se\", \"z\"}, ",
+        "\"capsize_speed_difference_mps\"}]} (m/s; the first bicycle's differences null).\n\n",
+        "Exit codes: 0 done; 2 a bicycle or rider file is malformed or gives no dynamics; 1 ",
+        "anything else."
+    ))]
+    Compare(CompareArgs),
     /// Experimental weave eigenvalue of a ride (its angles log, `_cal` beside it) or of every
     /// ride of a campaign (rides.toml), against the model at the ride's speed.
     #[command(after_help = concat!(
@@ -378,6 +395,26 @@ pub struct SensitivityArgs {
     /// The characteristic speeds are searched in 0 to this speed (m/s).
     #[arg(long, default_value_t = 10.0, value_parser = parse_positive_speed)]
     pub max_speed: f64,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct CompareArgs {
+    /// Bicycles: BicycleParameters text (`*Benchmark.txt`, `*Measured.txt`), benchmark TOML,
+    /// or lab bicycles (`data/lab_bike.toml`); the first is the reference.
+    #[arg(required = true, num_args = 1..)]
+    pub bikes: Vec<PathBuf>,
+    /// A rider joining every bicycle's rear frame (BicycleParameters' benchmark form of a rider).
+    #[arg(long)]
+    pub rider: Option<PathBuf>,
+    /// Speeds searched: 0 to this (m/s).
+    #[arg(long, default_value_t = 10.0, value_parser = parse_positive_speed)]
+    pub max_speed: f64,
+    /// Write the overlaid continuation diagrams to this SVG file.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     pub json: bool,

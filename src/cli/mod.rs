@@ -71,6 +71,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Measured(a) => measure::measured(a),
         Command::Stability(a) => model::stability(a),
         Command::Sensitivity(a) => model::sensitivity(a),
+        Command::Compare(a) => model::compare(a),
         Command::Dynamic(a) => ride::dynamic(a),
         Command::Gap(a) => ride::gap(a),
         Command::Simulate(s) => simulate::simulate(s),

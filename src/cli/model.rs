@@ -3,8 +3,8 @@
 //! move with every parameter; and the loading of a model (with a controller)
 //! that the ride commands share.
 
-use super::args::{SensitivityArgs, StabilityArgs};
-use super::io::emit;
+use super::args::{CompareArgs, SensitivityArgs, StabilityArgs};
+use super::io::{emit, write_atomic};
 use anyhow::Result;
 use bikeproc::kind::{self, Kind};
 use bikeproc::model::{self, uncertain::Parametrized};
@@ -26,6 +26,70 @@ pub fn sensitivity(a: SensitivityArgs) -> Result<()> {
     let p = with_rider(load_bike(&a.bike)?, a.rider.as_deref())?;
     let s = model::sensitivity::sensitivity(&p, &a.speeds, a.max_speed)?;
     emit(a.json, &s, || s.to_text())
+}
+
+pub fn compare(a: CompareArgs) -> Result<()> {
+    let models = a
+        .bikes
+        .iter()
+        .map(|b| with_rider(load_bike(b)?, a.rider.as_deref()))
+        .collect::<Result<Vec<_>>>()?;
+    let c = model::compare::compare(&models, a.max_speed)?;
+    if let Some(svg) = &a.svg {
+        write_atomic(svg, comparison_svg(&models, a.max_speed)?.as_bytes())?;
+    }
+    emit(a.json, &c, || c.to_text())
+}
+
+/// The overlaid continuation diagrams of `models` over 0–`v_max` m/s (501 speeds), with the
+/// detail of their real parts near zero.
+#[cfg(feature = "plot")]
+fn comparison_svg(models: &[Parametrized], v_max: f64) -> Result<String> {
+    use bikeproc::plot::{comparison_svg, Continuation};
+    use plotters::style::RGBColor;
+    // Weave colour and real modes' colour per bicycle, repeating after six.
+    const COLOURS: [(RGBColor, RGBColor); 6] = [
+        (RGBColor(30, 80, 200), RGBColor(200, 40, 40)),
+        (RGBColor(20, 140, 60), RGBColor(110, 110, 110)),
+        (RGBColor(230, 130, 0), RGBColor(140, 80, 20)),
+        (RGBColor(130, 50, 170), RGBColor(220, 100, 160)),
+        (RGBColor(0, 150, 160), RGBColor(60, 60, 60)),
+        (RGBColor(180, 160, 0), RGBColor(100, 130, 30)),
+    ];
+    let speeds: Vec<f64> = (0..=500).map(|i| i as f64 * v_max / 500.0).collect();
+    let mut bands = Vec::with_capacity(models.len());
+    let mut stable = Vec::with_capacity(models.len());
+    for m in models {
+        bands.push(m.bands(&speeds)?);
+        stable.push(
+            m.nominal_canonical()
+                .stability(v_max, 0.01)?
+                .stable_ranges_mps,
+        );
+    }
+    let conts: Vec<Continuation> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| Continuation {
+            name: &m.name,
+            bands: &bands[i],
+            stable: &stable[i],
+            color: COLOURS[i % COLOURS.len()].0,
+            color_real: COLOURS[i % COLOURS.len()].1,
+        })
+        .collect();
+    let names: Vec<&str> = models.iter().map(|m| m.name.as_str()).collect();
+    Ok(comparison_svg(
+        &names.join(" vs "),
+        &conts,
+        (-10.0, 10.0),
+        1.0,
+    )?)
+}
+
+#[cfg(not(feature = "plot"))]
+fn comparison_svg(_: &[Parametrized], _: f64) -> Result<String> {
+    anyhow::bail!("this bikeproc was built without figures (the `plot` feature): no --svg")
 }
 
 /// `model` with the rider of the file `rider` joined to its rear frame, named in the model's

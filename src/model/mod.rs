@@ -8,6 +8,7 @@
 //! matrix, eigenvalues named by mode (weave, capsize, castor), the characteristic speeds, and
 //! their standard errors propagated from the parameters'.
 
+pub mod compare;
 pub mod control;
 pub mod dual;
 pub mod lab;
