@@ -142,6 +142,28 @@ pub enum Command {
         "anything else."
     ))]
     Compare(CompareArgs),
+    /// The smallest relative change of chosen parameters that makes a bicycle stable over a
+    /// range of speeds, written as a bicycle file that `stability` reads.
+    #[command(after_help = concat!(
+        "Examples:\n",
+        "  bikeproc design --bike data/lab_bike.toml --stable 2.5:5 --vary trail,head_angle --out lab_2.5.txt\n",
+        "  bikeproc stability --bike lab_2.5.txt\n",
+        "  bikeproc design --bike RigidBenchmark.txt --rider JasonRigidBenchmark.txt --stable 4:8 --vary trail,IFyy\n\n",
+        "Variables: head_angle (the steer axis tilt λ, the fork kept: the trail follows, ",
+        "c = (r_F sin λ − d)/cos λ), trail (another fork at the same head angle), wheelbase ",
+        "(the front frame moving with the front wheel), or any benchmark parameter by its name ",
+        "(mB, xB, IFyy, …). The change minimized is ‖x‖₂ of the relative changes, each within ",
+        "±--max-change; the constraints (weave speed ≤ A, capsize speed ≥ B) are linearized with ",
+        "the model's own derivatives, step by step. The file written is BicycleParameters text ",
+        "(a rider already joined into the rear frame), with the original standard errors.\n\n",
+        "JSON (--json): {\"bike\", \"target_mps\", \"reached\", \"reason\", \"changes\": ",
+        "[{\"variable\", \"parameter\", \"from\", \"to\", \"relative\", \"at_bound\"}], ",
+        "\"relative_change_norm\", \"before_stable_ranges_mps\", \"after_stable_ranges_mps\", ",
+        "\"before_weave_speed_mps\", \"after_weave_speed_mps\", …}.\n\n",
+        "Exit codes: 0 reached (the file written); 3 not reachable (the reason said; the closest ",
+        "design written with --out); 2 a malformed input; 1 anything else."
+    ))]
+    Design(DesignArgs),
     /// Experimental weave eigenvalue of a ride (its angles log, `_cal` beside it) or of every
     /// ride of a campaign (rides.toml), against the model at the ride's speed.
     #[command(after_help = concat!(
@@ -418,6 +440,59 @@ pub struct CompareArgs {
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(Args)]
+pub struct DesignArgs {
+    /// A bicycle: BicycleParameters text (`*Benchmark.txt`, `*Measured.txt`), benchmark TOML,
+    /// or a lab bicycle (`data/lab_bike.toml`).
+    #[arg(long)]
+    pub bike: PathBuf,
+    /// A rider joining the rear frame (BicycleParameters' benchmark form of a rider).
+    #[arg(long)]
+    pub rider: Option<PathBuf>,
+    /// The speeds `A:B` (m/s) over which the bicycle is to be stable.
+    #[arg(long, value_parser = parse_speed_range)]
+    pub stable: (f64, f64),
+    /// What may change, comma-separated: head_angle, trail, wheelbase, or benchmark
+    /// parameters by name.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub vary: Vec<String>,
+    /// The largest relative change of any variable (0.5: ±50 %).
+    #[arg(long, default_value_t = 0.5, value_parser = parse_fraction)]
+    pub max_change: f64,
+    /// Write the changed bicycle here (BicycleParameters text).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print JSON instead of text (its shape: below).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `A:B` in m/s, 0 < A < B ≤ 100.
+fn parse_speed_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| format!("`{s}`: expected A:B (m/s)"))?;
+    let (a, b) = (parse_positive_speed(a)?, parse_positive_speed(b)?);
+    if a < b {
+        Ok((a, b))
+    } else {
+        Err(format!("`{s}`: A below B (m/s)"))
+    }
+}
+
+/// A fraction in (0, 0.95].
+fn parse_fraction(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if v > 0.0 && v <= 0.95 {
+        Ok(v)
+    } else {
+        Err(format!("{s}: a fraction above 0 and at most 0.95"))
+    }
 }
 
 /// A speed in m/s: a finite number in (0, 100].

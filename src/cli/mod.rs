@@ -23,6 +23,11 @@ use std::process::ExitCode;
 #[error("no ride of {} could be analysed (the reasons are listed above)", .0.display())]
 struct NoRideAnalysed(PathBuf);
 
+/// A design whose target range was not reached (exit code 3; the reason was printed).
+#[derive(Debug, thiserror::Error)]
+#[error("the target range was not reached (the reason is printed above)")]
+struct Unreached;
+
 /// Parses the arguments, runs the command, prints an error with its causes and maps it to the
 /// exit code.
 pub fn main() -> ExitCode {
@@ -52,6 +57,9 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             io::note_line(&format!("error: {e:#}"));
+            if e.is::<Unreached>() {
+                return ExitCode::from(3);
+            }
             return ExitCode::from(if is_input_error(&e) { 2 } else { 1 });
         }
     };
@@ -72,6 +80,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Stability(a) => model::stability(a),
         Command::Sensitivity(a) => model::sensitivity(a),
         Command::Compare(a) => model::compare(a),
+        Command::Design(a) => model::design(a),
         Command::Dynamic(a) => ride::dynamic(a),
         Command::Gap(a) => ride::gap(a),
         Command::Simulate(s) => simulate::simulate(s),
@@ -105,6 +114,7 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             || c.is::<inertia::measured::MeasuredError>()
             || c.is::<bikeproc::model::ParamError>()
             || c.is::<bikeproc::model::sensitivity::SensitivityError>()
+            || c.is::<bikeproc::model::design::DesignError>()
             || c.is::<bikeproc::ride::RideError>()
             || c.is::<bikeproc::model::control::ControlError>()
             || c.is::<NoRideAnalysed>()

@@ -3,7 +3,7 @@
 //! move with every parameter; and the loading of a model (with a controller)
 //! that the ride commands share.
 
-use super::args::{CompareArgs, SensitivityArgs, StabilityArgs};
+use super::args::{CompareArgs, DesignArgs, SensitivityArgs, StabilityArgs};
 use super::io::{emit, write_atomic};
 use anyhow::Result;
 use bikeproc::kind::{self, Kind};
@@ -39,6 +39,33 @@ pub fn compare(a: CompareArgs) -> Result<()> {
         write_atomic(svg, comparison_svg(&models, a.max_speed)?.as_bytes())?;
     }
     emit(a.json, &c, || c.to_text())
+}
+
+pub fn design(a: DesignArgs) -> Result<()> {
+    use bikeproc::model::design::{design, DesignVariable};
+    let p = with_rider(load_bike(&a.bike)?, a.rider.as_deref())?;
+    let vars = a
+        .vary
+        .iter()
+        .map(|v| {
+            DesignVariable::parse(v.trim()).ok_or_else(|| {
+                anyhow::Error::from(kind::WrongKind(format!(
+                    "--vary {v}: not a design variable (head_angle, trail, wheelbase, or a \
+                     benchmark parameter's name other than g: {})",
+                    model::Benchmark::NAMES.join(", ")
+                )))
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let d = design(&p.name, &p.nominal(), &vars, a.stable, a.max_change)?;
+    if let Some(out) = &a.out {
+        write_atomic(out, d.bicycle.to_text().as_bytes())?;
+    }
+    emit(a.json, &d, || d.to_text())?;
+    if !d.reached {
+        return Err(super::Unreached.into());
+    }
+    Ok(())
 }
 
 /// The overlaid continuation diagrams of `models` over 0–`v_max` m/s (501 speeds), with the

@@ -10,6 +10,7 @@
 
 pub mod compare;
 pub mod control;
+pub mod design;
 pub mod dual;
 pub mod lab;
 pub mod params;

@@ -182,6 +182,46 @@ fn speed_derivatives(
     Some(d_p.map(|d| -d.re / d_v.re))
 }
 
+/// A speed (m/s) and its derivatives by the 26 benchmark parameters.
+pub type SpeedGradient = (f64, [f64; 26]);
+
+/// The characteristic speeds with their derivatives, and the stability search they come from.
+#[derive(Debug, Clone)]
+pub struct CriticalSpeeds {
+    pub stability: super::Stability,
+    pub weave: Option<SpeedGradient>,
+    pub capsize: Option<SpeedGradient>,
+}
+
+/// The weave and capsize speeds of the bicycle `b` (no controller) in `[0, v_max]` as
+/// `stability` finds them, each with its derivatives by the 26 parameters; `None` for a speed
+/// not in the range.
+pub fn critical_speed_gradients(
+    b: &Benchmark,
+    v_max: f64,
+) -> Result<CriticalSpeeds, SensitivityError> {
+    let canonical = Canonical::from_benchmark(b);
+    let stability = canonical.stability(v_max, 0.01)?;
+    let d_entries = canonical_derivatives(b);
+    let gradient = |v: Option<f64>, oscillatory: bool| -> Result<_, SensitivityError> {
+        let Some(v) = v else { return Ok(None) };
+        let d = speed_derivatives(&canonical, v, oscillatory, &d_entries).ok_or(
+            SensitivityError::Degenerate {
+                name: String::new(),
+                speed_mps: v,
+            },
+        )?;
+        Ok(Some((v, d)))
+    };
+    let weave = gradient(stability.weave_speed_mps, true)?;
+    let capsize = gradient(stability.capsize_speed_mps, false)?;
+    Ok(CriticalSpeeds {
+        stability,
+        weave,
+        capsize,
+    })
+}
+
 /// `√(gᵀCg)` and each parameter's share `g_k (C g)_k / gᵀCg` (`None` when the parameters carry
 /// no uncertainty that reaches the speed).
 fn budget(g: &[f64; 26], cov: &DMatrix<f64>) -> (f64, Option<[f64; 26]>) {
@@ -203,7 +243,6 @@ pub fn sensitivity(
         return Err(SensitivityError::Controlled(model.name.clone()));
     }
     let canonical = model.nominal_canonical();
-    let stability = canonical.stability(v_max, 0.01)?;
     let (values, cov) =
         crate::uncertainty::propagate(&model.inputs, |x| model.benchmark_at(x).to_array().to_vec());
     let mut nominal = [0.0; 26];
@@ -214,15 +253,19 @@ pub fn sensitivity(
         name: model.name.clone(),
         speed_mps: v,
     };
-    let critical = |v: Option<f64>, oscillatory: bool| -> Result<_, SensitivityError> {
-        let Some(v) = v else { return Ok(None) };
-        let d = speed_derivatives(&canonical, v, oscillatory, &d_entries)
-            .ok_or_else(|| degenerate(v))?;
-        let (se, shares) = budget(&d, &cov);
-        Ok(Some((v, d, se, shares)))
+    let named = |e: SensitivityError| match e {
+        SensitivityError::Degenerate { speed_mps, .. } => degenerate(speed_mps),
+        e => e,
     };
-    let weave = critical(stability.weave_speed_mps, true)?;
-    let capsize = critical(stability.capsize_speed_mps, false)?;
+    let CriticalSpeeds { weave, capsize, .. } =
+        critical_speed_gradients(&bench, v_max).map_err(named)?;
+    let with_budget = |c: Option<SpeedGradient>| {
+        c.map(|(v, d)| {
+            let (se, shares) = budget(&d, &cov);
+            (v, d, se, shares)
+        })
+    };
+    let (weave, capsize) = (with_budget(weave), with_budget(capsize));
     let elasticity = |d: f64, p: f64, v: f64| (p != 0.0).then(|| d * p / v);
     let parameters = (0..26)
         .map(|k| {
