@@ -86,7 +86,7 @@ pub fn propagate<F: Fn(&[f64]) -> Vec<f64>>(inputs: &Inputs, f: F) -> (Vec<f64>,
 
 /// The outputs of `f` at `x` and their Jacobian by central differences, the step for input `i`
 /// a thousandth of its standard error in `cov` (columns of inputs without one left zero).
-fn jacobian<F: Fn(&[f64]) -> Vec<f64>>(
+pub(crate) fn jacobian<F: Fn(&[f64]) -> Vec<f64>>(
     x: &[f64],
     cov: &DMatrix<f64>,
     f: F,

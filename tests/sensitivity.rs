@@ -160,3 +160,56 @@ fn the_speeds_elasticity_by_gravity_is_one_half() {
         }
     }
 }
+
+/// The lab bicycle's budget by measurement: the inputs' shares add up to 1, and the repeats
+/// said to halve the weave speed's standard error do so when that measurement's standard
+/// errors are divided by √n and the speed's error is propagated again (and n − 1 repeats do
+/// not).
+#[test]
+fn the_lab_bicycles_budget_names_the_test_to_repeat() {
+    use bikeproc::inertia::bike::LabBike;
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml");
+    let model = uncertain::load(&path).unwrap();
+    let s = sensitivity(&model, &[], 10.0).unwrap();
+    let total: f64 = s
+        .inputs
+        .iter()
+        .map(|i| i.weave_variance_share.unwrap())
+        .sum();
+    assert!((total - 1.0).abs() < 1e-12, "{total}");
+    let top = &s.measurements[0];
+    let n = top
+        .repeats_to_halve_weave_se
+        .expect("one measurement dominates");
+    let body_name = top
+        .measurement
+        .strip_suffix(" inertia")
+        .expect("an inertia");
+    let se_with = |repeats: f64| {
+        let mut bike = LabBike::load(&path).unwrap();
+        let body = match body_name {
+            "front_wheel" => &mut bike.front_wheel,
+            "rear_wheel" => &mut bike.rear_wheel,
+            "frame" => &mut bike.frame,
+            _ => &mut bike.handlebar,
+        };
+        let k = repeats.sqrt();
+        body.ixx_se_kgm2 /= k;
+        body.iyy_se_kgm2 /= k;
+        body.izz_se_kgm2 /= k;
+        body.ixz_se_kgm2 /= k;
+        Parametrized::from_lab("lab", &bike)
+            .speeds(10.0, 0.01)
+            .unwrap()
+            .weave_speed_se_mps
+            .unwrap()
+    };
+    let se0 = s.weave_speed_mps.unwrap().se;
+    assert!((se_with(1.0) - se0).abs() < 1e-3 * se0);
+    assert!(se_with(n as f64) <= 0.5 * se0 * (1.0 + 1e-3), "{n} repeats");
+    assert!(
+        se_with((n - 1) as f64) > 0.5 * se0,
+        "{} repeats suffice",
+        n - 1
+    );
+}

@@ -69,6 +69,35 @@ pub struct ParameterSensitivity {
     pub capsize_variance_share: Option<f64>,
 }
 
+/// One measured input's share of the speeds' variance (the lab bicycle's masses and inertia
+/// entries, a rider's parameters; for a benchmark file, its parameters again).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct InputShare {
+    /// `frame I_xx`, `rider mB`, or a benchmark parameter's name.
+    pub input: String,
+    pub value: f64,
+    pub se: f64,
+    pub weave_variance_share: Option<f64>,
+    pub capsize_variance_share: Option<f64>,
+}
+
+/// A measurement's share: the inputs one test gives (a body's inertia entries from its
+/// pendulum tests, its mass from the scale), and how many repeats of that test alone would
+/// halve the weave speed's standard error.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MeasurementShare {
+    /// `frame inertia` (its torsion and compound-pendulum tests), `frame mass` (the scale),
+    /// `rider`, or a benchmark parameter's name.
+    pub measurement: String,
+    pub weave_variance_share: Option<f64>,
+    pub capsize_variance_share: Option<f64>,
+    /// The repeats n of this measurement alone (its random error's variance over n) that
+    /// bring the weave speed's variance to a quarter: `(1 − s) + s/n ≤ 1/4`, so
+    /// `n = ⌈s/(s − 3/4)⌉`; `None` when its share s is 3/4 or less (no number of repeats of
+    /// it alone halves the standard error).
+    pub repeats_to_halve_weave_se: Option<u64>,
+}
+
 /// The weave eigenvalue at a speed and its derivatives by every parameter.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct WeaveDerivatives {
@@ -92,6 +121,10 @@ pub struct Sensitivity {
     pub capsize_speed_mps: Option<Estimate>,
     /// Every benchmark parameter, in the order of [`Benchmark::NAMES`].
     pub parameters: Vec<ParameterSensitivity>,
+    /// The budget by measured input (the model's own inputs, with their correlations).
+    pub inputs: Vec<InputShare>,
+    /// The budget by measurement, largest weave share first.
+    pub measurements: Vec<MeasurementShare>,
     pub weave_derivatives: Vec<WeaveDerivatives>,
 }
 
@@ -243,8 +276,11 @@ pub fn sensitivity(
         return Err(SensitivityError::Controlled(model.name.clone()));
     }
     let canonical = model.nominal_canonical();
-    let (values, cov) =
-        crate::uncertainty::propagate(&model.inputs, |x| model.benchmark_at(x).to_array().to_vec());
+    let input_cov = model.inputs.covariance();
+    let (values, jac) = crate::uncertainty::jacobian(model.inputs.values(), &input_cov, |x| {
+        model.benchmark_at(x).to_array().to_vec()
+    });
+    let cov = &jac * &input_cov * jac.transpose();
     let mut nominal = [0.0; 26];
     nominal.copy_from_slice(&values);
     let bench = Benchmark::from_array(&nominal);
@@ -310,6 +346,28 @@ pub fn sensitivity(
             })
         })
         .collect::<Result<Vec<_>, SensitivityError>>()?;
+    // By input: g_in = Jᵀ g, shares g_in,j (Σ g_in)_j / g_inᵀ Σ g_in (the same variance).
+    let input_shares = |c: &Option<Critical>| -> Option<Vec<f64>> {
+        let (_, d, _, _) = c.as_ref()?;
+        let g_in = jac.transpose() * DVector::from_column_slice(d);
+        let sg = &input_cov * &g_in;
+        let var = g_in.dot(&sg);
+        (var > 0.0).then(|| (0..g_in.len()).map(|j| g_in[j] * sg[j] / var).collect())
+    };
+    let (weave_in, capsize_in) = (input_shares(&weave), input_shares(&capsize));
+    let inputs: Vec<InputShare> = model
+        .input_names
+        .iter()
+        .enumerate()
+        .map(|(j, name)| InputShare {
+            input: name.clone(),
+            value: model.inputs.values()[j],
+            se: input_cov[(j, j)].max(0.0).sqrt(),
+            weave_variance_share: weave_in.as_ref().map(|s| s[j]),
+            capsize_variance_share: capsize_in.as_ref().map(|s| s[j]),
+        })
+        .collect();
+    let measurements = measurement_shares(&inputs);
     let speed = |c: &Option<Critical>| {
         c.as_ref()
             .map(|(v, _, se, _)| Estimate { value: *v, se: *se })
@@ -319,8 +377,56 @@ pub fn sensitivity(
         weave_speed_mps: speed(&weave),
         capsize_speed_mps: speed(&capsize),
         parameters,
+        inputs,
+        measurements,
         weave_derivatives,
     })
+}
+
+/// The measurement an input comes from: a lab body's inertia entries from its pendulum tests
+/// (`frame inertia`), its mass from the scale (`frame mass`), a rider's parameters together
+/// (`rider`); a benchmark parameter is its own.
+fn measurement_of(input: &str) -> String {
+    match input.split_once(' ') {
+        Some(("rider", _)) => "rider".into(),
+        Some((body, "mass")) => format!("{body} mass"),
+        Some((body, _)) => format!("{body} inertia"),
+        None => input.into(),
+    }
+}
+
+/// The inputs' shares summed by measurement, largest weave share first (ties by name), with
+/// the repeats that would halve the weave speed's standard error.
+fn measurement_shares(inputs: &[InputShare]) -> Vec<MeasurementShare> {
+    let mut out: Vec<MeasurementShare> = Vec::new();
+    for i in inputs {
+        let m = measurement_of(&i.input);
+        let add = |a: Option<f64>, b: Option<f64>| Some(a? + b?);
+        match out.iter_mut().find(|o| o.measurement == m) {
+            Some(o) => {
+                o.weave_variance_share = add(o.weave_variance_share, i.weave_variance_share);
+                o.capsize_variance_share = add(o.capsize_variance_share, i.capsize_variance_share);
+            }
+            None => out.push(MeasurementShare {
+                measurement: m,
+                weave_variance_share: i.weave_variance_share,
+                capsize_variance_share: i.capsize_variance_share,
+                repeats_to_halve_weave_se: None,
+            }),
+        }
+    }
+    for o in &mut out {
+        o.repeats_to_halve_weave_se = o
+            .weave_variance_share
+            .filter(|&s| s > 0.75)
+            .map(|s| (s / (s - 0.75)).ceil() as u64);
+    }
+    out.sort_by(|a, b| {
+        let s = |m: &MeasurementShare| m.weave_variance_share.unwrap_or(0.0);
+        s(b).total_cmp(&s(a))
+            .then(a.measurement.cmp(&b.measurement))
+    });
+    out
 }
 
 impl Sensitivity {
@@ -434,8 +540,12 @@ impl Sensitivity {
                 format!("{x:>+width$.decimals$}")
             })
         };
-        let pct =
-            |x: Option<f64>| x.map_or(format!("{:>7}", "—"), |x| format!("{:>6.1}%", 100.0 * x));
+        // A share that rounds to zero is printed as 0.0 (not −0.0).
+        let pct = |x: Option<f64>| {
+            x.map_or(format!("{:>7}", "—"), |x| {
+                format!("{:>6.1}%", if x.abs() < 5e-4 { 0.0 } else { 100.0 * x })
+            })
+        };
         for p in order {
             let _ = writeln!(
                 s,
@@ -450,6 +560,44 @@ impl Sensitivity {
                 num(p.capsize_elasticity, 10, 4),
                 pct(p.capsize_variance_share),
             );
+        }
+        if self
+            .measurements
+            .iter()
+            .any(|m| m.measurement.contains(' '))
+        {
+            let _ = writeln!(
+                s,
+                "\n  The budget by measurement (shares of each speed's variance):"
+            );
+            for m in &self.measurements {
+                let pct = |x: Option<f64>| {
+                    x.map_or("—".to_string(), |x| {
+                        format!("{:.1} %", 100.0 * x.max(0.0))
+                    })
+                };
+                let _ = writeln!(
+                    s,
+                    "    {:<22} weave {:>7}, capsize {:>7}{}",
+                    m.measurement,
+                    pct(m.weave_variance_share),
+                    pct(m.capsize_variance_share),
+                    m.repeats_to_halve_weave_se.map_or(String::new(), |n| format!(
+                        "; repeated {n} times (alone) it would halve the weave speed's standard error"
+                    ))
+                );
+            }
+            if self
+                .measurements
+                .iter()
+                .all(|m| m.repeats_to_halve_weave_se.is_none())
+            {
+                let _ = writeln!(
+                    s,
+                    "    No measurement holds more than 3/4 of the weave speed's variance: repeating \
+                     one alone cannot halve its standard error."
+                );
+            }
         }
         for w in &self.weave_derivatives {
             let _ = writeln!(

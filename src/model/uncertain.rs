@@ -21,6 +21,9 @@ pub type Builder = std::sync::Arc<dyn Fn(&[f64]) -> Benchmark + Send + Sync>;
 pub struct Parametrized {
     pub name: String,
     pub inputs: Inputs,
+    /// What each input is, in the order of `inputs` (for the uncertainty budget): the benchmark
+    /// parameter's name, or the lab body's quantity (`frame I_xx`), or the rider's (`rider mB`).
+    pub input_names: Vec<String>,
     build: Builder,
     /// A known steer controller closing the loop ([`SteerControl::NONE`]: none); it has no
     /// uncertainty of its own here.
@@ -37,6 +40,7 @@ impl Parametrized {
         Parametrized {
             name: name.into(),
             inputs,
+            input_names: Benchmark::NAMES.iter().map(|n| n.to_string()).collect(),
             build: std::sync::Arc::new(|x: &[f64]| {
                 let mut a = [0.0; 26];
                 a.copy_from_slice(&x[..26]);
@@ -51,6 +55,9 @@ impl Parametrized {
     pub fn from_inputs(name: &str, inputs: Inputs, build: Builder) -> Parametrized {
         Parametrized {
             name: name.into(),
+            input_names: (0..inputs.values().len())
+                .map(|k| format!("input {k}"))
+                .collect(),
             inputs,
             build,
             control: SteerControl::NONE,
@@ -60,12 +67,16 @@ impl Parametrized {
     /// The lab's bicycle: inputs are its masses and inertia entries (with their standard errors).
     pub fn from_lab(name: &str, bike: &LabBike) -> Parametrized {
         let mut inputs = Inputs::new();
-        for body in [
-            &bike.rear_wheel,
-            &bike.frame,
-            &bike.handlebar,
-            &bike.front_wheel,
+        let mut input_names = Vec::new();
+        for (body, body_name) in [
+            (&bike.rear_wheel, "rear_wheel"),
+            (&bike.frame, "frame"),
+            (&bike.handlebar, "handlebar"),
+            (&bike.front_wheel, "front_wheel"),
         ] {
+            for q in ["mass", "I_xx", "I_yy", "I_zz", "I_xz"] {
+                input_names.push(format!("{body_name} {q}"));
+            }
             inputs.push(Measured::new(body.mass_kg, body.mass_se_kg));
             inputs.push(Measured::new(body.ixx_kgm2, body.ixx_se_kgm2));
             inputs.push(Measured::new(body.iyy_kgm2, body.iyy_se_kgm2));
@@ -76,6 +87,7 @@ impl Parametrized {
         Parametrized {
             name: name.into(),
             inputs,
+            input_names,
             build: std::sync::Arc::new(move |x: &[f64]| {
                 let mut b = bike.clone();
                 for (k, body) in [
@@ -120,8 +132,15 @@ impl Parametrized {
     /// bicycle's, with their standard errors, so that both propagate.
     pub fn with_rider(mut self, rider: &super::params::Rider) -> Parametrized {
         let n = self.inputs.values().len();
-        for (v, s) in rider.body.to_array().iter().zip(rider.se) {
+        for ((v, s), name) in rider
+            .body
+            .to_array()
+            .iter()
+            .zip(rider.se)
+            .zip(super::params::Rider::NAMES)
+        {
             self.inputs.push(Measured::new(*v, s));
+            self.input_names.push(format!("rider {name}"));
         }
         let build = self.build.clone();
         self.build = std::sync::Arc::new(move |x: &[f64]| {
