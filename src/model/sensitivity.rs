@@ -573,7 +573,7 @@ impl Sensitivity {
             for m in &self.measurements {
                 let pct = |x: Option<f64>| {
                     x.map_or("—".to_string(), |x| {
-                        format!("{:.1} %", 100.0 * x.max(0.0))
+                        format!("{:.1} %", if x.abs() < 5e-4 { 0.0 } else { 100.0 * x })
                     })
                 };
                 let _ = writeln!(

@@ -229,6 +229,191 @@ pub(super) fn model_report(
             let _ = writeln!(md, "- [{title}]({file})");
         }
     }
+    design_sections(reference, &benchmark, &measured, files, &mut md)?;
     files.push(("model.md".into(), md.into_bytes()));
+    Ok(())
+}
+
+/// The sections of issue 34: the lab bicycle's sensitivities and uncertainty budget, the lab
+/// bicycle beside the benchmark (seed Figs. 16–17), and the lab bicycle with a rider.
+fn design_sections(
+    reference: &Path,
+    benchmark: &crate::model::uncertain::Parametrized,
+    measured: &crate::model::uncertain::Parametrized,
+    files: &mut Files,
+    md: &mut String,
+) -> Result<()> {
+    use crate::model::{compare, sensitivity, Rider};
+    let s = sensitivity::sensitivity(measured, &[], 10.0)?;
+    md.push_str(
+        "\n## What moves the lab bicycle's speeds, and what to measure again\n\n\
+         `bikeproc sensitivity --bike data/lab_bike.toml`: each benchmark parameter's derivative of the\n\
+         weave and capsize speeds (the model's own, by the implicit function of the critical eigenvalue),\n\
+         its elasticity (relative change per relative change) and its share of the speed's variance from\n\
+         the measurements' standard errors. The ten largest elasticities of the weave speed:\n\n\
+         | parameter | value ± SE | dv_weave/dp (m/s per unit) | elasticity | share of var(v_weave) | dv_capsize/dp | elasticity | share of var(v_capsize) |\n\
+         |---|---|---|---|---|---|---|---|\n",
+    );
+    let mut order: Vec<&sensitivity::ParameterSensitivity> = s.parameters.iter().collect();
+    order.sort_by(|a, b| {
+        let e = |p: &sensitivity::ParameterSensitivity| p.weave_elasticity.unwrap_or(0.0).abs();
+        e(b).total_cmp(&e(a)).then(a.name.cmp(b.name))
+    });
+    // Values that round to zero are printed as +0.000 and 0.0 % (not −0); a negative share (a
+    // correlation that offsets) is printed as it is.
+    let f = |x: Option<f64>, d: usize| {
+        x.map_or("—".to_string(), |x| {
+            let x = if x.abs() < 0.5 * 10f64.powi(-(d as i32)) {
+                0.0
+            } else {
+                x
+            };
+            format!("{x:+.d$}")
+        })
+    };
+    let pct = |x: Option<f64>| {
+        x.map_or("—".to_string(), |x| {
+            format!("{:.1} %", if x.abs() < 5e-4 { 0.0 } else { 100.0 * x })
+        })
+    };
+    for p in order.iter().take(10) {
+        let _ = writeln!(
+            md,
+            "| {} ({}) | {:.5} ± {:.5} | {} | {} | {} | {} | {} | {} |",
+            p.name,
+            p.unit,
+            p.value,
+            p.se,
+            f(p.d_weave_speed, 3),
+            f(p.weave_elasticity, 3),
+            pct(p.weave_variance_share),
+            f(p.d_capsize_speed, 3),
+            f(p.capsize_elasticity, 3),
+            pct(p.capsize_variance_share),
+        );
+    }
+    md.push_str(
+        "\nBy measurement (the inputs the inertia pipeline gives, with their correlations):\n\n\
+         | measurement | share of var(v_weave) | share of var(v_capsize) | repeats that alone halve the weave speed's SE |\n\
+         |---|---|---|---|\n",
+    );
+    for m in &s.measurements {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} |",
+            m.measurement,
+            pct(m.weave_variance_share),
+            pct(m.capsize_variance_share),
+            m.repeats_to_halve_weave_se
+                .map_or("— (its share is 3/4 or less)".to_string(), |n| n
+                    .to_string())
+        );
+    }
+    if let (Some(w), Some(top)) = (s.weave_speed_mps, s.measurements.first()) {
+        let _ = writeln!(
+            md,
+            "\nThe weave speed is {:.3} ± {:.3} m/s; {} holds {:.0} % of its variance{}.",
+            w.value,
+            w.se,
+            top.measurement,
+            100.0 * top.weave_variance_share.unwrap_or(0.0),
+            top.repeats_to_halve_weave_se.map_or(
+                ", not enough for repeats of it alone to halve the standard error".to_string(),
+                |n| format!(
+                    ": repeating it {n} times (and nothing else) would halve the standard error"
+                )
+            )
+        );
+    }
+    // The lab bicycle with a rider: BicycleParameters' rider of the Rigid bicycle, where he sits
+    // on that bicycle (relative to its rear contact).
+    let rider_path = reference.join("bicycleparameters/JasonRigidBenchmark.txt");
+    let rider = Rider::load(&rider_path)?;
+    let mut with_rider = measured.clone().with_rider(&rider);
+    with_rider.name = "lab_bike with the rider of JasonRigidBenchmark".into();
+    let c = compare::compare(
+        &[benchmark.clone(), measured.clone(), with_rider.clone()],
+        10.0,
+    )?;
+    md.push_str(
+        "\n## The lab's bicycle beside the benchmark, and with a rider (seed Figs. 16–17)\n\n\
+         `bikeproc compare`: the benchmark (its rider part of the rear frame), the lab's riderless bicycle,\n\
+         and the lab's bicycle with BicycleParameters' rider of the Rigid bicycle\n\
+         (`JasonRigidBenchmark.txt`, 83.5 kg, seated where he sits on that bicycle relative to its rear\n\
+         contact: the lab's saddle may be elsewhere) joined to its rear frame. Differences from the\n\
+         benchmark in combined standard errors.\n\n\
+         | bicycle | stable range (m/s) | weave speed (m/s) | capsize speed (m/s) | weave − benchmark | capsize − benchmark |\n\
+         |---|---|---|---|---|---|\n",
+    );
+    for b in &c.bikes {
+        let est = |e: Option<crate::fit::Estimate>| {
+            e.map_or("— (none below 10 m/s)".to_string(), |e| {
+                format!("{:.4} ± {:.4}", e.value, e.se)
+            })
+        };
+        let diff = |d: Option<compare::Difference>| {
+            d.map_or("—".to_string(), |d| {
+                format!(
+                    "{:+.3} ± {:.3}{}",
+                    d.value,
+                    d.se,
+                    d.z.map_or(String::new(), |z| format!(" ({z:+.1} SE)"))
+                )
+            })
+        };
+        let ranges = crate::model::ranges_text(&b.stable_ranges_mps, 3, "");
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} |",
+            b.bike,
+            if ranges.is_empty() {
+                "—".to_string()
+            } else {
+                ranges.join(", ")
+            },
+            est(b.weave_speed_mps),
+            est(b.capsize_speed_mps),
+            diff(b.weave_speed_difference_mps),
+            diff(b.capsize_speed_difference_mps),
+        );
+    }
+    #[cfg(feature = "plot")]
+    {
+        use crate::plot::{comparison_svg, Continuation};
+        use plotters::style::RGBColor;
+        let speeds: Vec<f64> = (0..=500).map(|i| i as f64 * 0.02).collect();
+        let models = [benchmark, measured, &with_rider];
+        let bands: Vec<_> = models
+            .iter()
+            .map(|p| p.bands(&speeds))
+            .collect::<Result<_, _>>()?;
+        let colours = [
+            (RGBColor(30, 80, 200), RGBColor(200, 40, 40)),
+            (RGBColor(20, 140, 60), RGBColor(110, 110, 110)),
+            (RGBColor(230, 130, 0), RGBColor(140, 80, 20)),
+        ];
+        let conts: Vec<Continuation> = c
+            .bikes
+            .iter()
+            .enumerate()
+            .map(|(i, b)| Continuation {
+                name: &b.bike,
+                bands: &bands[i],
+                stable: &b.stable_ranges_mps,
+                color: colours[i].0,
+                color_real: colours[i].1,
+            })
+            .collect();
+        let file = "model/benchmark_lab_rider.svg";
+        let title = "benchmark (blue), the lab's bicycle (green), with a rider (orange)";
+        files.push((
+            file.into(),
+            comparison_svg(title, &conts, (-10.0, 10.0), 1.0)?.into_bytes(),
+        ));
+        let _ = writeln!(
+            md,
+            "\n- [{title}, with a detail of the real parts near zero]({file})"
+        );
+    }
     Ok(())
 }
