@@ -273,6 +273,67 @@ impl Bicycle {
         })
     }
 
+    /// Bicycle.with_rider(path): the same bicycle with the rider of ``path`` (BicycleParameters'
+    /// benchmark form of a rider, as ``JasonRigidBenchmark.txt``) joined to its rear frame, as
+    /// ``--rider`` does; its standard errors carried.
+    fn with_rider(&self, path: PathBuf) -> PyResult<Bicycle> {
+        Ok(Bicycle {
+            model: self.model.clone().with_rider_file(&path).map_err(err)?,
+        })
+    }
+
+    /// ``bikeproc sensitivity --bike FILE [--speeds …] [--max-speed V]``: every benchmark
+    /// parameter's derivative of the weave and capsize speeds (m/s per unit), elasticity and
+    /// share of their variance, the budget by measurement, and the weave eigenvalue's
+    /// derivatives at ``speeds`` (m/s).
+    ///
+    /// Returns the dict of ``bikeproc sensitivity --json``.
+    #[pyo3(signature = (speeds=Vec::new(), max_speed=10.0))]
+    fn sensitivity<'py>(
+        &self,
+        py: Python<'py>,
+        speeds: Vec<f64>,
+        max_speed: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        check_speeds(&speeds, max_speed)?;
+        let s = py
+            .detach(|| bikeproc::model::sensitivity::sensitivity(&self.model, &speeds, max_speed))
+            .map_err(err)?;
+        to_python(py, &s)
+    }
+
+    /// ``bikeproc design --bike FILE --stable A:B --vary … [--max-change F] [--out FILE]``: the
+    /// smallest relative change of ``vary`` (head_angle, trail, wheelbase, or benchmark
+    /// parameters by name) that makes the bicycle stable over ``stable`` = (A, B) m/s, or the
+    /// closest design and why not (``reached`` False); ``out`` writes the changed bicycle.
+    ///
+    /// Returns the dict of ``bikeproc design --json``.
+    #[pyo3(signature = (stable, vary, max_change=0.5, out=None))]
+    fn design<'py>(
+        &self,
+        py: Python<'py>,
+        stable: (f64, f64),
+        vary: Vec<String>,
+        max_change: f64,
+        out: Option<PathBuf>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        use bikeproc::model::design::{design, DesignVariable};
+        if !(max_change > 0.0 && max_change <= 0.95) {
+            return Err(BikeprocError::new_err(format!(
+                "max_change = {max_change}: a fraction above 0 and at most 0.95"
+            )));
+        }
+        let vars = DesignVariable::parse_list(&vary).map_err(err)?;
+        let bike = self.model.nominal();
+        let d = py
+            .detach(|| design(&self.model.name, &bike, &vars, stable, max_change))
+            .map_err(err)?;
+        if let Some(out) = out {
+            bikeproc::output::write_atomic(&out, d.bicycle.to_text().as_bytes()).map_err(err)?;
+        }
+        to_python(py, &d)
+    }
+
     /// The bicycle's name.
     #[getter]
     fn name(&self) -> String {
@@ -465,6 +526,45 @@ fn stability_report(
         .map_err(err)
 }
 
+/// Speeds for the weave's derivatives: finite, above 0, at most ``max_speed`` (itself in
+/// (0, 100] m/s).
+fn check_speeds(speeds: &[f64], max_speed: f64) -> PyResult<()> {
+    if !(max_speed > 0.0 && max_speed <= 100.0) {
+        return Err(BikeprocError::new_err(format!(
+            "max_speed = {max_speed}: a speed above 0 and at most 100 m/s"
+        )));
+    }
+    if let Some((i, v)) = speeds
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(v.is_finite() && **v > 0.0 && **v <= 100.0))
+    {
+        return Err(BikeprocError::new_err(format!(
+            "speeds[{i}] = {v}: a speed above 0 and at most 100 m/s"
+        )));
+    }
+    Ok(())
+}
+
+/// ``bikeproc compare A B …``: the bicycles' weave and capsize speeds with standard errors,
+/// each against the first in combined standard errors (``bicycles``: a list of ``Bicycle``).
+///
+/// Returns the dict of ``bikeproc compare --json``.
+#[pyfunction]
+#[pyo3(signature = (bicycles, max_speed=10.0))]
+fn compare<'py>(
+    py: Python<'py>,
+    bicycles: Vec<Py<Bicycle>>,
+    max_speed: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    check_speeds(&[], max_speed)?;
+    let models: Vec<Parametrized> = bicycles.iter().map(|b| b.get().model.clone()).collect();
+    let c = py
+        .detach(|| bikeproc::model::compare::compare(&models, max_speed))
+        .map_err(err)?;
+    to_python(py, &c)
+}
+
 /// A value with its standard error as a dict, None without a value.
 fn estimate<'py>(
     py: Python<'py>,
@@ -494,6 +594,7 @@ fn bikeproc_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(inertia, m)?)?;
     m.add_function(wrap_pyfunction!(dynamic, m)?)?;
     m.add_function(wrap_pyfunction!(gap, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_class::<Bicycle>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

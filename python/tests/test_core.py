@@ -181,3 +181,33 @@ def test_eigenvalues_refuse_a_speed_that_is_not_finite():
     bike = bikeproc.Bicycle.from_file(DATA / "lab_bike.toml")
     with pytest.raises(bikeproc.BikeprocError, match=r"speeds\[1\] = NaN: expected finite speeds"):
         bike.eigenvalues(np.array([1.0, float("nan")]))
+
+
+RIGID = SHARED / "bicycleparameters" / "RigidBenchmark.txt"
+JASON = SHARED / "bicycleparameters" / "JasonRigidBenchmark.txt"
+
+
+def test_sensitivity_with_a_rider_is_the_commands(cli):
+    b = bikeproc.Bicycle.from_file(RIGID).with_rider(JASON)
+    assert b.sensitivity([5.0, 7.0]) == cli(
+        "sensitivity", "--bike", RIGID, "--rider", JASON, "--speeds", "5,7"
+    )
+    lab = bikeproc.Bicycle.from_file(DATA / "lab_bike.toml")
+    assert lab.sensitivity() == cli("sensitivity", "--bike", DATA / "lab_bike.toml")
+
+
+def test_compare_and_design_are_the_commands(cli, tmp_path):
+    bench = SHARED / "bicycleparameters" / "BenchmarkBenchmark.txt"
+    bikes = [bikeproc.Bicycle.from_file(p) for p in (bench, DATA / "lab_bike.toml", RIGID)]
+    assert bikeproc.compare(bikes) == cli("compare", bench, DATA / "lab_bike.toml", RIGID)
+    lab = bikeproc.Bicycle.from_file(DATA / "lab_bike.toml")
+    out = tmp_path / "designed.txt"
+    got = lab.design((2.9, 5.2), ["trail", "head_angle"], out=out)
+    want = cli(
+        "design", "--bike", DATA / "lab_bike.toml", "--stable", "2.9:5.2",
+        "--vary", "trail,head_angle",
+    )
+    assert got == want and got["reached"]
+    assert cli("stability", "--bike", out, "--speeds", "0:10:1")["weave_speed_mps"] <= 2.9 + 1e-5
+    with pytest.raises(bikeproc.BikeprocError, match="not a design variable"):
+        lab.design((2.9, 5.2), ["fork"])

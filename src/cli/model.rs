@@ -44,19 +44,7 @@ pub fn compare(a: CompareArgs) -> Result<()> {
 pub fn design(a: DesignArgs) -> Result<()> {
     use bikeproc::model::design::{design, DesignVariable};
     let p = with_rider(load_bike(&a.bike)?, a.rider.as_deref())?;
-    let vars = a
-        .vary
-        .iter()
-        .map(|v| {
-            DesignVariable::parse(v.trim()).ok_or_else(|| {
-                anyhow::Error::from(kind::WrongKind(format!(
-                    "--vary {v}: not a design variable (head_angle, trail, wheelbase, or a \
-                     benchmark parameter's name other than g: {})",
-                    model::Benchmark::NAMES.join(", ")
-                )))
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let vars = DesignVariable::parse_list(&a.vary)?;
     let d = design(&p.name, &p.nominal(), &vars, a.stable, a.max_change)?;
     if let Some(out) = &a.out {
         write_atomic(out, d.bicycle.to_text().as_bytes())?;
@@ -121,16 +109,11 @@ fn comparison_svg(_: &[Parametrized], _: f64) -> Result<String> {
 
 /// `model` with the rider of the file `rider` joined to its rear frame, named in the model's
 /// name.
-fn with_rider(mut model: Parametrized, rider: Option<&Path>) -> Result<Parametrized> {
-    if let Some(r) = rider {
-        let rider = model::Rider::load(r)?;
-        let file = r
-            .file_name()
-            .map_or_else(|| r.display().to_string(), |f| f.to_string_lossy().into());
-        model.name = format!("{} with the rider of {file}", model.name);
-        model = model.with_rider(&rider);
-    }
-    Ok(model)
+fn with_rider(model: Parametrized, rider: Option<&Path>) -> Result<Parametrized> {
+    Ok(match rider {
+        Some(r) => model.with_rider_file(r)?,
+        None => model,
+    })
 }
 
 /// A bicycle file as a model, with the controller of `controller` (a TOML `[controller]`

@@ -51,6 +51,17 @@ impl DesignVariable {
         }
     }
 
+    /// Every name of `names` ([`DesignVariable::parse`]), or the first that is not one.
+    pub fn parse_list<S: AsRef<str>>(names: &[S]) -> Result<Vec<DesignVariable>, DesignError> {
+        names
+            .iter()
+            .map(|n| {
+                let n = n.as_ref().trim();
+                DesignVariable::parse(n).ok_or_else(|| DesignError::UnknownVariable(n.into()))
+            })
+            .collect()
+    }
+
     /// Its name as the command line takes it.
     pub fn name(&self) -> String {
         match self {
@@ -69,6 +80,8 @@ pub enum DesignError {
     Range(f64, f64),
     #[error("no variable to vary: give --vary with at least one of head_angle, trail, wheelbase or a benchmark parameter")]
     NoVariables,
+    #[error("`{0}`: not a design variable (head_angle, trail, wheelbase, or a benchmark parameter's name other than g: w, c, lam, rR, mR, IRxx, IRyy, xB, zB, mB, IBxx, IByy, IBzz, IBxz, xH, zH, mH, IHxx, IHyy, IHzz, IHxz, rF, mF, IFxx, IFyy)")]
+    UnknownVariable(String),
     #[error("`{0}` is zero on this bicycle: a relative change of it means nothing (vary another)")]
     ZeroParameter(String),
     #[error(transparent)]

@@ -106,8 +106,10 @@ pub struct WeaveDerivatives {
     pub re: f64,
     pub im: f64,
     /// dRe λ/dp and dIm λ/dp (1/s per the parameter's unit), in the order of
-    /// [`Benchmark::NAMES`].
+    /// [`Benchmark::NAMES`] (in JSON maps from the parameter's name, in that order).
+    #[serde(serialize_with = "by_benchmark_name")]
     pub d_re: Vec<f64>,
+    #[serde(serialize_with = "by_benchmark_name")]
     pub d_im: Vec<f64>,
 }
 
@@ -119,13 +121,35 @@ pub struct Sensitivity {
     /// (`√(gᵀCg)`).
     pub weave_speed_mps: Option<Estimate>,
     pub capsize_speed_mps: Option<Estimate>,
-    /// Every benchmark parameter, in the order of [`Benchmark::NAMES`].
+    /// Every benchmark parameter, in the order of [`Benchmark::NAMES`] (in JSON a map from
+    /// the parameter's name, in that order).
+    #[serde(serialize_with = "by_name")]
     pub parameters: Vec<ParameterSensitivity>,
     /// The budget by measured input (the model's own inputs, with their correlations).
     pub inputs: Vec<InputShare>,
     /// The budget by measurement, largest weave share first.
     pub measurements: Vec<MeasurementShare>,
     pub weave_derivatives: Vec<WeaveDerivatives>,
+}
+
+/// The parameters as a JSON map from their names, in their order.
+fn by_name<S: serde::Serializer>(v: &[ParameterSensitivity], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut m = s.serialize_map(Some(v.len()))?;
+    for p in v {
+        m.serialize_entry(p.name, p)?;
+    }
+    m.end()
+}
+
+/// Values in the order of [`Benchmark::NAMES`] as a JSON map from those names.
+fn by_benchmark_name<S: serde::Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut m = s.serialize_map(Some(v.len()))?;
+    for (name, x) in Benchmark::NAMES.iter().zip(v) {
+        m.serialize_entry(name, x)?;
+    }
+    m.end()
 }
 
 /// The derivatives of the canonical entries (M, C₁, K₀, K₂ row by row, then g) by each of the

@@ -152,6 +152,19 @@ impl Parametrized {
         self
     }
 
+    /// The same bicycle with the rider of the file `path` ([`super::params::Rider::load`])
+    /// joined to its rear frame, named so ("NAME with the rider of FILE").
+    pub fn with_rider_file(self, path: &Path) -> Result<Parametrized, ParamError> {
+        let rider = super::params::Rider::load(path)?;
+        let file = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |f| f.to_string_lossy().into(),
+        );
+        let mut p = self.with_rider(&rider);
+        p.name = format!("{} with the rider of {file}", p.name);
+        Ok(p)
+    }
+
     /// The same bicycle with `control` closing the loop.
     pub fn with_control(mut self, control: SteerControl) -> Parametrized {
         self.control = control;
