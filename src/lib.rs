@@ -35,6 +35,7 @@ pub const MAX_DECOMPOSITION_ITERATIONS: usize = 1_000;
 pub mod fuzzing;
 pub mod gap;
 pub mod inertia;
+pub mod jet;
 pub mod kind;
 pub mod log;
 pub mod model;

@@ -14,12 +14,12 @@
 //! `‖x‖₂`, x the relative changes, is found by sequential linearization: at each step the
 //! constraints `v_weave(x) ≤ A`, `v_capsize(x) ≥ B` are linearized with the model's own
 //! derivatives ([`super::sensitivity::critical_speed_gradients`], chained through the
-//! variables by dual numbers) and the nearest point to no change that satisfies them, within
+//! variables by jets) and the nearest point to no change that satisfies them, within
 //! the bounds, is taken.
 
-use super::dual::{Dual, Real};
 use super::sensitivity::{critical_speed_gradients, CriticalSpeeds, SensitivityError};
 use super::Benchmark;
+use crate::jet::{Jet, Scalar};
 
 /// What a design may change.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -125,15 +125,15 @@ pub struct Design {
 }
 
 /// The parameters with the relative changes `x` of `vars` applied (any arithmetic, so that
-/// dual numbers give their derivatives).
-fn apply<T: Real>(base: &[f64; 26], vars: &[DesignVariable], x: &[T]) -> [T; 26] {
+/// jets give their derivatives).
+fn apply<T: Scalar>(base: &[f64; 26], vars: &[DesignVariable], x: &[T]) -> [T; 26] {
     const W: usize = 0;
     const C: usize = 1;
     const LAMBDA: usize = 2;
     const X_H: usize = 15;
     const R_F: usize = 22;
-    let one = T::from(1.0);
-    let mut p: [T; 26] = base.map(T::from);
+    let one = T::c(1.0);
+    let mut p: [T; 26] = base.map(T::c);
     let (mut lambda, mut trail_at_base) = (p[LAMBDA], p[C]);
     for (v, &xi) in vars.iter().zip(x) {
         match v {
@@ -149,9 +149,9 @@ fn apply<T: Real>(base: &[f64; 26], vars: &[DesignVariable], x: &[T]) -> [T; 26]
     }
     // The fork offset the trail (at the original head angle) means, then the trail at the
     // head angle: c = (r_F sin λ − d)/cos λ.
-    let (s0, c0) = T::from(base[LAMBDA]).sin_cos();
+    let (s0, c0) = (T::c(base[LAMBDA]).sin(), T::c(base[LAMBDA]).cos());
     let offset = p[R_F] * s0 - trail_at_base * c0;
-    let (s, c) = lambda.sin_cos();
+    let (s, c) = (lambda.sin(), lambda.cos());
     p[LAMBDA] = lambda;
     p[C] = (p[R_F] * s - offset) / c;
     p
@@ -187,21 +187,15 @@ fn constraints(
         weave,
         capsize,
     } = critical_speed_gradients(&bike, v_max)?;
-    // dp/dx_j by dual numbers.
+    // dp/dx_j by jets.
     let dp: Vec<[f64; 26]> = (0..vars.len())
         .map(|j| {
-            let xd: Vec<Dual> = x
+            let xd: Vec<Jet> = x
                 .iter()
                 .enumerate()
-                .map(|(i, &v)| {
-                    if i == j {
-                        Dual::variable(v)
-                    } else {
-                        Dual::constant(v)
-                    }
-                })
+                .map(|(i, &v)| if i == j { Jet::var(v, 1.0) } else { Jet::c(v) })
                 .collect();
-            apply(base, vars, &xd).map(|d| d.eps)
+            apply(base, vars, &xd).map(|d| d.d)
         })
         .collect();
     let chain = |g: &[f64; 26]| -> Vec<f64> {

@@ -11,15 +11,14 @@
 pub mod compare;
 pub mod control;
 pub mod design;
-pub mod dual;
 pub mod lab;
 pub mod params;
 pub mod report;
 pub mod sensitivity;
 pub mod uncertain;
 
+use crate::jet::Scalar;
 pub use control::SteerControl;
-use dual::Real;
 use nalgebra::{Complex, Matrix2, Matrix4};
 pub use params::{Benchmark, BenchmarkOf, ParamError, Rider, RigidBody};
 
@@ -38,12 +37,17 @@ pub struct Canonical {
 
 /// `I/r` with the two-mass-skate limit: zero inertia on a zero radius is zero (Kooijman et
 /// al. 2011), not 0/0.
-fn spin_over_radius<T: Real>(inertia: T, radius: T) -> T {
+fn spin_over_radius<T: Scalar>(inertia: T, radius: T) -> T {
     if inertia.value() == 0.0 && radius.value() == 0.0 {
-        T::from(0.0)
+        T::c(0.0)
     } else {
         inertia / radius
     }
+}
+
+/// `x²`.
+fn sq<T: Scalar>(x: T) -> T {
+    x * x
 }
 
 /// The canonical matrices' entries in any arithmetic: M, C₁, K₀, K₂ row by row, and g.
@@ -57,11 +61,11 @@ pub struct CanonicalTerms<T> {
 }
 
 /// Meijaard et al. 2007, Appendix A, equations (A 1)–(A 27), term by term, in any arithmetic
-/// ([`Real`]): with `f64` the model ([`Canonical::from_benchmark`]), with dual numbers its
-/// exact derivatives by a parameter ([`dual`]).
-pub fn canonical_terms<T: Real>(p: &BenchmarkOf<T>) -> CanonicalTerms<T> {
-    let n = |x: f64| T::from(x);
-    let (sl, cl) = p.lambda.sin_cos();
+/// ([`Scalar`]): with `f64` the model ([`Canonical::from_benchmark`]), with jets its exact
+/// derivatives by a parameter ([`crate::jet`]).
+pub fn canonical_terms<T: Scalar>(p: &BenchmarkOf<T>) -> CanonicalTerms<T> {
+    let n = |x: f64| T::c(x);
+    let (sl, cl) = (p.lambda.sin(), p.lambda.cos());
     // (A 1)–(A 6): the whole bicycle's mass, centre of mass and inertia (rear contact, z down).
     let m_t = p.m_r + p.m_b + p.m_h + p.m_f;
     let x_t = (p.x_b * p.m_b + p.x_h * p.m_h + p.w * p.m_f) / m_t;
@@ -89,11 +93,10 @@ pub fn canonical_terms<T: Real>(p: &BenchmarkOf<T>) -> CanonicalTerms<T> {
     let m_a = p.m_h + p.m_f;
     let x_a = (p.x_h * p.m_h + p.w * p.m_f) / m_a;
     let z_a = (p.z_h * p.m_h - p.r_f * p.m_f) / m_a;
-    let i_axx =
-        p.i_hxx + p.i_fxx + p.m_h * (p.z_h - z_a).squared() + p.m_f * (p.r_f + z_a).squared();
+    let i_axx = p.i_hxx + p.i_fxx + p.m_h * sq(p.z_h - z_a) + p.m_f * sq(p.r_f + z_a);
     let i_axz =
         p.i_hxz - p.m_h * (p.x_h - x_a) * (p.z_h - z_a) + p.m_f * (p.w - x_a) * (p.r_f + z_a);
-    let i_azz = p.i_hzz + i_fzz + p.m_h * (p.x_h - x_a).squared() + p.m_f * (p.w - x_a).squared();
+    let i_azz = p.i_hzz + i_fzz + p.m_h * sq(p.x_h - x_a) + p.m_f * sq(p.w - x_a);
     // (A 16)–(A 19): about the steer axis.
     let u_a = (x_a - p.w - p.c) * cl - z_a * sl;
     let i_all = m_a * u_a * u_a + i_axx * sl * sl + n(2.0) * i_axz * sl * cl + i_azz * cl * cl;

@@ -53,8 +53,8 @@ macro_rules! benchmark_params {
             }
         }
 
-        /// The benchmark parameters in any arithmetic ([`super::dual::Real`]): `f64` for the
-        /// model, dual numbers for its derivatives.
+        /// The benchmark parameters in any arithmetic ([`crate::jet::Scalar`]): `f64` for the
+        /// model, jets for its derivatives.
         #[derive(Debug, Clone, Copy)]
         pub struct BenchmarkOf<T> {
             $( #[doc = $doc] pub $field: T, )*

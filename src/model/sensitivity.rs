@@ -5,16 +5,16 @@
 //! In: a [`Parametrized`] bicycle (benchmark parameters with their covariance, from a file's
 //! standard errors or propagated from a lab's measurements), without a controller.
 //! Out: [`Sensitivity`]. The derivatives are the model's own, not finite differences: the
-//! canonical matrices' derivatives by every parameter come from dual numbers through Meijaard et
-//! al. 2007's (A 1)–(A 27) ([`super::dual`]), an eigenvalue's from first-order perturbation
+//! canonical matrices' derivatives by every parameter come from jets (automatic
+//! differentiation) through Meijaard et al. 2007's (A 1)–(A 27) ([`crate::jet`]), an eigenvalue's from first-order perturbation
 //! theory ([`eigenvalue_gradient`]), and a critical speed's from the implicit function theorem
 //! on `Re λ(v, p) = 0`: `dv_c/dp = −(∂Re λ/∂p)/(∂Re λ/∂v)`, with `∂λ/∂v` from the same
 //! gradient (λ depends on v through `v C₁` and `v² K₂`).
 
-use super::dual::Dual;
 use super::uncertain::{eigenvalue_gradient, Parametrized};
 use super::{canonical_terms, Benchmark, BenchmarkOf, Canonical, ParamError};
 use crate::fit::Estimate;
+use crate::jet::{Jet, Scalar};
 use nalgebra::{Complex, DMatrix, DVector};
 
 /// Errors of the sensitivity stage.
@@ -153,25 +153,25 @@ fn by_benchmark_name<S: serde::Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::
 }
 
 /// The derivatives of the canonical entries (M, C₁, K₀, K₂ row by row, then g) by each of the
-/// 26 parameters: row k holds d(entry)/dp_k, exact (dual numbers through (A 1)–(A 27)).
+/// 26 parameters: row k holds d(entry)/dp_k, exact (jets through (A 1)–(A 27)).
 pub fn canonical_derivatives(b: &Benchmark) -> [[f64; 17]; 26] {
     let values = b.to_array();
     std::array::from_fn(|k| {
         let p = BenchmarkOf::from_array(std::array::from_fn(|i| {
             if i == k {
-                Dual::variable(values[i])
+                Jet::var(values[i], 1.0)
             } else {
-                Dual::constant(values[i])
+                Jet::c(values[i])
             }
         }));
         let t = canonical_terms(&p);
         let mut row = [0.0; 17];
         for (m, e) in [t.m, t.c1, t.k0, t.k2].iter().enumerate() {
             for j in 0..4 {
-                row[4 * m + j] = e[j].eps;
+                row[4 * m + j] = e[j].d;
             }
         }
-        row[16] = t.g.eps;
+        row[16] = t.g.d;
         row
     })
 }

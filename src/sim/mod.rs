@@ -13,7 +13,6 @@ pub mod calibration;
 pub mod campaign;
 pub mod draw;
 pub mod imu;
-pub mod jet;
 pub mod linearize;
 pub mod ode;
 pub mod pendulum;

@@ -12,8 +12,8 @@
 
 use super::draw::{seeded, Draw};
 use super::imu::{self, BodySample, FileSpec, LinkModel, Locale, Precision, SensorModel};
-use super::jet::Jet;
 use super::whipple::{self, Body, Load, RideState, WhippleParams};
+use crate::jet::Jet;
 use crate::log::OutputMode;
 use crate::model::Benchmark;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};

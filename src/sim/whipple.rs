@@ -17,7 +17,7 @@
 //! This is the simulator's own physics: it shares no equations with the analysis model
 //! ([`crate::model`]); the tests compare the two.
 
-use super::jet::{Jet, Scalar};
+use crate::jet::{Jet, Scalar};
 use crate::model::Benchmark;
 use nalgebra::{SMatrix, SVector};
 

@@ -1,7 +1,10 @@
-//! A second-order jet along one direction: `x(ε) = v + d ε + dd ε²/2`. Evaluating a function
-//! of coordinates `q + ε q̇` with jets gives, exactly (no finite differences), its value, its
-//! rate `d = J q̇` and its convective second derivative `dd = q̇ᵀ H q̇`: the velocity and the
-//! acceleration at `q̈ = 0` of any point or frame of the bicycle.
+//! Automatic differentiation, at the side of the pipeline: a second-order jet along one
+//! direction, `x(ε) = v + d ε + dd ε²/2`. Evaluating a function of coordinates `q + ε q̇` with
+//! jets gives, exactly (no finite differences), its value, its rate `d = J q̇` and its
+//! convective second derivative `dd = q̇ᵀ H q̇`. The simulator takes from it the velocity and
+//! the acceleration at `q̈ = 0` of any point or frame of the bicycle; the model
+//! ([`crate::model::canonical_terms`]) the canonical matrices' derivatives by a parameter
+//! (`d`, with `q̇` the parameter's unit vector).
 //!
 //! Kept for a measured reason (`benches/kernels`): on a kinematics-like function of three
 //! coordinates it agrees with num-dual's `Dual2_64` to 4.4e-16 in the second derivative (exactly
