@@ -428,6 +428,17 @@ pub fn design(
     let p = apply(&base, vars, &x);
     let mut bicycle = Benchmark::from_array(&p);
     bicycle.se = bike.se;
+    // A change the model takes but no bicycle has (an inertia no body has, a wheelbase gone) is
+    // no design.
+    let (reached, reason) = match bicycle.validate(std::path::Path::new(name)) {
+        Ok(()) => (reached, reason),
+        Err(e) => (
+            false,
+            Some(format!(
+                "the changes asked for make no physical bicycle: {e}"
+            )),
+        ),
+    };
     let changes = vars
         .iter()
         .zip(&x)
