@@ -727,6 +727,13 @@ impl<'a> Parser<'a> {
                     // Not finite, or beyond its channel's range.
                     Some(_) => corrupt = true,
                     None if t.is_empty() && fi + 1 == n_fields => corrupt = true,
+                    // A row cut short inside its last number (`-`, `12.`): the packet arrived
+                    // cut, as an empty last field does.
+                    None if fi + 1 < n_fields
+                        && split_fields(line, separator).count() == fi + 1 =>
+                    {
+                        corrupt = true
+                    }
                     None => {
                         return Err(self.err(
                             Some(no),
@@ -1145,6 +1152,25 @@ mod tests {
             assert_eq!(log.grid_index[..2], [0, 2], "{bad}");
             assert_eq!(log.grid_index.len(), 39, "{bad}");
         }
+    }
+
+    /// A row cut short inside its last number (`-`, `12.`, `1e`) is a cut packet, a gap like a
+    /// row cut at a separator; a full row with the same text in a field is still an error with
+    /// its line and column.
+    #[test]
+    fn a_row_cut_inside_a_number_is_a_corrupt_row() {
+        for cut in ["2\t0.01\t1\t-", "2\t0.01\t12.", "2\t0.01\t1\t2e"] {
+            let mut text = format!("{HEAD}1\t0.00\t1\t2\t3\n{cut}\n");
+            for k in 3..=40 {
+                text += &format!("{k}\t{:.2}\t1\t2\t3\n", (k - 1) as f64 / 100.0);
+            }
+            let log = parse(&text).unwrap();
+            assert_eq!(log.gaps.corrupt_rows, 1, "{cut}");
+            assert_eq!(log.grid_index[..2], [0, 2], "{cut}");
+        }
+        let full = format!("{HEAD}1\t0.00\t1\t-\t3\n");
+        let e = parse(&full).unwrap_err().to_string();
+        assert!(e.contains("t.log:5:") && e.contains("expected a number"), "{e}");
     }
 
     #[test]
