@@ -1170,7 +1170,10 @@ mod tests {
         }
         let full = format!("{HEAD}1\t0.00\t1\t-\t3\n");
         let e = parse(&full).unwrap_err().to_string();
-        assert!(e.contains("t.log:5:") && e.contains("expected a number"), "{e}");
+        assert!(
+            e.contains("t.log:5:") && e.contains("expected a number"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -831,15 +831,25 @@ pub fn continuation_svg(
 ) -> Result<String, PlotError> {
     let (mut series, shades) = continuation_layers(bikes);
     series.extend_from_slice(extra);
-    chart_svg(&Chart {
+    chart_svg(&continuation_chart(title, &series, &shades, y_range))
+}
+
+/// The chart of a continuation diagram: eigenvalues against speed, y in `y_range`.
+fn continuation_chart<'a>(
+    title: &'a str,
+    series: &'a [Series],
+    shades: &'a [Shade],
+    y_range: (f64, f64),
+) -> Chart<'a> {
+    Chart {
         title,
         x_label: "speed (m/s)",
         y_label: "eigenvalue: real part (1/s), imaginary (rad/s)",
-        series: &series,
-        shades: &shades,
+        series,
+        shades,
         y_range: Some(y_range),
         ..Chart::default()
-    })
+    }
 }
 
 /// Several bicycles' continuation diagrams overlaid (as [`continuation_svg`], y in
@@ -863,18 +873,7 @@ pub fn comparison_svg(
         .collect();
     let detail_title = format!("detail: real parts near zero (±{detail} 1/s)");
     stacked_svg(&[
-        (
-            HEIGHT,
-            Chart {
-                title,
-                x_label: "speed (m/s)",
-                y_label: "eigenvalue: real part (1/s), imaginary (rad/s)",
-                series: &series,
-                shades: &shades,
-                y_range: Some(y_range),
-                ..Chart::default()
-            },
-        ),
+        (HEIGHT, continuation_chart(title, &series, &shades, y_range)),
         (
             HEIGHT * 3 / 4,
             Chart {

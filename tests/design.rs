@@ -135,10 +135,20 @@ fn a_change_no_bicycle_has_is_no_design() {
     let run = Command::new(env!("CARGO_BIN_EXE_bikeproc"))
         .args(["design", "--bike"])
         .arg(root().join("data/lab_bike.toml"))
-        .args(["--stable", "2.7:5.2", "--vary", "IHxx", "--max-change", "0.95"])
+        .args([
+            "--stable",
+            "2.7:5.2",
+            "--vary",
+            "IHxx",
+            "--max-change",
+            "0.95",
+        ])
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&run.stdout);
     assert_eq!(run.status.code(), Some(3), "{text}");
-    assert!(text.contains("make no physical bicycle") && text.contains("IHxx"), "{text}");
+    assert!(
+        text.contains("make no physical bicycle") && text.contains("IHxx"),
+        "{text}"
+    );
 }
