@@ -110,8 +110,8 @@ pub enum Command {
         "  bikeproc sensitivity --bike BenchmarkBenchmark.txt --speeds 4,5,6 --json\n\n",
         "Derivatives: the implicit function of the critical eigenvalue (Re λ(v, p) = 0, so ",
         "dv/dp = −(∂Re λ/∂p)/(∂Re λ/∂v)), the eigenvalue's by first-order perturbation theory, ",
-        "the canonical matrices' by dual numbers through Meijaard et al. 2007's (A 1)–(A 27). ",
-        "Elasticity: (p/v) dv/dp. Variance share: g_k (C g)_k / gᵀCg, C the parameters' ",
+        "the canonical matrices' by jets (automatic differentiation) through Meijaard et al. ",
+        "2007's (A 1)–(A 27). Elasticity: (p/v) dv/dp. Variance share: g_k (C g)_k / gᵀCg, C the parameters' ",
         "covariance from the file's standard errors (propagated from the measurements for a lab ",
         "bicycle), g the gradient; the shares add up to 1.\n\n",
         "JSON (--json): {\"bike\", \"weave_speed_mps\": {\"value\", \"se\"}, ",
@@ -415,10 +415,10 @@ pub struct SensitivityArgs {
     pub rider: Option<PathBuf>,
     /// Speeds (m/s, comma-separated, each above the weave's merge speed) at which to give the
     /// weave eigenvalue's derivatives by every parameter.
-    #[arg(long, value_delimiter = ',', value_parser = parse_positive_speed)]
+    #[arg(long, value_delimiter = ',', value_parser = within(0.0, true, 100.0))]
     pub speeds: Vec<f64>,
     /// The characteristic speeds are searched in 0 to this speed (m/s).
-    #[arg(long, default_value_t = 10.0, value_parser = parse_positive_speed)]
+    #[arg(long, default_value_t = 10.0, value_parser = within(0.0, true, 100.0))]
     pub max_speed: f64,
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
@@ -435,7 +435,7 @@ pub struct CompareArgs {
     #[arg(long)]
     pub rider: Option<PathBuf>,
     /// Speeds searched: 0 to this (m/s).
-    #[arg(long, default_value_t = 10.0, value_parser = parse_positive_speed)]
+    #[arg(long, default_value_t = 10.0, value_parser = within(0.0, true, 100.0))]
     pub max_speed: f64,
     /// Write the overlaid continuation diagrams to this SVG file.
     #[arg(long)]
@@ -462,7 +462,7 @@ pub struct DesignArgs {
     #[arg(long, value_delimiter = ',', required = true)]
     pub vary: Vec<String>,
     /// The largest relative change of any variable (0.5: ±50 %).
-    #[arg(long, default_value_t = 0.5, value_parser = parse_fraction)]
+    #[arg(long, default_value_t = 0.5, value_parser = within(0.0, true, 0.95))]
     pub max_change: f64,
     /// Write the changed bicycle here (BicycleParameters text).
     #[arg(long)]
@@ -477,37 +477,12 @@ fn parse_speed_range(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s
         .split_once(':')
         .ok_or_else(|| format!("`{s}`: expected A:B (m/s)"))?;
-    let (a, b) = (parse_positive_speed(a)?, parse_positive_speed(b)?);
+    let speed = within(0.0, true, 100.0);
+    let (a, b) = (speed(a)?, speed(b)?);
     if a < b {
         Ok((a, b))
     } else {
         Err(format!("`{s}`: A below B (m/s)"))
-    }
-}
-
-/// A fraction in (0, 0.95].
-fn parse_fraction(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
-    if v > 0.0 && v <= 0.95 {
-        Ok(v)
-    } else {
-        Err(format!("{s}: a fraction above 0 and at most 0.95"))
-    }
-}
-
-/// A speed in m/s: a finite number in (0, 100].
-fn parse_positive_speed(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number (m/s)"))?;
-    if v.is_finite() && v > 0.0 && v <= 100.0 {
-        Ok(v)
-    } else {
-        Err(format!("{s} m/s: a speed above 0 and at most 100 m/s"))
     }
 }
 

@@ -36,7 +36,7 @@ pub fn compare(a: CompareArgs) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     let c = model::compare::compare(&models, a.max_speed)?;
     if let Some(svg) = &a.svg {
-        write_atomic(svg, comparison_svg(&models, a.max_speed)?.as_bytes())?;
+        write_atomic(svg, comparison_svg(&models, &c)?.as_bytes())?;
     }
     emit(a.json, &c, || c.to_text())
 }
@@ -56,10 +56,10 @@ pub fn design(a: DesignArgs) -> Result<()> {
     Ok(())
 }
 
-/// The overlaid continuation diagrams of `models` over 0–`v_max` m/s (501 speeds), with the
-/// detail of their real parts near zero.
+/// The overlaid continuation diagrams of `models` over the comparison's speeds (501 of them),
+/// its stable ranges shaded, with the detail of their real parts near zero.
 #[cfg(feature = "plot")]
-fn comparison_svg(models: &[Parametrized], v_max: f64) -> Result<String> {
+fn comparison_svg(models: &[Parametrized], c: &model::compare::Comparison) -> Result<String> {
     use bikeproc::plot::{comparison_svg, Continuation};
     use plotters::style::RGBColor;
     // Weave colour and real modes' colour per bicycle, repeating after six.
@@ -71,24 +71,20 @@ fn comparison_svg(models: &[Parametrized], v_max: f64) -> Result<String> {
         (RGBColor(0, 150, 160), RGBColor(60, 60, 60)),
         (RGBColor(180, 160, 0), RGBColor(100, 130, 30)),
     ];
-    let speeds: Vec<f64> = (0..=500).map(|i| i as f64 * v_max / 500.0).collect();
-    let mut bands = Vec::with_capacity(models.len());
-    let mut stable = Vec::with_capacity(models.len());
-    for m in models {
-        bands.push(m.bands(&speeds)?);
-        stable.push(
-            m.nominal_canonical()
-                .stability(v_max, 0.01)?
-                .stable_ranges_mps,
-        );
-    }
+    let speeds: Vec<f64> = (0..=500)
+        .map(|i| i as f64 * c.max_speed_mps / 500.0)
+        .collect();
+    let bands = models
+        .iter()
+        .map(|m| m.bands(&speeds))
+        .collect::<Result<Vec<_>, _>>()?;
     let conts: Vec<Continuation> = models
         .iter()
         .enumerate()
         .map(|(i, m)| Continuation {
             name: &m.name,
             bands: &bands[i],
-            stable: &stable[i],
+            stable: &c.bikes[i].stable_ranges_mps,
             color: COLOURS[i % COLOURS.len()].0,
             color_real: COLOURS[i % COLOURS.len()].1,
         })
@@ -103,7 +99,7 @@ fn comparison_svg(models: &[Parametrized], v_max: f64) -> Result<String> {
 }
 
 #[cfg(not(feature = "plot"))]
-fn comparison_svg(_: &[Parametrized], _: f64) -> Result<String> {
+fn comparison_svg(_: &[Parametrized], _: &model::compare::Comparison) -> Result<String> {
     anyhow::bail!("this bikeproc was built without figures (the `plot` feature): no --svg")
 }
 

@@ -222,7 +222,7 @@ fn critical_eigenvalue(model: &Canonical, v: f64, oscillatory: bool) -> Option<C
 
 /// A characteristic speed (m/s), its derivatives by the parameters, its standard error and the
 /// parameters' shares of its variance.
-type Critical = (f64, [f64; 26], f64, Option<[f64; 26]>);
+type Critical = (f64, [f64; 26], f64, Option<Vec<f64>>);
 
 /// The derivative of a characteristic speed by every parameter: `−Re(dλ/dp)/Re(∂λ/∂v)`.
 fn speed_derivatives(
@@ -281,11 +281,11 @@ pub fn critical_speed_gradients(
 
 /// `√(gᵀCg)` and each parameter's share `g_k (C g)_k / gᵀCg` (`None` when the parameters carry
 /// no uncertainty that reaches the speed).
-fn budget(g: &[f64; 26], cov: &DMatrix<f64>) -> (f64, Option<[f64; 26]>) {
+fn budget(g: &[f64], cov: &DMatrix<f64>) -> (f64, Option<Vec<f64>>) {
     let gv = DVector::from_column_slice(g);
     let cg = cov * &gv;
     let var = gv.dot(&cg);
-    let shares = (var > 0.0).then(|| std::array::from_fn(|k| g[k] * cg[k] / var));
+    let shares = (var > 0.0).then(|| (0..g.len()).map(|k| g[k] * cg[k] / var).collect());
     (var.max(0.0).sqrt(), shares)
 }
 
@@ -332,7 +332,11 @@ pub fn sensitivity(
             let value = nominal[k];
             let of = |c: &Option<Critical>| {
                 c.as_ref().map(|(v, d, _, shares)| {
-                    (d[k], elasticity(d[k], value, *v), shares.map(|s| s[k]))
+                    (
+                        d[k],
+                        elasticity(d[k], value, *v),
+                        shares.as_ref().map(|s| s[k]),
+                    )
                 })
             };
             let (w, c) = (of(&weave), of(&capsize));
@@ -374,9 +378,7 @@ pub fn sensitivity(
     let input_shares = |c: &Option<Critical>| -> Option<Vec<f64>> {
         let (_, d, _, _) = c.as_ref()?;
         let g_in = jac.transpose() * DVector::from_column_slice(d);
-        let sg = &input_cov * &g_in;
-        let var = g_in.dot(&sg);
-        (var > 0.0).then(|| (0..g_in.len()).map(|j| g_in[j] * sg[j] / var).collect())
+        budget(g_in.as_slice(), &input_cov).1
     };
     let (weave_in, capsize_in) = (input_shares(&weave), input_shares(&capsize));
     let inputs: Vec<InputShare> = model

@@ -243,7 +243,7 @@ fn design_sections(
     files: &mut Files,
     md: &mut String,
 ) -> Result<()> {
-    use crate::model::{compare, sensitivity, Rider};
+    use crate::model::{compare, sensitivity};
     let s = sensitivity::sensitivity(measured, &[], 10.0)?;
     md.push_str(
         "\n## What moves the lab bicycle's speeds, and what to measure again\n\n\
@@ -327,10 +327,9 @@ fn design_sections(
     }
     // The lab bicycle with a rider: BicycleParameters' rider of the Rigid bicycle, where he sits
     // on that bicycle (relative to its rear contact).
-    let rider_path = reference.join("bicycleparameters/JasonRigidBenchmark.txt");
-    let rider = Rider::load(&rider_path)?;
-    let mut with_rider = measured.clone().with_rider(&rider);
-    with_rider.name = "lab_bike with the rider of JasonRigidBenchmark".into();
+    let with_rider = measured
+        .clone()
+        .with_rider_file(&reference.join("bicycleparameters/JasonRigidBenchmark.txt"))?;
     let c = compare::compare(
         &[benchmark.clone(), measured.clone(), with_rider.clone()],
         10.0,
@@ -377,6 +376,8 @@ fn design_sections(
             diff(b.capsize_speed_difference_mps),
         );
     }
+    #[cfg(not(feature = "plot"))]
+    let _ = files;
     #[cfg(feature = "plot")]
     {
         use crate::plot::{comparison_svg, Continuation};
