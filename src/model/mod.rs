@@ -11,6 +11,7 @@
 pub mod compare;
 pub mod control;
 pub mod design;
+pub mod eigen;
 pub mod lab;
 pub mod params;
 pub mod report;
@@ -184,34 +185,42 @@ impl Canonical {
 
     /// The four eigenvalues at speed `v`, sorted by real part then imaginary part.
     ///
-    /// Through a real Schur decomposition with an iteration limit: nalgebra's
-    /// `complex_eigenvalues()` iterates without one, and its Francis iteration (no exceptional
-    /// shifts) can stagnate forever, e.g. on a matrix with two complex pairs of similar modulus.
-    /// When it does not converge, the same eigenvalues are taken from similar matrices: the
-    /// transpose, then the order-reversed matrix and its transpose. `None` when all fail or M is
-    /// singular.
+    /// Through [`eigen::eigenvalues_in_place`] (Francis' QR with exceptional shifts and an
+    /// iteration limit); where it does not converge, through nalgebra's real Schur
+    /// decomposition with a limit. Not nalgebra's `complex_eigenvalues()`: it iterates without
+    /// one, and its Francis iteration (no exceptional shifts) can stagnate forever, e.g. on a
+    /// matrix with two complex pairs of similar modulus. When the Schur decomposition does not
+    /// converge either, the same eigenvalues are taken from similar matrices: the transpose,
+    /// then the order-reversed matrix and its transpose. `None` when all fail or M is singular.
     pub fn eigenvalues(&self, v: f64) -> Option<[Complex<f64>; 4]> {
         eigenvalues_of(&self.state_matrix(v)?)
     }
 }
 
-/// The eigenvalues of a real 4×4 matrix, sorted by real then imaginary part (see
-/// [`Canonical::eigenvalues`] for why not nalgebra's `complex_eigenvalues()`).
-///
-/// On the stack (a fixed 4×4 Schur decomposition): a heap matrix's took a third of
-/// `bikeproc gap`'s time.
+/// The eigenvalues of a real 4×4 matrix, sorted by real then imaginary part: by
+/// [`eigen::eigenvalues_in_place`] (balancing, Hessenberg, Francis QR, no Schur vectors), and
+/// where that does not converge by nalgebra's Schur decomposition of the matrix and of its
+/// similar forms (see [`Canonical::eigenvalues`] for why not nalgebra's
+/// `complex_eigenvalues()`).
 pub fn eigenvalues_of(a: &Matrix4<f64>) -> Option<[Complex<f64>; 4]> {
     if !a.iter().all(|x| x.is_finite()) {
         return None;
     }
-    let reversed = || Matrix4::from_fn(|r, c| a[(3 - r, 3 - c)]);
-    let forms: [&dyn Fn() -> Matrix4<f64>; 4] = [&|| *a, &|| a.transpose(), &reversed, &|| {
-        reversed().transpose()
-    }];
-    let schur = forms
-        .iter()
-        .find_map(|m| nalgebra::Schur::try_new(m(), f64::EPSILON, 500))?;
-    let mut out: [Complex<f64>; 4] = schur.complex_eigenvalues().into();
+    let mut rows: [f64; 16] = a.transpose().as_slice().try_into().ok()?;
+    let mut out: [Complex<f64>; 4] = match eigen::eigenvalues_in_place(&mut rows, 4) {
+        Some(e) => e.try_into().ok()?,
+        None => {
+            let reversed = || Matrix4::from_fn(|r, c| a[(3 - r, 3 - c)]);
+            let forms: [&dyn Fn() -> Matrix4<f64>; 4] =
+                [&|| *a, &|| a.transpose(), &reversed, &|| {
+                    reversed().transpose()
+                }];
+            let schur = forms
+                .iter()
+                .find_map(|m| nalgebra::Schur::try_new(m(), f64::EPSILON, 500))?;
+            schur.complex_eigenvalues().into()
+        }
+    };
     out.sort_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)));
     Some(out)
 }
@@ -224,16 +233,22 @@ pub fn eigenvalues_dyn(a: &nalgebra::DMatrix<f64>) -> Option<Vec<Complex<f64>>> 
     if n == 0 || a.ncols() != n || !a.iter().all(|x| x.is_finite()) {
         return None;
     }
-    // The similar forms are built only when the ones before them fail (rarely).
-    let reversed = || nalgebra::DMatrix::from_fn(n, n, |r, c| a[(n - 1 - r, n - 1 - c)]);
-    let forms: [&dyn Fn() -> nalgebra::DMatrix<f64>; 4] =
-        [&|| a.clone(), &|| a.transpose(), &reversed, &|| {
-            reversed().transpose()
-        }];
-    let schur = forms
-        .iter()
-        .find_map(|m| nalgebra::Schur::try_new(m(), f64::EPSILON, 500))?;
-    let mut out: Vec<Complex<f64>> = schur.complex_eigenvalues().iter().copied().collect();
+    let mut rows: Vec<f64> = a.transpose().as_slice().to_vec();
+    let mut out = match eigen::eigenvalues_in_place(&mut rows, n) {
+        Some(e) => e,
+        None => {
+            // The similar forms are built only when the ones before them fail (rarely).
+            let reversed = || nalgebra::DMatrix::from_fn(n, n, |r, c| a[(n - 1 - r, n - 1 - c)]);
+            let forms: [&dyn Fn() -> nalgebra::DMatrix<f64>; 4] =
+                [&|| a.clone(), &|| a.transpose(), &reversed, &|| {
+                    reversed().transpose()
+                }];
+            let schur = forms
+                .iter()
+                .find_map(|m| nalgebra::Schur::try_new(m(), f64::EPSILON, 500))?;
+            schur.complex_eigenvalues().iter().copied().collect()
+        }
+    };
     out.sort_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)));
     Some(out)
 }
