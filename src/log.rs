@@ -678,149 +678,122 @@ impl<'a> Parser<'a> {
         let mut first_counter = 0;
         // The last row whose time agreed with the counter: (time, grid position).
         let mut anchor = (0.0_f64, 0_u64);
-        let mut values: Vec<f64> = vec![0.0; n_fields];
-        for (no, line) in lines {
-            if line.trim().is_empty() || line.starts_with("//") {
-                continue;
-            }
-            rows += 1;
-            let mut count = 0usize;
-            let mut corrupt = false;
-            let mut counter = None;
-            // A field's column is counted only for an error message ([`field_col`]).
-            let col = |fi: usize| Some(field_col(line, separator, fi));
-            // Split on the separator's byte (ASCII: the pieces stay whole characters).
-            let sep_byte = separator as u8;
-            for (fi, field) in line.as_bytes().split(|&b| b == sep_byte).enumerate() {
-                let field = std::str::from_utf8(field).unwrap_or_default();
-                count += 1;
-                if fi >= n_fields {
-                    return Err(self.err(
-                        Some(no),
-                        col(fi),
-                        LogErrorKind::FieldCount {
-                            expected: n_fields,
-                            found: line.split(separator).count(),
-                        },
-                    ));
-                }
-                let t = field.trim();
-                if fi == counter_col {
-                    match t.parse::<u64>() {
-                        Ok(c) if c < COUNTER_MODULUS => counter = Some(c),
-                        _ if is_nan_text(t) => corrupt = true,
-                        _ => {
+        // The data rows, after the column row: parsed a block of lines at a time on rayon's
+        // threads (each row's counter and numbers), then placed on the grid in file order. A
+        // block stops at its first malformed row; the rows before it are placed first, so the
+        // error reported is the first in the file, as a line-by-line reading finds it.
+        let rest_start = {
+            let end = col_line.as_ptr() as usize - text.as_ptr() as usize + col_line.len();
+            text[end..].find('\n').map_or(text.len(), |i| end + i + 1)
+        };
+        let blocks = line_blocks(&text[rest_start..], col_line_no + 1);
+        let row_format = RowFormat {
+            separator,
+            n_fields,
+            counter_col,
+            decimal_comma,
+            limits: &limits,
+            names: &names_text,
+        };
+        for batch in blocks.chunks(BLOCKS_PER_BATCH) {
+            use rayon::prelude::*;
+            let parsed: Vec<ParsedBlock> = batch
+                .par_iter()
+                .map(|&(first, block)| row_format.parse_block(block, first))
+                .collect();
+            for block in parsed {
+                for (r, row) in block.rows.iter().enumerate() {
+                    let values = &block.values[r * n_fields..(r + 1) * n_fields];
+                    let (no, line, counter, corrupt) =
+                        (row.line, row.text, row.counter, row.corrupt);
+                    rows += 1;
+                    if corrupt {
+                        gaps.corrupt_rows += 1;
+                        gaps.first_corrupt_line.get_or_insert(no);
+                        corrupt_run += 1;
+                        if corrupt_run > self.options.max_corrupt_run {
                             return Err(self.err(
                                 Some(no),
-                                col(fi),
-                                LogErrorKind::BadCounter(t.to_string()),
-                            ))
+                                None,
+                                LogErrorKind::TooManyCorruptRun {
+                                    run: corrupt_run,
+                                    limit: self.options.max_corrupt_run,
+                                },
+                            ));
+                        }
+                        continue;
+                    }
+                    corrupt_run = 0;
+                    let Some(counter) = counter else { continue };
+                    let time = values[time_col];
+                    let grid = match prev {
+                        None => {
+                            anchor = (time, 0);
+                            first_counter = counter;
+                            0
+                        }
+                        Some((pc, pt, pg)) => {
+                            // The counter is the clock; the receiver's stamps jitter and arrive late
+                            // in bursts, so a stamp may repeat or fall a little behind the previous one.
+                            if time < pt - RECEIVER_LATENCY_S - RECEIVER_JITTER_S {
+                                return Err(self.err(
+                                    Some(no),
+                                    Some(field_col(line, separator, time_col)),
+                                    LogErrorKind::TimeBackwards {
+                                        previous_s: pt,
+                                        now_s: time,
+                                    },
+                                ));
+                            }
+                            let step = self
+                                .grid_step(pc, counter, time - pt, sample_rate_hz)
+                                .map_err(|k| {
+                                    self.err(
+                                        Some(no),
+                                        Some(field_col(line, separator, counter_col)),
+                                        k,
+                                    )
+                                })?;
+                            let grid = pg + step;
+                            // Off: more than half a sample from the time the counter gives it, counted
+                            // from the last row that was not off (so a slow drift is followed).
+                            let (at, ag) = anchor;
+                            if ((time - at) * sample_rate_hz - (grid - ag) as f64).abs() > 0.5 {
+                                gaps.time_off_rows += 1;
+                            } else {
+                                anchor = (time, grid);
+                            }
+                            if grid > crate::signal::grid_span_limit(grid_index.len()) {
+                                return Err(self.err(
+                                    Some(no),
+                                    Some(field_col(line, separator, time_col)),
+                                    LogErrorKind::GapTooLong {
+                                        gap_s: (grid - grid_index.len() as u64) as f64
+                                            / sample_rate_hz,
+                                    },
+                                ));
+                            }
+                            grid
+                        }
+                    };
+                    if let Some((_, _, pg)) = prev {
+                        let hole = grid - pg - 1;
+                        if hole > 0 {
+                            gaps.gaps += 1;
+                            gaps.missing_samples += hole;
+                            gaps.longest_gap_samples = gaps.longest_gap_samples.max(hole);
                         }
                     }
-                    continue;
-                }
-                match parse_number(t, decimal_comma) {
-                    Some(v) if v.abs() <= limits[fi] => values[fi] = v,
-                    // Not finite, or beyond its channel's range.
-                    Some(_) => corrupt = true,
-                    None if t.is_empty() && fi + 1 == n_fields => corrupt = true,
-                    // A row cut short inside its last number (`-`, `12.`): the packet arrived
-                    // cut, as an empty last field does.
-                    None if fi + 1 < n_fields && line.split(separator).count() == fi + 1 => {
-                        corrupt = true
-                    }
-                    None => {
-                        return Err(self.err(
-                            Some(no),
-                            col(fi),
-                            LogErrorKind::BadNumber {
-                                column: names_text[fi].to_string(),
-                                text: t.to_string(),
-                            },
-                        ))
+                    prev = Some((counter, time, grid));
+                    grid_index.push(grid);
+                    row_lines.push(no);
+                    for (d, &fi) in data.iter_mut().zip(&data_fields) {
+                        d.push(values[fi]);
                     }
                 }
-            }
-            if count < n_fields {
-                corrupt = true;
-            }
-            if corrupt {
-                gaps.corrupt_rows += 1;
-                gaps.first_corrupt_line.get_or_insert(no);
-                corrupt_run += 1;
-                if corrupt_run > self.options.max_corrupt_run {
-                    return Err(self.err(
-                        Some(no),
-                        None,
-                        LogErrorKind::TooManyCorruptRun {
-                            run: corrupt_run,
-                            limit: self.options.max_corrupt_run,
-                        },
-                    ));
+                if let Some((line, col, kind)) = block.error {
+                    return Err(self.err(Some(line), col, kind));
                 }
-                continue;
-            }
-            corrupt_run = 0;
-            let Some(counter) = counter else { continue };
-            let time = values[time_col];
-            let grid = match prev {
-                None => {
-                    anchor = (time, 0);
-                    first_counter = counter;
-                    0
-                }
-                Some((pc, pt, pg)) => {
-                    // The counter is the clock; the receiver's stamps jitter and arrive late
-                    // in bursts, so a stamp may repeat or fall a little behind the previous one.
-                    if time < pt - RECEIVER_LATENCY_S - RECEIVER_JITTER_S {
-                        return Err(self.err(
-                            Some(no),
-                            Some(field_col(line, separator, time_col)),
-                            LogErrorKind::TimeBackwards {
-                                previous_s: pt,
-                                now_s: time,
-                            },
-                        ));
-                    }
-                    let step = self
-                        .grid_step(pc, counter, time - pt, sample_rate_hz)
-                        .map_err(|k| {
-                            self.err(Some(no), Some(field_col(line, separator, counter_col)), k)
-                        })?;
-                    let grid = pg + step;
-                    // Off: more than half a sample from the time the counter gives it, counted
-                    // from the last row that was not off (so a slow drift is followed).
-                    let (at, ag) = anchor;
-                    if ((time - at) * sample_rate_hz - (grid - ag) as f64).abs() > 0.5 {
-                        gaps.time_off_rows += 1;
-                    } else {
-                        anchor = (time, grid);
-                    }
-                    if grid > crate::signal::grid_span_limit(grid_index.len()) {
-                        return Err(self.err(
-                            Some(no),
-                            Some(field_col(line, separator, time_col)),
-                            LogErrorKind::GapTooLong {
-                                gap_s: (grid - grid_index.len() as u64) as f64 / sample_rate_hz,
-                            },
-                        ));
-                    }
-                    grid
-                }
-            };
-            if let Some((_, _, pg)) = prev {
-                let hole = grid - pg - 1;
-                if hole > 0 {
-                    gaps.gaps += 1;
-                    gaps.missing_samples += hole;
-                    gaps.longest_gap_samples = gaps.longest_gap_samples.max(hole);
-                }
-            }
-            prev = Some((counter, time, grid));
-            grid_index.push(grid);
-            row_lines.push(no);
-            for (d, &fi) in data.iter_mut().zip(&data_fields) {
-                d.push(values[fi]);
             }
         }
         if grid_index.is_empty() {
@@ -946,6 +919,171 @@ fn line_of(bytes: &[u8], at: usize) -> usize {
         .iter()
         .filter(|&&b| b == b'\n')
         .count()
+}
+
+/// Bytes of text per block of lines parsed on one thread.
+const BLOCK_BYTES: usize = 1 << 20;
+/// Blocks parsed together before they are placed on the grid: enough for both cores, few
+/// enough that the parsed numbers held beside the columns stay a few megabytes.
+const BLOCKS_PER_BATCH: usize = 8;
+
+/// `text` cut into blocks of about [`BLOCK_BYTES`] that end at a line's end, each with the
+/// number of its first line (`first_line` for the first).
+fn line_blocks(text: &str, first_line: usize) -> Vec<(usize, &str)> {
+    let mut blocks = Vec::new();
+    let (mut start, mut line) = (0, first_line);
+    while start < text.len() {
+        let mut end = (start + BLOCK_BYTES).min(text.len());
+        if end < text.len() {
+            end = text[end..].find('\n').map_or(text.len(), |i| end + i + 1);
+        }
+        let block = &text[start..end];
+        blocks.push((line, block));
+        line += block.bytes().filter(|&b| b == b'\n').count();
+        start = end;
+    }
+    blocks
+}
+
+/// How a data row is written: what [`RowFormat::parse_block`] needs to read its fields.
+struct RowFormat<'h> {
+    separator: char,
+    n_fields: usize,
+    counter_col: usize,
+    decimal_comma: bool,
+    /// Each field's physical range (`v.abs()` beyond it: a corrupt sample).
+    limits: &'h [f64],
+    /// The column names, for messages.
+    names: &'h [&'h str],
+}
+
+/// One data row as read: its line (number and text), counter (when it has one) and whether
+/// it is corrupt (cut short, NaN, a value beyond its channel's range).
+struct ParsedRow<'t> {
+    line: usize,
+    text: &'t str,
+    counter: Option<u64>,
+    corrupt: bool,
+}
+
+/// A block's data rows, their numbers (`n_fields` per row, in file order) and the first
+/// malformed row that ended it: (line, column, what).
+struct ParsedBlock<'t> {
+    rows: Vec<ParsedRow<'t>>,
+    values: Vec<f64>,
+    error: Option<(usize, Option<usize>, LogErrorKind)>,
+}
+
+impl RowFormat<'_> {
+    /// Reads the data rows of `block`, whose first line is `first_line`; comment and blank
+    /// lines are skipped.
+    fn parse_block<'t>(&self, block: &'t str, first_line: usize) -> ParsedBlock<'t> {
+        let n_fields = self.n_fields;
+        // Room for rows of 24 bytes and more (a sensor row is longer): no regrowth.
+        let room = block.len() / 24 + 1;
+        let mut out = ParsedBlock {
+            rows: Vec::with_capacity(room),
+            values: Vec::with_capacity(room * n_fields),
+            error: None,
+        };
+        let mut values = vec![0.0; n_fields];
+        for (k, raw) in block.lines().enumerate() {
+            let no = first_line + k;
+            // Spaces and tabs at a line's end are no field (a spreadsheet's export adds a tab).
+            let line = raw.trim_end_matches(['\r', '\t', ' ']);
+            if line.trim().is_empty() || line.starts_with("//") {
+                continue;
+            }
+            match self.parse_row(line, &mut values) {
+                Ok((counter, corrupt)) => {
+                    out.rows.push(ParsedRow {
+                        line: no,
+                        text: line,
+                        counter,
+                        corrupt,
+                    });
+                    out.values.extend_from_slice(&values);
+                }
+                Err((col, kind)) => {
+                    out.error = Some((no, col, kind));
+                    break;
+                }
+            }
+        }
+        out
+    }
+
+    /// One row's counter and whether it is corrupt, its numbers written into `values`; `Err`
+    /// with the column and what is wrong for a row that is not a row of this log.
+    fn parse_row(
+        &self,
+        line: &str,
+        values: &mut [f64],
+    ) -> Result<(Option<u64>, bool), (Option<usize>, LogErrorKind)> {
+        let (n_fields, separator) = (self.n_fields, self.separator);
+        let mut count = 0usize;
+        let mut corrupt = false;
+        let mut counter = None;
+        // A field's column is counted only for an error message ([`field_col`]).
+        let col = |fi: usize| Some(field_col(line, separator, fi));
+        // Split on the separator's byte (ASCII: the pieces stay whole characters).
+        let sep_byte = separator as u8;
+        for (fi, bytes) in line.as_bytes().split(|&b| b == sep_byte).enumerate() {
+            count += 1;
+            // The plain forms straight from the bytes; the text only for the rest.
+            let bytes = bytes.trim_ascii();
+            if fi != self.counter_col && fi < n_fields {
+                if let Some(v) = plain_decimal(bytes) {
+                    if v.abs() <= self.limits[fi] {
+                        values[fi] = v;
+                    } else {
+                        corrupt = true;
+                    }
+                    continue;
+                }
+            }
+            let field = std::str::from_utf8(bytes).unwrap_or_default();
+            if fi >= n_fields {
+                return Err((
+                    col(fi),
+                    LogErrorKind::FieldCount {
+                        expected: n_fields,
+                        found: line.split(separator).count(),
+                    },
+                ));
+            }
+            let t = field.trim();
+            if fi == self.counter_col {
+                match t.parse::<u64>() {
+                    Ok(c) if c < COUNTER_MODULUS => counter = Some(c),
+                    _ if is_nan_text(t) => corrupt = true,
+                    _ => return Err((col(fi), LogErrorKind::BadCounter(t.to_string()))),
+                }
+                continue;
+            }
+            match parse_number(t, self.decimal_comma) {
+                Some(v) if v.abs() <= self.limits[fi] => values[fi] = v,
+                // Not finite, or beyond its channel's range.
+                Some(_) => corrupt = true,
+                None if t.is_empty() && fi + 1 == n_fields => corrupt = true,
+                // A row cut short inside its last number (`-`, `12.`): the packet arrived
+                // cut, as an empty last field does.
+                None if fi + 1 < n_fields && line.split(separator).count() == fi + 1 => {
+                    corrupt = true
+                }
+                None => {
+                    return Err((
+                        col(fi),
+                        LogErrorKind::BadNumber {
+                            column: self.names[fi].to_string(),
+                            text: t.to_string(),
+                        },
+                    ))
+                }
+            }
+        }
+        Ok((counter, corrupt || count < n_fields))
+    }
 }
 
 /// 1-based character column of field `index` of `line` (or the line's end when the row is cut
@@ -1295,6 +1433,60 @@ mod tests {
         assert!(log.spanish_locale);
         assert_eq!(log.data[1], vec![-1.25, -1.5]);
         assert_eq!(log.sensors.len(), 1);
+    }
+
+    /// A log of 10 MB (two batches of blocks) is read a block of lines at a time: every kept row on its grid place with
+    /// its numbers, the dropped packets and corrupt rows counted across the blocks' seams, and
+    /// a malformed number deep in the file named at its own line and column, not at a later
+    /// block's or a seam's.
+    #[test]
+    fn a_long_log_is_read_across_blocks() {
+        let rows = 300_000usize;
+        let mut text = String::from(HEAD);
+        let (mut kept, mut dropped, mut corrupt) = (Vec::new(), 0, 0);
+        for i in 0..rows {
+            if i % 1000 == 999 {
+                dropped += 1;
+                continue;
+            }
+            let counter = (1000 + i) % 65536;
+            let t = i as f64 * 0.01;
+            if i % 777 == 5 {
+                corrupt += 1;
+                text.push_str(&format!("{counter}\t{t:.2}\tNaN\t0.0\t0.0\n"));
+                continue;
+            }
+            let roll = format!("{:.3}", (i % 3600) as f64 * 0.05 - 90.0);
+            text.push_str(&format!(
+                "{counter}\t{t:.2}\t{roll}\t{:.3}\t-1.250\n",
+                0.001 * i as f64 % 50.0
+            ));
+            kept.push((i as u64, roll.parse::<f64>().unwrap()));
+        }
+        assert!(text.len() > 8 * BLOCK_BYTES, "{} bytes", text.len());
+        let log = parse(&text).unwrap();
+        assert_eq!(log.grid_index.len(), kept.len());
+        for (k, &(grid, roll)) in kept.iter().enumerate().step_by(997) {
+            assert_eq!(log.grid_index[k], grid);
+            assert_eq!(log.data[0][k], roll);
+        }
+        assert_eq!(log.gaps.corrupt_rows, corrupt);
+        // A dropped packet and a corrupt row are each a gap of one sample, apart or together.
+        assert!(log.gaps.missing_samples >= dropped as u64 + corrupt as u64 - 1);
+        // A malformed number five blocks into the file, at line `line`.
+        let at = text.match_indices('\n').nth(4 + 150_122).unwrap().0 + 1;
+        let line = text[..at].matches('\n').count() + 1;
+        let row_end = at + text[at..].find('\n').unwrap();
+        let fields: Vec<&str> = text[at..row_end].split('\t').collect();
+        let bad = format!(
+            "{}\t{}\t{}\tx2\t{}",
+            fields[0], fields[1], fields[2], fields[4]
+        );
+        let column = fields[..3].iter().map(|f| f.len() + 1).sum::<usize>() + 1;
+        let broken = format!("{}{bad}{}", &text[..at], &text[row_end..]);
+        let e = parse(&broken).unwrap_err();
+        assert!(at > 4 * BLOCK_BYTES);
+        assert_eq!((e.line, e.column), (Some(line), Some(column)), "{e}");
     }
 
     #[test]
