@@ -933,9 +933,14 @@ fn line_blocks(text: &str, first_line: usize) -> Vec<(usize, &str)> {
     let mut blocks = Vec::new();
     let (mut start, mut line) = (0, first_line);
     while start < text.len() {
+        // The next line end after the block's size, found in the bytes: a line end is always a
+        // character boundary, the size need not be (a non-ASCII character there).
         let mut end = (start + BLOCK_BYTES).min(text.len());
         if end < text.len() {
-            end = text[end..].find('\n').map_or(text.len(), |i| end + i + 1);
+            end = text.as_bytes()[end..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(text.len(), |i| end + i + 1);
         }
         let block = &text[start..end];
         blocks.push((line, block));
@@ -1487,6 +1492,46 @@ mod tests {
         let e = parse(&broken).unwrap_err();
         assert!(at > 4 * BLOCK_BYTES);
         assert_eq!((e.line, e.column), (Some(line), Some(column)), "{e}");
+    }
+
+    /// Blocks end at line ends, never inside a character: with a two-byte character across
+    /// the first block's nominal size, the blocks are whole lines that make up the text, and
+    /// the log is read (the character's comment line skipped); a non-ASCII field in a data
+    /// row is an error naming its line.
+    #[test]
+    fn blocks_end_at_line_ends_not_inside_characters() {
+        let mut text = String::from(HEAD);
+        let mut rows = 0;
+        // The data start after HEAD: the first block's nominal end is HEAD.len() + BLOCK_BYTES.
+        let boundary = HEAD.len() + BLOCK_BYTES;
+        while text.len() + 64 < boundary {
+            let counter = rows % 65536;
+            text.push_str(&format!(
+                "{counter}\t{:.2}\t1.000\t2.000\t3.000\n",
+                rows as f64 * 0.01
+            ));
+            rows += 1;
+        }
+        while text.len() < boundary - 1 {
+            text.push('/');
+        }
+        text.push_str("é note\n");
+        assert!(!text.is_char_boundary(boundary));
+        let blocks = line_blocks(&text[HEAD.len()..], 5);
+        assert_eq!(
+            blocks.iter().map(|(_, b)| *b).collect::<String>(),
+            text[HEAD.len()..]
+        );
+        assert!(blocks.iter().all(|(_, b)| b.ends_with('\n')));
+        let log = parse(&text).unwrap();
+        assert_eq!(log.grid_index.len(), rows);
+        let bad = format!(
+            "{text}{}\t{:.2}\t1.000\t2,0é0\t3.000\n",
+            rows % 65536,
+            rows as f64 * 0.01
+        );
+        let e = parse(&bad).unwrap_err();
+        assert_eq!(e.line, Some(bad.lines().count()), "{e}");
     }
 
     #[test]
