@@ -468,11 +468,10 @@ impl<'a> Parser<'a> {
             text
         };
 
-        // Spaces and tabs at a line's end are no field (a spreadsheet's export adds a tab).
         let mut lines = text
             .lines()
             .enumerate()
-            .map(|(i, l)| (i + 1, l.trim_end_matches(['\r', '\t', ' '])));
+            .map(|(i, l)| (i + 1, trim_line_end(l)));
         // Header.
         let mut metadata = Vec::new();
         let mut sensor_labels: Vec<(String, String)> = Vec::new();
@@ -695,6 +694,92 @@ impl<'a> Parser<'a> {
             limits: &limits,
             names: &names_text,
         };
+        // One data row placed on the grid by its counter (a corrupt one counted as a gap).
+        let mut place = |row: &ParsedRow, values: &[f64]| -> Result<(), LogError> {
+            let (no, line, counter, corrupt) = (row.line, row.text, row.counter, row.corrupt);
+            rows += 1;
+            if corrupt {
+                gaps.corrupt_rows += 1;
+                gaps.first_corrupt_line.get_or_insert(no);
+                corrupt_run += 1;
+                if corrupt_run > self.options.max_corrupt_run {
+                    return Err(self.err(
+                        Some(no),
+                        None,
+                        LogErrorKind::TooManyCorruptRun {
+                            run: corrupt_run,
+                            limit: self.options.max_corrupt_run,
+                        },
+                    ));
+                }
+                return Ok(());
+            }
+            corrupt_run = 0;
+            let Some(counter) = counter else {
+                return Ok(());
+            };
+            let time = values[time_col];
+            let grid = match prev {
+                None => {
+                    anchor = (time, 0);
+                    first_counter = counter;
+                    0
+                }
+                Some((pc, pt, pg)) => {
+                    // The counter is the clock; the receiver's stamps jitter and arrive late
+                    // in bursts, so a stamp may repeat or fall a little behind the previous one.
+                    if time < pt - RECEIVER_LATENCY_S - RECEIVER_JITTER_S {
+                        return Err(self.err(
+                            Some(no),
+                            Some(field_col(line, separator, time_col)),
+                            LogErrorKind::TimeBackwards {
+                                previous_s: pt,
+                                now_s: time,
+                            },
+                        ));
+                    }
+                    let step = self
+                        .grid_step(pc, counter, time - pt, sample_rate_hz)
+                        .map_err(|k| {
+                            self.err(Some(no), Some(field_col(line, separator, counter_col)), k)
+                        })?;
+                    let grid = pg + step;
+                    // Off: more than half a sample from the time the counter gives it, counted
+                    // from the last row that was not off (so a slow drift is followed).
+                    let (at, ag) = anchor;
+                    if ((time - at) * sample_rate_hz - (grid - ag) as f64).abs() > 0.5 {
+                        gaps.time_off_rows += 1;
+                    } else {
+                        anchor = (time, grid);
+                    }
+                    if grid > crate::signal::grid_span_limit(grid_index.len()) {
+                        return Err(self.err(
+                            Some(no),
+                            Some(field_col(line, separator, time_col)),
+                            LogErrorKind::GapTooLong {
+                                gap_s: (grid - grid_index.len() as u64) as f64 / sample_rate_hz,
+                            },
+                        ));
+                    }
+                    grid
+                }
+            };
+            if let Some((_, _, pg)) = prev {
+                let hole = grid - pg - 1;
+                if hole > 0 {
+                    gaps.gaps += 1;
+                    gaps.missing_samples += hole;
+                    gaps.longest_gap_samples = gaps.longest_gap_samples.max(hole);
+                }
+            }
+            prev = Some((counter, time, grid));
+            grid_index.push(grid);
+            row_lines.push(no);
+            for (d, &fi) in data.iter_mut().zip(&data_fields) {
+                d.push(values[fi]);
+            }
+            Ok(())
+        };
         for batch in blocks.chunks(BLOCKS_PER_BATCH) {
             use rayon::prelude::*;
             let parsed: Vec<ParsedBlock> = batch
@@ -703,93 +788,7 @@ impl<'a> Parser<'a> {
                 .collect();
             for block in parsed {
                 for (r, row) in block.rows.iter().enumerate() {
-                    let values = &block.values[r * n_fields..(r + 1) * n_fields];
-                    let (no, line, counter, corrupt) =
-                        (row.line, row.text, row.counter, row.corrupt);
-                    rows += 1;
-                    if corrupt {
-                        gaps.corrupt_rows += 1;
-                        gaps.first_corrupt_line.get_or_insert(no);
-                        corrupt_run += 1;
-                        if corrupt_run > self.options.max_corrupt_run {
-                            return Err(self.err(
-                                Some(no),
-                                None,
-                                LogErrorKind::TooManyCorruptRun {
-                                    run: corrupt_run,
-                                    limit: self.options.max_corrupt_run,
-                                },
-                            ));
-                        }
-                        continue;
-                    }
-                    corrupt_run = 0;
-                    let Some(counter) = counter else { continue };
-                    let time = values[time_col];
-                    let grid = match prev {
-                        None => {
-                            anchor = (time, 0);
-                            first_counter = counter;
-                            0
-                        }
-                        Some((pc, pt, pg)) => {
-                            // The counter is the clock; the receiver's stamps jitter and arrive late
-                            // in bursts, so a stamp may repeat or fall a little behind the previous one.
-                            if time < pt - RECEIVER_LATENCY_S - RECEIVER_JITTER_S {
-                                return Err(self.err(
-                                    Some(no),
-                                    Some(field_col(line, separator, time_col)),
-                                    LogErrorKind::TimeBackwards {
-                                        previous_s: pt,
-                                        now_s: time,
-                                    },
-                                ));
-                            }
-                            let step = self
-                                .grid_step(pc, counter, time - pt, sample_rate_hz)
-                                .map_err(|k| {
-                                    self.err(
-                                        Some(no),
-                                        Some(field_col(line, separator, counter_col)),
-                                        k,
-                                    )
-                                })?;
-                            let grid = pg + step;
-                            // Off: more than half a sample from the time the counter gives it, counted
-                            // from the last row that was not off (so a slow drift is followed).
-                            let (at, ag) = anchor;
-                            if ((time - at) * sample_rate_hz - (grid - ag) as f64).abs() > 0.5 {
-                                gaps.time_off_rows += 1;
-                            } else {
-                                anchor = (time, grid);
-                            }
-                            if grid > crate::signal::grid_span_limit(grid_index.len()) {
-                                return Err(self.err(
-                                    Some(no),
-                                    Some(field_col(line, separator, time_col)),
-                                    LogErrorKind::GapTooLong {
-                                        gap_s: (grid - grid_index.len() as u64) as f64
-                                            / sample_rate_hz,
-                                    },
-                                ));
-                            }
-                            grid
-                        }
-                    };
-                    if let Some((_, _, pg)) = prev {
-                        let hole = grid - pg - 1;
-                        if hole > 0 {
-                            gaps.gaps += 1;
-                            gaps.missing_samples += hole;
-                            gaps.longest_gap_samples = gaps.longest_gap_samples.max(hole);
-                        }
-                    }
-                    prev = Some((counter, time, grid));
-                    grid_index.push(grid);
-                    row_lines.push(no);
-                    for (d, &fi) in data.iter_mut().zip(&data_fields) {
-                        d.push(values[fi]);
-                    }
+                    place(row, &block.values[r * n_fields..(r + 1) * n_fields])?;
                 }
                 if let Some((line, col, kind)) = block.error {
                     return Err(self.err(Some(line), col, kind));
@@ -921,6 +920,12 @@ fn line_of(bytes: &[u8], at: usize) -> usize {
         .count()
 }
 
+/// A line without what ends it: spaces and tabs at a line's end are no field (a
+/// spreadsheet's export adds a tab), and a CR is the Windows line end's.
+fn trim_line_end(line: &str) -> &str {
+    line.trim_end_matches(['\r', '\t', ' '])
+}
+
 /// Bytes of text per block of lines parsed on one thread.
 const BLOCK_BYTES: usize = 1 << 20;
 /// Blocks parsed together before they are placed on the grid: enough for both cores, few
@@ -994,8 +999,7 @@ impl RowFormat<'_> {
         let mut values = vec![0.0; n_fields];
         for (k, raw) in block.lines().enumerate() {
             let no = first_line + k;
-            // Spaces and tabs at a line's end are no field (a spreadsheet's export adds a tab).
-            let line = raw.trim_end_matches(['\r', '\t', ' ']);
+            let line = trim_line_end(raw);
             if line.trim().is_empty() || line.starts_with("//") {
                 continue;
             }
@@ -1035,19 +1039,6 @@ impl RowFormat<'_> {
         let sep_byte = separator as u8;
         for (fi, bytes) in line.as_bytes().split(|&b| b == sep_byte).enumerate() {
             count += 1;
-            // The plain forms straight from the bytes; the text only for the rest.
-            let bytes = bytes.trim_ascii();
-            if fi != self.counter_col && fi < n_fields {
-                if let Some(v) = plain_decimal(bytes) {
-                    if v.abs() <= self.limits[fi] {
-                        values[fi] = v;
-                    } else {
-                        corrupt = true;
-                    }
-                    continue;
-                }
-            }
-            let field = std::str::from_utf8(bytes).unwrap_or_default();
             if fi >= n_fields {
                 return Err((
                     col(fi),
@@ -1057,8 +1048,10 @@ impl RowFormat<'_> {
                     },
                 ));
             }
-            let t = field.trim();
+            let bytes = bytes.trim_ascii();
+            let text = || std::str::from_utf8(bytes).unwrap_or_default().trim();
             if fi == self.counter_col {
+                let t = text();
                 match t.parse::<u64>() {
                     Ok(c) if c < COUNTER_MODULUS => counter = Some(c),
                     _ if is_nan_text(t) => corrupt = true,
@@ -1066,11 +1059,12 @@ impl RowFormat<'_> {
                 }
                 continue;
             }
-            match parse_number(t, self.decimal_comma) {
+            // The plain forms straight from the bytes; the text only for the rest.
+            match plain_decimal(bytes).or_else(|| parse_number(text(), self.decimal_comma)) {
                 Some(v) if v.abs() <= self.limits[fi] => values[fi] = v,
                 // Not finite, or beyond its channel's range.
                 Some(_) => corrupt = true,
-                None if t.is_empty() && fi + 1 == n_fields => corrupt = true,
+                None if text().is_empty() && fi + 1 == n_fields => corrupt = true,
                 // A row cut short inside its last number (`-`, `12.`): the packet arrived
                 // cut, as an empty last field does.
                 None if fi + 1 < n_fields && line.split(separator).count() == fi + 1 => {
@@ -1081,7 +1075,7 @@ impl RowFormat<'_> {
                         col(fi),
                         LogErrorKind::BadNumber {
                             column: self.names[fi].to_string(),
-                            text: t.to_string(),
+                            text: text().to_string(),
                         },
                     ))
                 }
@@ -1119,11 +1113,11 @@ fn parse_number(t: &str, decimal_comma: bool) -> Option<f64> {
         for (b, c) in buf.iter_mut().zip(t.bytes()) {
             *b = if c == b',' { b'.' } else { c };
         }
-        let t = std::str::from_utf8(&buf[..t.len()]).ok()?;
-        plain_decimal(t.as_bytes()).or_else(|| t.parse().ok())
+        plain_decimal(&buf[..t.len()])
+            .or_else(|| std::str::from_utf8(&buf[..t.len()]).ok()?.parse().ok())
     } else {
-        // Reject forms Rust accepts but no sensor writes ("infinity" is fine to treat as corrupt).
-        plain_decimal(t.as_bytes()).or_else(|| t.parse().ok())
+        // The plain forms are [`plain_decimal`]'s, tried before this (by the caller).
+        t.parse().ok()
     }
 }
 

@@ -207,20 +207,11 @@ pub fn eigenvalues_of(a: &Matrix4<f64>) -> Option<[Complex<f64>; 4]> {
         return None;
     }
     let mut rows: [f64; 16] = a.transpose().as_slice().try_into().ok()?;
-    let mut out: [Complex<f64>; 4] = match eigen::eigenvalues_in_place(&mut rows, 4) {
-        Some(e) => e.try_into().ok()?,
-        None => {
-            let reversed = || Matrix4::from_fn(|r, c| a[(3 - r, 3 - c)]);
-            let forms: [&dyn Fn() -> Matrix4<f64>; 4] =
-                [&|| *a, &|| a.transpose(), &reversed, &|| {
-                    reversed().transpose()
-                }];
-            let schur = forms
-                .iter()
-                .find_map(|m| nalgebra::Schur::try_new(m(), f64::EPSILON, 500))?;
-            schur.complex_eigenvalues().into()
-        }
+    let all = match eigen::eigenvalues_in_place(&mut rows, 4) {
+        Some(e) => e,
+        None => schur_eigenvalues(&nalgebra::DMatrix::from_column_slice(4, 4, a.as_slice()))?,
     };
+    let mut out: [Complex<f64>; 4] = all.try_into().ok()?;
     out.sort_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)));
     Some(out)
 }
@@ -236,21 +227,26 @@ pub fn eigenvalues_dyn(a: &nalgebra::DMatrix<f64>) -> Option<Vec<Complex<f64>>> 
     let mut rows: Vec<f64> = a.transpose().as_slice().to_vec();
     let mut out = match eigen::eigenvalues_in_place(&mut rows, n) {
         Some(e) => e,
-        None => {
-            // The similar forms are built only when the ones before them fail (rarely).
-            let reversed = || nalgebra::DMatrix::from_fn(n, n, |r, c| a[(n - 1 - r, n - 1 - c)]);
-            let forms: [&dyn Fn() -> nalgebra::DMatrix<f64>; 4] =
-                [&|| a.clone(), &|| a.transpose(), &reversed, &|| {
-                    reversed().transpose()
-                }];
-            let schur = forms
-                .iter()
-                .find_map(|m| nalgebra::Schur::try_new(m(), f64::EPSILON, 500))?;
-            schur.complex_eigenvalues().iter().copied().collect()
-        }
+        None => schur_eigenvalues(a)?,
     };
     out.sort_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)));
     Some(out)
+}
+
+/// Where [`eigen::eigenvalues_in_place`] does not converge: nalgebra's real Schur decomposition
+/// with an iteration limit, of the matrix and, when that fails too, of its similar forms (the
+/// transpose, the order-reversed matrix and its transpose, built only when needed).
+fn schur_eigenvalues(a: &nalgebra::DMatrix<f64>) -> Option<Vec<Complex<f64>>> {
+    let n = a.nrows();
+    let reversed = || nalgebra::DMatrix::from_fn(n, n, |r, c| a[(n - 1 - r, n - 1 - c)]);
+    let forms: [&dyn Fn() -> nalgebra::DMatrix<f64>; 4] =
+        [&|| a.clone(), &|| a.transpose(), &reversed, &|| {
+            reversed().transpose()
+        }];
+    let schur = forms
+        .iter()
+        .find_map(|m| nalgebra::Schur::try_new(m(), f64::EPSILON, 500))?;
+    Some(schur.complex_eigenvalues().iter().copied().collect())
 }
 
 impl Canonical {
