@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub type Target = fn(&[u8]);
 
 /// The fuzz targets by name: the folder names under `fuzz/seeds/` and `fuzz/fuzz_targets/`.
-pub const TARGETS: [(&str, Target); 9] = [
+pub const TARGETS: [(&str, Target); 10] = [
     ("log_file", log_file),
     ("csv_signal", csv_signal),
     ("bicycle_text", bicycle_text),
@@ -23,6 +23,7 @@ pub const TARGETS: [(&str, Target); 9] = [
     ("csv_ride", csv_ride),
     ("measured_file", measured_file),
     ("controller_file", controller_file),
+    ("study_manifest", study_manifest),
 ];
 
 /// Writes `bytes` to `name` in this process's fuzzing folder and gives its path.
@@ -128,5 +129,22 @@ pub fn controller_file(bytes: &[u8]) {
         for v in [0.0, 1.0, 4.7, 10.0, 40.0] {
             let _ = bike.eigenvalues(v);
         }
+    }
+}
+
+/// A study manifest (`conditions = [...]`): read, with two campaign manifests beside it
+/// (`off.toml`, and `gain.toml` with a controller table) that its conditions may name.
+pub fn study_manifest(bytes: &[u8]) {
+    const OFF: &str = "version = 1\nbike = \"bike.txt\"\n\n[[ride]]\nlog = \"r.log\"\n";
+    const GAIN: &str =
+        "version = 1\nbike = \"bike.txt\"\n\n[controller]\nspeeds_mps = [0.0, 4.7]\n\
+        roll_rate_nms_per_rad = [28.2, 0.0]\n\n[[ride]]\nlog = \"r.log\"\n";
+    if as_file(OFF.as_bytes(), "off.toml").is_none()
+        || as_file(GAIN.as_bytes(), "gain.toml").is_none()
+    {
+        return;
+    }
+    if let Some(path) = as_file(bytes, "study.toml") {
+        let _ = crate::ride::study::Study::load(&path);
     }
 }
