@@ -1434,10 +1434,10 @@ mod tests {
         assert_eq!(log.sensors.len(), 1);
     }
 
-    /// A log of 10 MB (two batches of blocks) is read a block of lines at a time: every kept row on its grid place with
-    /// its numbers, the dropped packets and corrupt rows counted across the blocks' seams, and
-    /// a malformed number deep in the file named at its own line and column, not at a later
-    /// block's or a seam's.
+    /// A log of 10 MB (two batches of blocks) is read a block of lines at a time: every kept
+    /// row on its grid place with its numbers, the dropped packets and corrupt rows counted
+    /// across the blocks' seams, and a malformed number deep in the file named at its own line
+    /// and column, not at a later block's or a seam's.
     #[test]
     fn a_long_log_is_read_across_blocks() {
         let rows = 300_000usize;
