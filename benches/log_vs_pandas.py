@@ -4,9 +4,9 @@ Writes an Euler log of two sensors in the lab's format (`../shared/formats/imu-l
 header, tab-separated, a packet counter with dropped packets, a few corrupt rows), then reads it
 alternately with `bikeproc.read_log` (which also places every row on the sample grid by its
 counter) and with pandas' `read_csv` (C engine, which does not), each in a fresh process so that
-its peak memory can be taken (`ru_maxrss` after the read less before it, the interpreter and the
-imports excluded). Prints each reader's median throughput (MB/s) and peak memory over the
-file's size.
+its peak memory can be taken (the peak resident size, VmHWM, after the read less before it: the
+interpreter and the imports excluded). Prints each reader's median throughput (MB/s) and peak
+memory over the file's size.
 
 Run from the checkout with the Python package installed (`pip install ./python pandas`):
 
@@ -17,7 +17,6 @@ Run from the checkout with the Python package installed (`pip install ./python p
 import argparse
 import os
 import pathlib
-import resource
 import statistics
 import subprocess
 import sys
@@ -88,13 +87,24 @@ def measure(which, path):
         read = lambda: pd.read_csv(
             path, sep="\t", skiprows=6, na_values=["NaN"], engine="c", on_bad_lines="skip"
         )
-    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    before = peak_rss_bytes()
     start = time.perf_counter()
     out = read()
     seconds = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    peak = peak_rss_bytes()
     del out
-    print(seconds, (peak - before) * 1024)
+    print(seconds, peak - before)
+
+
+def peak_rss_bytes():
+    """This process's peak resident memory (VmHWM, bytes). Not `ru_maxrss`: on Linux a child
+    starts with its parent's high-water mark, which here (the parent wrote the file) hid the
+    readers' own peaks."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) * 1024
+    raise RuntimeError("no VmHWM in /proc/self/status")
 
 
 def main():

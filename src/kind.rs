@@ -140,7 +140,7 @@ const HEAD_BYTES: usize = 64 * 1024;
 /// more follows) a line break, and the whole is read to at most [`MAX_INPUT_BYTES`]. Refused
 /// with the reason otherwise: `/dev/zero` linked as a log read 4.2 GB before running out of
 /// memory, and 2 GiB of NUL bytes as a CSV became a 2 GiB error line.
-pub fn open_text(path: &Path) -> Result<impl std::io::Read, NotText> {
+pub fn open_text(path: &Path) -> Result<impl std::io::Read + Send, NotText> {
     let io = |e: std::io::Error| NotText {
         line: None,
         message: format!("cannot read: {e}"),
@@ -187,7 +187,10 @@ impl std::fmt::Display for NotText {
 
 /// [`open_text`] read whole; refused beyond [`MAX_INPUT_BYTES`].
 pub fn read_text_bytes(path: &Path) -> Result<Vec<u8>, NotText> {
-    let mut bytes = Vec::new();
+    // Room for the whole file at once: the reader's chain gives no size hint, and growing by
+    // doubling copied a long log's bytes over again.
+    let size = std::fs::metadata(path).map_or(0, |m| m.len().min(MAX_INPUT_BYTES));
+    let mut bytes = Vec::with_capacity(usize::try_from(size).unwrap_or(0).saturating_add(1));
     open_text(path)?
         .read_to_end(&mut bytes)
         .map_err(|e| NotText {

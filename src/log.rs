@@ -13,6 +13,7 @@
 
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion};
 use std::fmt;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// The packet counter is an unsigned 16-bit number: it wraps from 65535 to 0.
@@ -283,9 +284,11 @@ pub struct Sensor {
     pub label: String,
     /// Indices into [`Log::columns`], in the order of [`OutputMode::channels`].
     pub channel_columns: Vec<usize>,
-    /// Rotation sensor frame → global frame at each kept sample (orientation files only),
-    /// sign-continuous (consecutive quaternions have a non-negative dot product).
-    pub orientation: Vec<UnitQuaternion<f64>>,
+    /// Rotation sensor frame → global frame at each kept sample ([`Log::orientation`]): made
+    /// and checked while reading for quaternion and matrix files (a row that is no rotation is
+    /// the reader's error), on first use for Euler files (every three angles are a rotation:
+    /// reading a long log's numbers alone, as `read_log` does, took a third longer with them).
+    orientation: std::sync::OnceLock<Vec<UnitQuaternion<f64>>>,
 }
 
 /// What the reader found missing: dropped packets and corrupt rows, both left as gaps.
@@ -334,9 +337,10 @@ pub struct Log {
 }
 
 impl Log {
-    /// Reads a log file from disk.
+    /// Reads a log file from disk, a block of lines at a time: the file is never held whole
+    /// (its columns are what stays in memory).
     pub fn open(path: &Path, options: &ReadOptions) -> Result<Log, LogError> {
-        let bytes = crate::kind::read_text_bytes(path).map_err(|e| LogError {
+        let reader = crate::kind::open_text(path).map_err(|e| LogError {
             path: path.to_path_buf(),
             line: e.line.map(|l| l as usize),
             column: None,
@@ -347,12 +351,13 @@ impl Log {
                     .to_string(),
             ),
         })?;
-        Log::parse(&bytes, path, options)
+        let size = std::fs::metadata(path).ok().map(|m| m.len());
+        Parser::new(path, options).parse(reader, size)
     }
 
     /// Parses the bytes of a log file; `path` is used in messages only. Never panics.
     pub fn parse(bytes: &[u8], path: &Path, options: &ReadOptions) -> Result<Log, LogError> {
-        Parser::new(path, options).parse(bytes)
+        Parser::new(path, options).parse(bytes, Some(bytes.len() as u64))
     }
 
     /// Index of a data column by exact name, or by the short name (`Roll`, `Gyr_Z`) when one
@@ -378,6 +383,19 @@ impl Log {
             self.sensors
                 .iter()
                 .find(|s| s.label.eq_ignore_ascii_case(key))
+        })
+    }
+
+    /// `sensor`'s rotation sensor frame → global frame at each kept sample, sign-continuous
+    /// (consecutive quaternions have a non-negative dot product); empty for a `_cal` file.
+    ///
+    /// # Panics
+    /// When `sensor` is not one of this log's [`Log::sensors`] (its columns are then not this
+    /// log's): a misuse, never the data.
+    pub fn orientation<'l>(&'l self, sensor: &'l Sensor) -> &'l [UnitQuaternion<f64>] {
+        sensor.orientation.get_or_init(|| {
+            // Checked while reading for the other modes; Euler angles are always a rotation.
+            orientations(self.mode, &self.data, &sensor.channel_columns).unwrap_or_default()
         })
     }
 
@@ -437,7 +455,41 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn parse(&self, bytes: &[u8]) -> Result<Log, LogError> {
+    /// Reads a log from `reader`; `size_hint` is the file's size when known (bytes).
+    fn parse(&self, mut reader: impl Read + Send, size_hint: Option<u64>) -> Result<Log, LogError> {
+        let io = |e: std::io::Error| self.err(None, None, LogErrorKind::Io(e.to_string()));
+        // The head: the lines up to and including the column row's (the first that is neither
+        // a comment nor blank), or the whole file when it has none (or ends its lines with CR
+        // alone). The data rows after it are read a batch of blocks at a time.
+        let mut head = Vec::new();
+        let mut scanned = 0;
+        let head_end = loop {
+            let mut found = None;
+            while let Some(i) = head[scanned..].iter().position(|&b| b == b'\n') {
+                let mut line = head[scanned..scanned + i].trim_ascii();
+                if scanned == 0 {
+                    line = line.strip_prefix("\u{feff}".as_bytes()).unwrap_or(line);
+                }
+                scanned += i + 1;
+                if !(line.is_empty() || line.starts_with(b"//")) {
+                    found = Some(scanned);
+                    break;
+                }
+            }
+            if found.is_some() {
+                break found;
+            }
+            let n = (&mut reader)
+                .take(HEAD_CHUNK_BYTES)
+                .read_to_end(&mut head)
+                .map_err(io)?;
+            if n == 0 {
+                break None;
+            }
+        };
+        let head_read_bytes = head.len() as u64;
+        let carry = head.split_off(head_end.unwrap_or(head.len()));
+        let bytes = &head[..];
         if bytes.is_empty() {
             return Err(self.err(Some(1), None, LogErrorKind::Empty));
         }
@@ -461,7 +513,7 @@ impl<'a> Parser<'a> {
         // A byte-order mark (an editor on Windows), and old Mac line ends (CR alone).
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let cr_only;
-        let text = if text.contains('\r') && !text.contains('\n') {
+        let text = if !text.contains('\n') && text.contains('\r') {
             cr_only = text.replace('\r', "\n");
             cr_only.as_str()
         } else {
@@ -621,7 +673,7 @@ impl<'a> Parser<'a> {
                 id,
                 label,
                 channel_columns,
-                orientation: Vec::new(),
+                orientation: std::sync::OnceLock::new(),
             });
         } else {
             if ids.is_empty() {
@@ -649,7 +701,7 @@ impl<'a> Parser<'a> {
                     id: id.clone(),
                     label,
                     channel_columns,
-                    orientation: Vec::new(),
+                    orientation: std::sync::OnceLock::new(),
                 });
             }
         }
@@ -668,7 +720,6 @@ impl<'a> Parser<'a> {
             .collect();
         let mut data: Vec<Vec<f64>> = vec![Vec::new(); columns.len()];
         let mut grid_index: Vec<u64> = Vec::new();
-        let mut row_lines: Vec<usize> = Vec::new();
         let mut gaps = GapReport::default();
         let mut corrupt_run = 0usize;
         let mut rows = 0usize;
@@ -685,7 +736,26 @@ impl<'a> Parser<'a> {
             let end = col_line.as_ptr() as usize - text.as_ptr() as usize + col_line.len();
             text[end..].find('\n').map_or(text.len(), |i| end + i + 1)
         };
-        let blocks = line_blocks(&text[rest_start..], col_line_no + 1);
+        // The data rows' bytes: what the head holds after the column row (the whole file's
+        // rest when it ends its lines with CR alone), then the rest of the reader.
+        let mut blocks = BlockReader {
+            pending: [&text.as_bytes()[rest_start..], &carry].concat(),
+            reader,
+            done: false,
+            read_bytes: head_read_bytes,
+        };
+        let mut batch: Vec<Vec<u8>> = Vec::with_capacity(BLOCKS_PER_BATCH);
+        blocks
+            .fill(&mut batch)
+            .map_err(|k| self.err(None, None, k))?;
+        if let (Some(first), Some(size)) = (batch.first(), size_hint) {
+            // Room for the whole file's rows at the first block's bytes per line, so that the
+            // columns are not copied as they grow (pages never written cost no memory).
+            let lines = first.iter().filter(|&&b| b == b'\n').count();
+            let rows = (lines as f64 * size as f64 / first.len() as f64 * 1.05) as usize;
+            grid_index.reserve_exact(rows);
+            data.iter_mut().for_each(|d| d.reserve_exact(rows));
+        }
         let row_format = RowFormat {
             separator,
             n_fields,
@@ -693,10 +763,21 @@ impl<'a> Parser<'a> {
             decimal_comma,
             limits: &limits,
             names: &names_text,
+            mode,
+            rotations: sensors
+                .iter()
+                .map(|s| s.channel_columns.iter().map(|&c| data_fields[c]).collect())
+                .collect(),
         };
         // One data row placed on the grid by its counter (a corrupt one counted as a gap).
-        let mut place = |row: &ParsedRow, values: &[f64]| -> Result<(), LogError> {
-            let (no, line, counter, corrupt) = (row.line, row.text, row.counter, row.corrupt);
+        let mut place = |row: &ParsedRow,
+                         line: &[u8],
+                         no: usize,
+                         values: &[f64]|
+         -> Result<(), LogError> {
+            let (counter, corrupt) = (row.counter, row.corrupt);
+            // The row's text, for a message only (it was read as text).
+            let line = || std::str::from_utf8(line).unwrap_or_default();
             rows += 1;
             if corrupt {
                 gaps.corrupt_rows += 1;
@@ -731,7 +812,7 @@ impl<'a> Parser<'a> {
                     if time < pt - RECEIVER_LATENCY_S - RECEIVER_JITTER_S {
                         return Err(self.err(
                             Some(no),
-                            Some(field_col(line, separator, time_col)),
+                            Some(field_col(line(), separator, time_col)),
                             LogErrorKind::TimeBackwards {
                                 previous_s: pt,
                                 now_s: time,
@@ -741,7 +822,7 @@ impl<'a> Parser<'a> {
                     let step = self
                         .grid_step(pc, counter, time - pt, sample_rate_hz)
                         .map_err(|k| {
-                            self.err(Some(no), Some(field_col(line, separator, counter_col)), k)
+                            self.err(Some(no), Some(field_col(line(), separator, counter_col)), k)
                         })?;
                     let grid = pg + step;
                     // Off: more than half a sample from the time the counter gives it, counted
@@ -755,7 +836,7 @@ impl<'a> Parser<'a> {
                     if grid > crate::signal::grid_span_limit(grid_index.len()) {
                         return Err(self.err(
                             Some(no),
-                            Some(field_col(line, separator, time_col)),
+                            Some(field_col(line(), separator, time_col)),
                             LogErrorKind::GapTooLong {
                                 gap_s: (grid - grid_index.len() as u64) as f64 / sample_rate_hz,
                             },
@@ -774,26 +855,46 @@ impl<'a> Parser<'a> {
             }
             prev = Some((counter, time, grid));
             grid_index.push(grid);
-            row_lines.push(no);
             for (d, &fi) in data.iter_mut().zip(&data_fields) {
                 d.push(values[fi]);
             }
             Ok(())
         };
-        for batch in blocks.chunks(BLOCKS_PER_BATCH) {
+        // The first line of the block being placed.
+        let mut first_line = col_line_no + 1;
+        let parse_batch = |batch: Vec<Vec<u8>>| -> Vec<ParsedBlock> {
             use rayon::prelude::*;
-            let parsed: Vec<ParsedBlock> = batch
-                .par_iter()
-                .map(|&(first, block)| row_format.parse_block(block, first))
-                .collect();
-            for block in parsed {
-                for (r, row) in block.rows.iter().enumerate() {
-                    place(row, &block.values[r * n_fields..(r + 1) * n_fields])?;
-                }
-                if let Some((line, col, kind)) = block.error {
-                    return Err(self.err(Some(line), col, kind));
-                }
-            }
+            batch
+                .into_par_iter()
+                .map(|block| row_format.parse_block(block))
+                .collect()
+        };
+        // A batch is placed on the grid (in order, on this thread) while the next is read and
+        // parsed (on the others).
+        let mut parsed = parse_batch(batch);
+        while !parsed.is_empty() {
+            let (placed, next) = rayon::join(
+                || -> Result<(), LogError> {
+                    for block in &parsed {
+                        for (r, row) in block.rows.iter().enumerate() {
+                            let values = &block.values[r * n_fields..(r + 1) * n_fields];
+                            let line = &block.bytes[row.text.clone()];
+                            place(row, line, first_line + row.line, values)?;
+                        }
+                        if let Some((line, col, kind)) = &block.error {
+                            return Err(self.err(Some(first_line + line), *col, kind.clone()));
+                        }
+                        first_line += block.lines;
+                    }
+                    Ok(())
+                },
+                || {
+                    let mut batch = Vec::with_capacity(BLOCKS_PER_BATCH);
+                    blocks.fill(&mut batch).map(|()| parse_batch(batch))
+                },
+            );
+            placed?;
+            parsed = next.map_err(|k| self.err(None, None, k))?;
         }
         if grid_index.is_empty() {
             return Err(self.err(Some(col_line_no), None, LogErrorKind::NoData));
@@ -833,24 +934,16 @@ impl<'a> Parser<'a> {
 
         // Orientations.
         if mode == OutputMode::Euler {
-            for s in &sensors {
-                // Roll and yaw wrap at ±180°; pitch stays within ±90°.
-                for &ci in [s.channel_columns[0], s.channel_columns[2]].iter() {
-                    unwrap_degrees(&mut data[ci]);
-                }
-            }
-        }
-        if mode != OutputMode::Calibrated {
-            for s in &mut sensors {
-                s.orientation =
-                    orientations(mode, &data, &s.channel_columns).map_err(|(k, i)| {
-                        let ln = row_lines[i];
-                        let line = text.lines().nth(ln - 1).unwrap_or("");
-                        // Name the sensor's first channel column in the message's position.
-                        let fi = data_fields[s.channel_columns[0]];
-                        self.err(Some(ln), Some(field_col(line, separator, fi)), k)
-                    })?;
-            }
+            use rayon::prelude::*;
+            // Roll and yaw wrap at ±180°; pitch stays within ±90°. One column per thread.
+            let wrapping: Vec<usize> = sensors
+                .iter()
+                .flat_map(|s| [s.channel_columns[0], s.channel_columns[2]])
+                .collect();
+            data.par_iter_mut()
+                .enumerate()
+                .filter(|(ci, _)| wrapping.contains(ci))
+                .for_each(|(_, column)| unwrap_degrees(column));
         }
 
         Ok(Log {
@@ -927,32 +1020,84 @@ fn trim_line_end(line: &str) -> &str {
 }
 
 /// Bytes of text per block of lines parsed on one thread.
-const BLOCK_BYTES: usize = 1 << 20;
+const BLOCK_BYTES: usize = 1 << 19;
 /// Blocks parsed together before they are placed on the grid: enough for both cores, few
 /// enough that the parsed numbers held beside the columns stay a few megabytes.
 const BLOCKS_PER_BATCH: usize = 8;
 
-/// `text` cut into blocks of about [`BLOCK_BYTES`] that end at a line's end, each with the
-/// number of its first line (`first_line` for the first).
-fn line_blocks(text: &str, first_line: usize) -> Vec<(usize, &str)> {
-    let mut blocks = Vec::new();
-    let (mut start, mut line) = (0, first_line);
-    while start < text.len() {
-        // The next line end after the block's size, found in the bytes: a line end is always a
-        // character boundary, the size need not be (a non-ASCII character there).
-        let mut end = (start + BLOCK_BYTES).min(text.len());
-        if end < text.len() {
-            end = text.as_bytes()[end..]
-                .iter()
-                .position(|&b| b == b'\n')
-                .map_or(text.len(), |i| end + i + 1);
+/// Bytes of the head read at a time while looking for the column row.
+const HEAD_CHUNK_BYTES: u64 = 64 * 1024;
+
+/// The data rows' bytes in blocks of about [`BLOCK_BYTES`] that end at a line's end, read a
+/// batch at a time so that a long log is never held whole. A block's line numbers are counted
+/// by its own parse ([`RowFormat::parse_block`], on its thread) and made absolute when the
+/// blocks are placed in order.
+struct BlockReader<R> {
+    /// Read and not yet handed out: the start of a line.
+    pending: Vec<u8>,
+    reader: R,
+    done: bool,
+    /// Bytes read from the file so far, head included.
+    read_bytes: u64,
+}
+
+impl<R: Read> BlockReader<R> {
+    /// The next block: whole lines of at least [`BLOCK_BYTES`] (a line longer than that
+    /// whole), or what is left at the file's end; `None` at the end.
+    fn next_block(&mut self) -> Result<Option<Vec<u8>>, LogErrorKind> {
+        let mut searched = 0;
+        loop {
+            if self.pending.len() >= BLOCK_BYTES || self.done {
+                // The last line end, found in the bytes: a line end is always a character
+                // boundary, a block's nominal size need not be (a non-ASCII character there).
+                let cut = match self.pending[searched..].iter().rposition(|&b| b == b'\n') {
+                    Some(i) => searched + i + 1,
+                    None if self.done => self.pending.len(),
+                    None => {
+                        searched = self.pending.len();
+                        self.read_more()?;
+                        continue;
+                    }
+                };
+                if cut == 0 {
+                    return Ok(None);
+                }
+                let mut next = Vec::with_capacity(BLOCK_BYTES + BLOCK_BYTES / 8);
+                next.extend_from_slice(&self.pending[cut..]);
+                self.pending.truncate(cut);
+                return Ok(Some(std::mem::replace(&mut self.pending, next)));
+            }
+            self.read_more()?;
         }
-        let block = &text[start..end];
-        blocks.push((line, block));
-        line += block.bytes().filter(|&b| b == b'\n').count();
-        start = end;
     }
-    blocks
+
+    /// Reads up to a block's size more; marks the end.
+    fn read_more(&mut self) -> Result<(), LogErrorKind> {
+        let n = (&mut self.reader)
+            .take(BLOCK_BYTES as u64)
+            .read_to_end(&mut self.pending)
+            .map_err(|e| LogErrorKind::Io(e.to_string()))?;
+        self.read_bytes += n as u64;
+        if self.read_bytes >= crate::kind::MAX_INPUT_BYTES {
+            return Err(LogErrorKind::Io(format!(
+                "larger than {} GiB: split the recording",
+                crate::kind::MAX_INPUT_BYTES >> 30
+            )));
+        }
+        self.done = n == 0;
+        Ok(())
+    }
+
+    /// Up to [`BLOCKS_PER_BATCH`] blocks into `batch`; none at the end.
+    fn fill(&mut self, batch: &mut Vec<Vec<u8>>) -> Result<(), LogErrorKind> {
+        while batch.len() < BLOCKS_PER_BATCH {
+            match self.next_block()? {
+                Some(block) => batch.push(block),
+                None => break,
+            }
+        }
+        Ok(())
+    }
 }
 
 /// How a data row is written: what [`RowFormat::parse_block`] needs to read its fields.
@@ -965,49 +1110,93 @@ struct RowFormat<'h> {
     limits: &'h [f64],
     /// The column names, for messages.
     names: &'h [&'h str],
+    mode: OutputMode,
+    /// Each sensor's fields in the order of [`OutputMode::channels`]: in a quaternion or
+    /// matrix file, a row that is not a rotation is an error naming its first field.
+    rotations: Vec<Vec<usize>>,
 }
 
-/// One data row as read: its line (number and text), counter (when it has one) and whether
-/// it is corrupt (cut short, NaN, a value beyond its channel's range).
-struct ParsedRow<'t> {
+/// One data row as read: its line (number within its block, from 0, and where its text lies
+/// in the block's bytes), counter (when it has one) and whether it is corrupt (cut short, NaN,
+/// a value beyond its channel's range).
+struct ParsedRow {
     line: usize,
-    text: &'t str,
+    text: std::ops::Range<usize>,
     counter: Option<u64>,
     corrupt: bool,
 }
 
-/// A block's data rows, their numbers (`n_fields` per row, in file order) and the first
-/// malformed row that ended it: (line, column, what).
-struct ParsedBlock<'t> {
-    rows: Vec<ParsedRow<'t>>,
+/// A block's data rows, their numbers (`n_fields` per row, in file order), its number of
+/// lines, and the first malformed row that ended it: (line within the block, column, what).
+struct ParsedBlock {
+    /// The block's bytes (its rows' text, for messages).
+    bytes: Vec<u8>,
+    rows: Vec<ParsedRow>,
     values: Vec<f64>,
+    lines: usize,
     error: Option<(usize, Option<usize>, LogErrorKind)>,
 }
 
 impl RowFormat<'_> {
-    /// Reads the data rows of `block`, whose first line is `first_line`; comment and blank
-    /// lines are skipped.
-    fn parse_block<'t>(&self, block: &'t str, first_line: usize) -> ParsedBlock<'t> {
+    /// Reads the data rows of `block` (line numbers counted from 0 at its first line);
+    /// comment and blank lines are skipped. A byte that is no text (not UTF-8, or NUL) ends
+    /// the block with an error on its line, as a malformed row does.
+    fn parse_block(&self, block: Vec<u8>) -> ParsedBlock {
+        let mut out = self.parse_rows(&block);
+        out.bytes = block;
+        out
+    }
+
+    /// [`RowFormat::parse_block`] but for keeping the bytes.
+    fn parse_rows(&self, block: &[u8]) -> ParsedBlock {
         let n_fields = self.n_fields;
+        let valid = match std::str::from_utf8(block) {
+            Ok(t) => t,
+            Err(e) => std::str::from_utf8(&block[..e.valid_up_to()]).unwrap_or_default(),
+        };
+        let bad_at = valid
+            .find('\0')
+            .or((valid.len() < block.len()).then_some(valid.len()));
+        // The whole lines before the first byte that is no text.
+        let text = match bad_at {
+            Some(at) => &valid[..valid[..at].rfind('\n').map_or(0, |i| i + 1)],
+            None => valid,
+        };
         // Room for rows of 24 bytes and more (a sensor row is longer): no regrowth.
-        let room = block.len() / 24 + 1;
+        let room = text.len() / 24 + 1;
         let mut out = ParsedBlock {
+            bytes: Vec::new(),
             rows: Vec::with_capacity(room),
             values: Vec::with_capacity(room * n_fields),
+            lines: 0,
             error: None,
         };
         let mut values = vec![0.0; n_fields];
-        for (k, raw) in block.lines().enumerate() {
-            let no = first_line + k;
+        let checks_rotations = matches!(self.mode, OutputMode::Quaternion | OutputMode::Matrix);
+        for (no, raw) in text.lines().enumerate() {
+            out.lines = no + 1;
             let line = trim_line_end(raw);
             if line.trim().is_empty() || line.starts_with("//") {
                 continue;
             }
             match self.parse_row(line, &mut values) {
                 Ok((counter, corrupt)) => {
+                    if checks_rotations && !corrupt {
+                        let not_rotation = self.rotations.iter().find_map(|fields| {
+                            orientation(self.mode, |c| values[fields[c]])
+                                .err()
+                                .map(|kind| (fields[0], kind))
+                        });
+                        if let Some((field, kind)) = not_rotation {
+                            let col = field_col(line, self.separator, field);
+                            out.error = Some((no, Some(col), kind));
+                            return out;
+                        }
+                    }
+                    let start = line.as_ptr() as usize - block.as_ptr() as usize;
                     out.rows.push(ParsedRow {
                         line: no,
-                        text: line,
+                        text: start..start + line.len(),
                         counter,
                         corrupt,
                     });
@@ -1015,9 +1204,13 @@ impl RowFormat<'_> {
                 }
                 Err((col, kind)) => {
                     out.error = Some((no, col, kind));
-                    break;
+                    return out;
                 }
             }
+        }
+        if bad_at.is_some() {
+            let no = text.bytes().filter(|&b| b == b'\n').count();
+            out.error = Some((no, None, LogErrorKind::Binary));
         }
         out
     }
@@ -1051,6 +1244,14 @@ impl RowFormat<'_> {
             let bytes = bytes.trim_ascii();
             let text = || std::str::from_utf8(bytes).unwrap_or_default().trim();
             if fi == self.counter_col {
+                // Digits alone, straight from the bytes; the text only for the rest.
+                if !bytes.is_empty() && bytes.len() <= 5 && bytes.iter().all(u8::is_ascii_digit) {
+                    let c = bytes.iter().fold(0, |c, &b| c * 10 + u64::from(b - b'0'));
+                    if c < COUNTER_MODULUS {
+                        counter = Some(c);
+                        continue;
+                    }
+                }
                 let t = text();
                 match t.parse::<u64>() {
                     Ok(c) if c < COUNTER_MODULUS => counter = Some(c),
@@ -1511,12 +1712,32 @@ mod tests {
         }
         text.push_str("é note\n");
         assert!(!text.is_char_boundary(boundary));
-        let blocks = line_blocks(&text[HEAD.len()..], 5);
-        assert_eq!(
-            blocks.iter().map(|(_, b)| *b).collect::<String>(),
-            text[HEAD.len()..]
-        );
-        assert!(blocks.iter().all(|(_, b)| b.ends_with('\n')));
+        // Read a few hundred bytes at a time, as a pipe may give them.
+        struct Trickle<'a>(&'a [u8]);
+        impl Read for Trickle<'_> {
+            fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                let n = buf.len().min(self.0.len()).min(333);
+                buf[..n].copy_from_slice(&self.0[..n]);
+                self.0 = &self.0[n..];
+                Ok(n)
+            }
+        }
+        // A comment line longer than a block, after the first.
+        let long = format!("{text}//{}\n", "x".repeat(BLOCK_BYTES + 10));
+        let mut reader = BlockReader {
+            pending: Vec::new(),
+            reader: Trickle(&long.as_bytes()[HEAD.len()..]),
+            done: false,
+            read_bytes: 0,
+        };
+        let mut blocks = Vec::new();
+        while let Some(b) = reader.next_block().unwrap() {
+            blocks.push(b);
+        }
+        assert!(blocks.len() >= 2);
+        assert_eq!(blocks.concat(), &long.as_bytes()[HEAD.len()..]);
+        assert!(blocks.iter().all(|b| b.ends_with(b"\n")));
+        assert!(blocks.iter().all(|b| std::str::from_utf8(b).is_ok()));
         let log = parse(&text).unwrap();
         assert_eq!(log.grid_index.len(), rows);
         let bad = format!(
@@ -1526,6 +1747,12 @@ mod tests {
         );
         let e = parse(&bad).unwrap_err();
         assert_eq!(e.line, Some(bad.lines().count()), "{e}");
+        // A byte that is not UTF-8 in the second block: binary data, on its line.
+        let mut binary = text.clone().into_bytes();
+        binary.extend_from_slice(b"1\t0.01\t1.0\xff\t2.0\t3.0\n");
+        let e = Log::parse(&binary, Path::new("t.log"), &ReadOptions::default()).unwrap_err();
+        assert!(matches!(e.kind, LogErrorKind::Binary), "{e}");
+        assert_eq!(e.line, Some(text.lines().count() + 1), "{e}");
     }
 
     #[test]

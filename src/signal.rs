@@ -732,7 +732,7 @@ pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, Sign
         });
     }
     let s = pick_sensor(log, sensor)?;
-    let q = &s.orientation;
+    let q = log.orientation(s);
     if q.len() < 8 {
         return Err(SignalError::Invalid {
             path: log.path.clone(),

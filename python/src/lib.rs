@@ -44,7 +44,7 @@ fn to_python<'py>(py: Python<'py>, value: &impl serde::Serialize) -> PyResult<Bo
 /// Raises BikeprocError naming the file, line and column of what it cannot read.
 #[pyfunction]
 fn read_log<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
-    let log =
+    let mut log =
         bikeproc::log::Log::open(&path, &bikeproc::log::ReadOptions::default()).map_err(err)?;
     let out = PyDict::new(py);
     out.set_item("path", path.display().to_string())?;
@@ -54,10 +54,14 @@ fn read_log<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>>
         "time_s",
         log.times_s().collect::<Vec<f64>>().into_pyarray(py),
     )?;
-    out.set_item("grid_index", log.grid_index.clone().into_pyarray(py))?;
+    out.set_item(
+        "grid_index",
+        std::mem::take(&mut log.grid_index).into_pyarray(py),
+    )?;
+    // The columns are moved into NumPy's arrays, not copied (a long log's are hundreds of MB).
     let channels = PyDict::new(py);
-    for (name, values) in log.columns.iter().zip(&log.data) {
-        channels.set_item(name, values.clone().into_pyarray(py))?;
+    for (name, values) in log.columns.iter().zip(std::mem::take(&mut log.data)) {
+        channels.set_item(name, values.into_pyarray(py))?;
     }
     out.set_item("channels", channels)?;
     let sensors = log

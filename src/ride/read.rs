@@ -150,12 +150,9 @@ pub fn read_ride(
         })
     };
     let (frame, bar) = (find("frame")?, find("handlebar")?);
-    let same = frame.orientation.len() == bar.orientation.len()
-        && frame
-            .orientation
-            .iter()
-            .zip(&bar.orientation)
-            .all(|(a, b)| a.angle_to(b) < 1e-9);
+    let (frame_q, bar_q) = (log.orientation(frame), log.orientation(bar));
+    let same = frame_q.len() == bar_q.len()
+        && frame_q.iter().zip(bar_q).all(|(a, b)| a.angle_to(b) < 1e-9);
     if same {
         return Err(err(
             angles,
@@ -182,12 +179,12 @@ pub fn read_ride(
         .into_iter()
         .zip(&accs)
     {
-        let first = sensor
-            .orientation
+        let first = log
+            .orientation(sensor)
             .first()
             .ok_or_else(|| err(angles, format!("the {label} sensor has no samples")))?;
-        let turned = sensor
-            .orientation
+        let turned = log
+            .orientation(sensor)
             .iter()
             .map(|q| q.angle_to(first))
             .fold(0.0, f64::max);
@@ -254,7 +251,7 @@ pub fn read_ride(
     let mount = Rotation3::from_basis_unchecked(&[forward, left, up_frame]);
     let frame_mounting = UnitQuaternion::from_rotation_matrix(&mount);
     // Pair the two sensors' samples (both files share the grid).
-    let (qf, qb) = (&frame.orientation, &bar.orientation);
+    let (qf, qb) = (log.orientation(frame), log.orientation(bar));
     let rest_n = log
         .grid_index
         .iter()
