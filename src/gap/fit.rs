@@ -338,11 +338,21 @@ impl<'a> Campaign<'a> {
 pub struct ResidualCache<'c, 'a> {
     campaign: &'c Campaign<'a>,
     effects: &'c [Effect],
-    memo: std::cell::RefCell<Vec<(Vec<f64>, RidesResiduals)>>,
+    memo: std::cell::RefCell<Vec<Evaluated>>,
 }
 
 /// Each ride's residuals at one parameter set; `None` where its prediction fails.
 type RidesResiduals = Vec<Option<DVector<f64>>>;
+
+/// One parameter set's residuals, and what every leave-one-out χ² at it shares.
+struct Evaluated {
+    params: Vec<f64>,
+    per_ride: RidesResiduals,
+    /// `(S r, rᵀ S r)` with S the campaign's inverse covariance and r every ride's residual
+    /// (zero where the prediction failed): made on the first leave-one-out χ² at these
+    /// parameters; `None` when S is not there.
+    shared: std::cell::OnceCell<Option<(DVector<f64>, f64)>>,
+}
 
 impl<'c, 'a> ResidualCache<'c, 'a> {
     pub fn new(campaign: &'c Campaign<'a>, effects: &'c [Effect]) -> Self {
@@ -356,29 +366,70 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
     /// χ² of `subset` (of this cache's campaign) at `params`, as [`Subset::chi2`].
     pub fn chi2(&self, subset: &Subset<'_, '_>, params: &[f64]) -> f64 {
         let mut memo = self.memo.borrow_mut();
-        let k = match memo.iter().position(|(p, _)| p.as_slice() == params) {
+        let k = match memo.iter().position(|e| e.params.as_slice() == params) {
             Some(k) => k,
             None => {
                 let per_ride = (0..self.campaign.obs.len())
                     .map(|i| self.campaign.residuals(self.effects, params, &[i]))
                     .collect();
-                memo.push((params.to_vec(), per_ride));
+                memo.push(Evaluated {
+                    params: params.to_vec(),
+                    per_ride,
+                    shared: std::cell::OnceCell::new(),
+                });
                 memo.len() - 1
             }
         };
-        let per_ride = &memo[k].1;
+        let e = &memo[k];
+        if subset.rides.iter().any(|&i| e.per_ride[i].is_none()) {
+            return f64::INFINITY;
+        }
         let parts = &self.campaign.parts;
+        if let Solve::LeaveOneOut {
+            left_out,
+            block_inverse,
+        } = &subset.solve
+        {
+            // Every ride's residual r in S r and rᵀ S r, once per parameter set; then with
+            // a = (S r)ᵢ, ride i's part, the χ² of the others is rᵀ S r − aᵀ (Sᵢᵢ)⁻¹ a
+            // (the Schur complement of [`Solve::LeaveOneOut`], whatever ride i's own
+            // residual): O(N²) per parameter set instead of per held-out ride.
+            let shared = e.shared.get_or_init(|| {
+                let s = self.campaign.inverse.get()?.as_ref()?;
+                let mut r = DVector::zeros(parts.total());
+                for (i, ri) in e.per_ride.iter().enumerate() {
+                    if let Some(ri) = ri {
+                        r.rows_mut(parts.start(i), parts.of(i)).copy_from(ri);
+                    }
+                }
+                let sr = s * &r;
+                let q = r.dot(&sr);
+                Some((sr, q))
+            });
+            let Some((sr, q)) = shared else {
+                return f64::INFINITY;
+            };
+            let a = sr.rows(parts.start(*left_out), parts.of(*left_out));
+            return left_out_chi2(*q, &a.into_owned(), block_inverse);
+        }
         let mut r = DVector::zeros(parts.count(&subset.rides));
         let mut at = 0;
         for &i in &subset.rides {
-            let Some(ri) = &per_ride[i] else {
-                return f64::INFINITY;
-            };
-            r.rows_mut(at, parts.of(i)).copy_from(ri);
+            if let Some(ri) = &e.per_ride[i] {
+                r.rows_mut(at, parts.of(i)).copy_from(ri);
+            }
             at += parts.of(i);
         }
         subset.chi2_of(&r)
     }
+}
+
+/// The χ² of every ride but i, rᵀ Σ₋ᵢ⁻¹ r over the others' residuals, from the whole
+/// campaign's: `q` = rᵀ S r (S = Σ⁻¹, r every ride's residual), `a` = (S r)ᵢ and
+/// `block_inverse` = (Sᵢᵢ)⁻¹. Minimizing rᵀ S r over ride i's part leaves q − aᵀ (Sᵢᵢ)⁻¹ a,
+/// the Schur complement, which is that χ² whatever ride i's own residual.
+fn left_out_chi2(q: f64, a: &DVector<f64>, block_inverse: &DMatrix<f64>) -> f64 {
+    (q - (block_inverse * a).dot(a)).max(0.0)
 }
 
 impl Subset<'_, '_> {
@@ -827,6 +878,41 @@ mod tests {
     /// lies outside, and the box's is x₀ = 0 (the bound active), x₁ = 0.5.
     fn quadratic(x: &[f64]) -> f64 {
         (x[0] + 1.0).powi(2) + (x[1] - 0.5).powi(2) + 0.5 * x[0] * x[1]
+    }
+
+    /// The held-out χ² from the whole campaign's S r against the χ² of the rides kept,
+    /// factored afresh: three rides of four parts, a seeded covariance with every ride
+    /// correlated with the others (as the model's parameters make them).
+    #[test]
+    fn a_left_out_chi2_is_the_kept_rides_own() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(29);
+        let n = 12;
+        let g = DMatrix::from_fn(n, n + 3, |_, _| rng.random::<f64>() - 0.5);
+        let cov = &g * g.transpose() + DMatrix::identity(n, n) * 0.1;
+        let r = DVector::from_fn(n, |_, _| rng.random::<f64>() - 0.5);
+        let s = cov.clone().cholesky().unwrap().inverse();
+        let sr = &s * &r;
+        let q = r.dot(&sr);
+        for i in 0..3 {
+            let kept: Vec<usize> = (0..n).filter(|k| k / 4 != i).collect();
+            let sub = cov.select_rows(kept.iter()).select_columns(kept.iter());
+            let rk = r.select_rows(kept.iter());
+            let direct = sub
+                .cholesky()
+                .unwrap()
+                .l()
+                .solve_lower_triangular(&rk)
+                .unwrap()
+                .norm_squared();
+            let block = s.view((4 * i, 4 * i), (4, 4)).into_owned();
+            let a = sr.rows(4 * i, 4).into_owned();
+            let fast = left_out_chi2(q, &a, &block.cholesky().unwrap().inverse());
+            assert!(
+                (fast - direct).abs() < 1e-9 * direct,
+                "{fast} against {direct}"
+            );
+        }
     }
 
     #[test]
