@@ -833,7 +833,7 @@ impl<'a> Parser<'a> {
                     } else {
                         anchor = (time, grid);
                     }
-                    if grid > crate::signal::grid_span_limit(grid_index.len()) {
+                    if grid > crate::signal::grid_span_limit(grid_index.len(), sample_rate_hz) {
                         return Err(self.err(
                             Some(no),
                             Some(field_col(line(), separator, time_col)),
@@ -1536,11 +1536,24 @@ mod tests {
 
     #[test]
     fn gap_longer_than_counter_period_uses_time() {
-        // 65536 + 2 samples later: the counter alone says 2.
-        let t = (65_538.0f64) / 100.0;
-        let text = format!("{HEAD}10\t0.00\t1\t2\t3\n12\t{t:.3}\t1\t2\t3\n");
-        let log = parse(&text).unwrap();
-        assert_eq!(log.grid_index, vec![0, 65_538]);
+        // `rows` rows, then one 65536 + 2 samples after the last: the counter alone says 2.
+        let with_hole = |rows: u64| {
+            let mut text = String::from(HEAD);
+            for k in 0..rows {
+                text.push_str(&format!("{}\t{:.2}\t1\t2\t3\n", k + 10, k as f64 / 100.0));
+            }
+            let t = (rows - 1 + 65_538) as f64 / 100.0;
+            text.push_str(&format!("{}\t{t:.3}\t1\t2\t3\n", rows + 9 + 2));
+            parse(&text)
+        };
+        // After 70 s of rows (the grid may span ten times the samples and a minute: 12.7
+        // minutes), the hole of 11 minutes is kept as one.
+        let log = with_hole(7000).unwrap();
+        assert_eq!(log.grid_index.len(), 7001);
+        assert_eq!(log.grid_index[7000], 6999 + 65_538);
+        // After a second of rows, the same hole is two recordings, not one.
+        let e = with_hole(100).unwrap_err();
+        assert!(matches!(e.kind, LogErrorKind::GapTooLong { .. }), "{e}");
     }
 
     /// A receiver whose stamps jitter by ±4 ms, stamp to 0.01 s, and deliver 40 ms late in

@@ -488,7 +488,7 @@ pub fn sampling_grid(t: &[f64]) -> Result<(f64, Vec<u64>), (usize, String)> {
         let k = (ti - t[0]) / dt;
         let r = k.round();
         let gap_s = i.checked_sub(1).map_or(0.0, |p| ti - t[p]);
-        if gap_s > MAX_GAP_S || r > grid_span_limit(i) as f64 {
+        if gap_s > MAX_GAP_S || r > grid_span_limit(i, 1.0 / dt) as f64 {
             return Err((i, gap_too_long_message(gap_s)));
         }
         if (k - r).abs() > 0.25 {
@@ -506,22 +506,30 @@ pub fn sampling_grid(t: &[f64]) -> Result<(f64, Vec<u64>), (usize, String)> {
 /// one recording, and the file holds two.
 pub const MAX_GAP_S: f64 = 3600.0;
 
-/// Grid samples of holes a recording may hold beyond ten times its own samples.
+/// The time a recording may lose beyond ten times its own samples (s): a sensor out of the
+/// receiver's range for a minute. A short recording with a longer hole is two recordings or a
+/// wrong time stamp: 42 rows of which the last was stamped 2994 s after 2.98 s were read as one
+/// 17-sample "free decay" over 50 minutes (found by fuzzing).
+pub const MAX_HOLE_S: f64 = 60.0;
+
+/// Grid samples of holes a recording may hold beyond ten times its own samples, at any rate:
+/// what the spectrum and the fits allocate stays proportional to the data (a row stamped at
+/// 1e12 s would otherwise ask for terabytes).
 pub const MAX_HOLE_SAMPLES: u64 = 4_000_000;
 
-/// The furthest grid position a recording of `kept` samples may reach: ten times its samples
-/// plus [`MAX_HOLE_SAMPLES`]. What the spectrum and the fits allocate stays proportional to the
-/// data (a row stamped at 1e12 s would otherwise ask for terabytes).
-pub fn grid_span_limit(kept: usize) -> u64 {
-    10 * kept as u64 + MAX_HOLE_SAMPLES
+/// The furthest grid position a recording of `kept` samples at `rate_hz` may reach: ten times
+/// its samples plus [`MAX_HOLE_S`] of samples (at most [`MAX_HOLE_SAMPLES`]).
+pub fn grid_span_limit(kept: usize, rate_hz: f64) -> u64 {
+    let hole = (MAX_HOLE_S * rate_hz).clamp(0.0, MAX_HOLE_SAMPLES as f64) as u64;
+    10 * kept as u64 + hole
 }
 
 /// The message for a hole beyond [`MAX_GAP_S`] or [`grid_span_limit`].
 pub fn gap_too_long_message(gap_s: f64) -> String {
     format!(
-        "a hole of {gap_s:.6e} s in the time: over {MAX_GAP_S} s, or over {MAX_HOLE_SAMPLES} \
-         samples beyond ten times the data before it: not one recording (split the file, or \
-         check the time column)"
+        "a hole of {gap_s:.6e} s in the time: over {MAX_GAP_S} s, or over {MAX_HOLE_S} s beyond \
+         ten times the data before it: not one recording (split the file, or check the time \
+         column)"
     )
 }
 

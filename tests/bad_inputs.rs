@@ -106,6 +106,8 @@ fn far_times_and_absurd_rates_say_what_is_wrong() {
         ("far_time_stamp.log", "a hole of 1.000000e12 s"),
         ("far_time_stamp.csv", "a hole of 1.000000e12 s"),
         ("row_at_1e300.log", "a hole of 1.000000e300 s"),
+        ("long_hole.log", "a hole of 2.000000e3 s"),
+        ("long_hole.csv", "a hole of 2.991010e3 s"),
         ("sample_rate_1e300.log", "at most 100000"),
         (
             "time_backwards.log",
