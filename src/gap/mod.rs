@@ -535,6 +535,7 @@ pub fn diagnose_study(
         guesses: guesses.clone(),
         parts: parts.clone(),
         cov: &exp_cov + &model_cov,
+        factor: std::sync::OnceLock::new(),
         inverse: std::sync::OnceLock::new(),
         assumed: effects::Assumed::NOMINAL,
         exp_cov: &exp_cov,
