@@ -40,6 +40,11 @@ pub struct Campaign<'a> {
     pub factor: std::sync::OnceLock<Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>>,
     /// Its inverse, made on the first leave-one-out subset ([`Campaign::leave_one_out`]).
     pub inverse: std::sync::OnceLock<Option<DMatrix<f64>>>,
+    /// At a candidate's fit ([`Campaign::at_fit`]): the model's part of `cov` as a factor U,
+    /// `cov = exp_cov + U Uᵀ`, so that the inverse is an update of `exp_cov`'s.
+    pub model_factor: Option<DMatrix<f64>>,
+    /// The inverse of `exp_cov`, made once for every candidate's campaign.
+    pub exp_inverse: &'a std::sync::OnceLock<Option<DMatrix<f64>>>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
     pub assumed: Assumed,
@@ -117,6 +122,10 @@ pub struct Subset<'c, 'a> {
 enum Solve {
     /// By the Cholesky factor of the subset's covariance.
     Cholesky(nalgebra::Cholesky<f64, nalgebra::Dyn>),
+    /// Every ride, rᵀ S r by the campaign's inverse S: at a candidate's fit, where S is
+    /// Woodbury's update ([`Campaign::make_inverse`]) and factoring the covariance would cost
+    /// O(N³) per candidate.
+    Inverse,
     /// Every ride but `left_out`, from the whole campaign's inverse covariance S: with the
     /// residual r of every ride (zero for the one left out) and u = S r,
     /// rᵀ Σ₋ᵢ⁻¹ r = rᵀ S r − uᵢᵀ (Sᵢᵢ)⁻¹ uᵢ (the Schur complement: minimizing the whole
@@ -245,7 +254,7 @@ impl<'a> Campaign<'a> {
         let at = self.predictions(effects, params, &nominal_base, &self.guesses, &all)?;
         let guesses: Vec<Complex<f64>> = at.iter().map(|(w, _)| *w).collect();
         let inputs = &models.first()?.inputs;
-        let (_, model_cov) = crate::uncertainty::propagate(inputs, |x| {
+        let (_, factor) = crate::uncertainty::propagate_factor(inputs, |x| {
             let base = |c: usize| models[c].benchmark_at(x);
             let Some(pred) = self.predictions(effects, params, &base, &guesses, &all) else {
                 return vec![f64::NAN; self.parts.total()];
@@ -259,13 +268,14 @@ impl<'a> Campaign<'a> {
             }
             out
         });
-        if model_cov.nrows() != self.parts.total() || model_cov.iter().any(|v| !v.is_finite()) {
+        if factor.nrows() != self.parts.total() || factor.iter().any(|v| !v.is_finite()) {
             return None;
         }
         Some(Campaign {
-            cov: self.exp_cov + model_cov,
+            cov: self.exp_cov + &factor * factor.transpose(),
             factor: std::sync::OnceLock::new(),
             inverse: std::sync::OnceLock::new(),
+            model_factor: Some(factor),
             ..self.clone()
         })
     }
@@ -289,9 +299,37 @@ impl<'a> Campaign<'a> {
             .as_ref()
     }
 
+    /// The inverse of [`Campaign::cov`]. At a candidate's fit, Woodbury's update of the
+    /// experiment's inverse E⁻¹ by the model's factor U: (E + U Uᵀ)⁻¹ = E⁻¹ − E⁻¹U (I +
+    /// UᵀE⁻¹U)⁻¹ UᵀE⁻¹, O(N² k) for k measured inputs against the O(N³) of factoring every
+    /// candidate's covariance afresh; otherwise L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
+    fn make_inverse(&self) -> Option<DMatrix<f64>> {
+        let dense = |m: &DMatrix<f64>| -> Option<DMatrix<f64>> {
+            let l_inv = lower_triangular_inverse(&m.clone().cholesky()?.l())?;
+            Some(l_inv.tr_mul(&l_inv))
+        };
+        if let Some(u) = &self.model_factor {
+            if let Some(e_inv) = self.exp_inverse.get_or_init(|| dense(self.exp_cov)) {
+                return woodbury_inverse(e_inv, u);
+            }
+        }
+        let l_inv = lower_triangular_inverse(&self.factor()?.l())?;
+        Some(l_inv.tr_mul(&l_inv))
+    }
+
     /// The subset of `rides`; `None` when its covariance is not positive definite.
     pub fn subset(&self, rides: Vec<usize>) -> Option<Subset<'_, 'a>> {
         let every = rides.len() == self.obs.len() && rides.iter().enumerate().all(|(k, &i)| k == i);
+        if every
+            && self.model_factor.is_some()
+            && self.inverse.get_or_init(|| self.make_inverse()).is_some()
+        {
+            return Some(Subset {
+                campaign: self,
+                solve: Solve::Inverse,
+                rides,
+            });
+        }
         let chol = if every {
             self.factor()?.clone()
         } else {
@@ -312,13 +350,7 @@ impl<'a> Campaign<'a> {
         // S = L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ: one triangular solve and one product (the
         // factor's own inverse solved twice and factored the covariance again: at 256 rides
         // that was half of `gap`'s time).
-        let inverse = self
-            .inverse
-            .get_or_init(|| {
-                let l_inv = lower_triangular_inverse(&self.factor()?.l())?;
-                Some(l_inv.tr_mul(&l_inv))
-            })
-            .as_ref()?;
+        let inverse = self.inverse.get_or_init(|| self.make_inverse()).as_ref()?;
         let (start, p) = (self.parts.start(left_out), self.parts.of(left_out));
         let block = inverse.view((start, start), (p, p)).into_owned();
         Some(Subset {
@@ -447,31 +479,39 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
     }
 }
 
-/// L⁻¹ of a lower-triangular `l`, a column at a time on rayon's threads: column j is the
-/// forward substitution of the j-th unit vector, which starts at row j (a sixth of N³ flops
-/// against the half of a general solve's); `None` when a diagonal element is zero.
+/// L⁻¹ of a lower-triangular `l`, a column at a time: column j is the forward substitution of
+/// the j-th unit vector, which starts at row j (a sixth of N³ flops against the half of a
+/// general solve's); `None` when a diagonal element is zero. On one thread: it runs inside a
+/// `OnceLock`'s initialization, where a thread of rayon's that stole other work could come
+/// back to the same lock (the candidates run on rayon's threads already).
 fn lower_triangular_inverse(l: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    use rayon::prelude::*;
     let n = l.nrows();
     if l.ncols() != n || (0..n).any(|i| l[(i, i)] == 0.0) {
         return None;
     }
     let mut inv = DMatrix::zeros(n, n);
-    inv.as_mut_slice()
-        .par_chunks_mut(n.max(1))
-        .enumerate()
-        .for_each(|(j, x)| {
-            x[j] = 1.0;
-            for k in j..n {
-                x[k] /= l[(k, k)];
-                let xk = x[k];
-                let column = &l.as_slice()[k * n..(k + 1) * n];
-                for (xi, lik) in x[k + 1..].iter_mut().zip(&column[k + 1..]) {
-                    *xi -= xk * lik;
-                }
+    for (j, x) in inv.as_mut_slice().chunks_mut(n.max(1)).enumerate() {
+        x[j] = 1.0;
+        for k in j..n {
+            x[k] /= l[(k, k)];
+            let xk = x[k];
+            let column = &l.as_slice()[k * n..(k + 1) * n];
+            for (xi, lik) in x[k + 1..].iter_mut().zip(&column[k + 1..]) {
+                *xi -= xk * lik;
             }
-        });
+        }
+    }
     Some(inv)
+}
+
+/// (E + U Uᵀ)⁻¹ from E⁻¹ (`e_inv`, symmetric) and U (N × k): E⁻¹ − E⁻¹U (I + UᵀE⁻¹U)⁻¹ UᵀE⁻¹
+/// (Woodbury's identity); `None` when the k × k capacitance is not positive definite.
+fn woodbury_inverse(e_inv: &DMatrix<f64>, u: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let eu = e_inv * u;
+    let k = u.ncols();
+    let capacitance = DMatrix::identity(k, k) + u.tr_mul(&eu);
+    let solved = capacitance.cholesky()?.solve(&eu.transpose());
+    Some(e_inv - eu * solved)
 }
 
 /// The χ² of every ride but i, rᵀ Σ₋ᵢ⁻¹ r over the others' residuals, from the whole
@@ -494,6 +534,10 @@ impl Subset<'_, '_> {
     /// solve fails.
     fn chi2_of(&self, r: &DVector<f64>) -> f64 {
         match &self.solve {
+            Solve::Inverse => match self.campaign.inverse.get() {
+                Some(Some(s)) => r.dot(&(s * r)).max(0.0),
+                _ => f64::INFINITY,
+            },
             Solve::Cholesky(chol) => chol
                 .l_dirty()
                 .solve_lower_triangular(r)
@@ -963,6 +1007,23 @@ mod tests {
                 "{fast} against {direct}"
             );
         }
+    }
+
+    /// Woodbury's update against the sum inverted whole: a seeded SPD E of 40 and a factor
+    /// of 7 columns, as the model's measured inputs add to a campaign's covariance.
+    #[test]
+    fn a_woodbury_update_is_the_sum_inverted() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(34);
+        let n = 40;
+        let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
+        let e = &g * g.transpose() + DMatrix::identity(n, n) * 0.2;
+        let u = DMatrix::from_fn(n, 7, |_, _| rng.random::<f64>() - 0.5);
+        let e_inv = e.clone().cholesky().unwrap().inverse();
+        let ours = woodbury_inverse(&e_inv, &u).unwrap();
+        let whole = (&e + &u * u.transpose()).cholesky().unwrap().inverse();
+        let err = (&ours - &whole).amax();
+        assert!(err < 1e-10 * whole.amax(), "{err}");
     }
 
     /// The triangular inverse against nalgebra's general solve of the identity.

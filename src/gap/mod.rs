@@ -528,6 +528,7 @@ pub fn diagnose_study(
     let all: Vec<usize> = (0..n).collect();
     let condition_inputs: Vec<Parametrized> =
         per_condition.iter().map(|(m, _)| m.clone()).collect();
+    let exp_inverse = std::sync::OnceLock::new();
     let campaign = Campaign {
         obs: rides,
         conditions: &condition_models,
@@ -537,6 +538,8 @@ pub fn diagnose_study(
         cov: &exp_cov + &model_cov,
         factor: std::sync::OnceLock::new(),
         inverse: std::sync::OnceLock::new(),
+        model_factor: None,
+        exp_inverse: &exp_inverse,
         assumed: effects::Assumed::NOMINAL,
         exp_cov: &exp_cov,
         models: &condition_inputs,
