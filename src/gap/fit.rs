@@ -302,15 +302,17 @@ impl<'a> Campaign<'a> {
     /// The inverse of [`Campaign::cov`]. At a candidate's fit, Woodbury's update of the
     /// experiment's inverse E⁻¹ by the model's factor U: (E + U Uᵀ)⁻¹ = E⁻¹ − E⁻¹U (I +
     /// UᵀE⁻¹U)⁻¹ UᵀE⁻¹, O(N² k) for k measured inputs against the O(N³) of factoring every
-    /// candidate's covariance afresh; otherwise L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
+    /// candidate's covariance afresh; otherwise (or where the update's capacitance is not
+    /// positive definite) L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
     fn make_inverse(&self) -> Option<DMatrix<f64>> {
         let dense = |m: &DMatrix<f64>| -> Option<DMatrix<f64>> {
             let l_inv = lower_triangular_inverse(&m.clone().cholesky()?.l())?;
             Some(l_inv.tr_mul(&l_inv))
         };
         if let Some(u) = &self.model_factor {
-            if let Some(e_inv) = self.exp_inverse.get_or_init(|| dense(self.exp_cov)) {
-                return woodbury_inverse(e_inv, u);
+            let e_inv = self.exp_inverse.get_or_init(|| dense(self.exp_cov));
+            if let Some(s) = e_inv.as_ref().and_then(|e_inv| woodbury_inverse(e_inv, u)) {
+                return Some(s);
             }
         }
         let l_inv = lower_triangular_inverse(&self.factor()?.l())?;
@@ -347,9 +349,9 @@ impl<'a> Campaign<'a> {
     /// Every ride but `left_out` (`Solve::LeaveOneOut`); `None` when the covariance or the
     /// left-out ride's block of its inverse is singular.
     pub fn leave_one_out(&self, left_out: usize) -> Option<Subset<'_, 'a>> {
-        // S = L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ: one triangular solve and one product (the
-        // factor's own inverse solved twice and factored the covariance again: at 256 rides
-        // that was half of `gap`'s time).
+        // Made once per campaign ([`Campaign::make_inverse`]): nalgebra's inverse of the
+        // factor solved twice and factored the covariance again, half of `gap`'s time at 256
+        // rides.
         let inverse = self.inverse.get_or_init(|| self.make_inverse()).as_ref()?;
         let (start, p) = (self.parts.start(left_out), self.parts.of(left_out));
         let block = inverse.view((start, start), (p, p)).into_owned();
