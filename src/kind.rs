@@ -200,13 +200,19 @@ pub fn read_text_bytes(path: &Path) -> Result<Vec<u8>, NotText> {
     if bytes.len() as u64 >= MAX_INPUT_BYTES {
         return Err(NotText {
             line: None,
-            message: format!(
-                "larger than {} GiB: split the recording",
-                MAX_INPUT_BYTES >> 30
-            ),
+            message: too_large_message(),
         });
     }
     Ok(bytes)
+}
+
+/// What a file of [`MAX_INPUT_BYTES`] or more is told (the whole-file read above and the log
+/// reader's streaming one).
+pub fn too_large_message() -> String {
+    format!(
+        "larger than {} GiB: split the recording",
+        MAX_INPUT_BYTES >> 30
+    )
 }
 
 /// How much of a file is read to recognise it.

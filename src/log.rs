@@ -1079,10 +1079,7 @@ impl<R: Read> BlockReader<R> {
             .map_err(|e| LogErrorKind::Io(e.to_string()))?;
         self.read_bytes += n as u64;
         if self.read_bytes >= crate::kind::MAX_INPUT_BYTES {
-            return Err(LogErrorKind::Io(format!(
-                "larger than {} GiB: split the recording",
-                crate::kind::MAX_INPUT_BYTES >> 30
-            )));
+            return Err(LogErrorKind::Io(crate::kind::too_large_message()));
         }
         self.done = n == 0;
         Ok(())

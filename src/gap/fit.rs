@@ -305,18 +305,15 @@ impl<'a> Campaign<'a> {
     /// candidate's covariance afresh; otherwise (or where the update's capacitance is not
     /// positive definite) L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
     fn make_inverse(&self) -> Option<DMatrix<f64>> {
-        let dense = |m: &DMatrix<f64>| -> Option<DMatrix<f64>> {
-            let l_inv = lower_triangular_inverse(&m.clone().cholesky()?.l())?;
-            Some(l_inv.tr_mul(&l_inv))
-        };
         if let Some(u) = &self.model_factor {
-            let e_inv = self.exp_inverse.get_or_init(|| dense(self.exp_cov));
+            let e_inv = self
+                .exp_inverse
+                .get_or_init(|| inverse_from_factor(&self.exp_cov.clone().cholesky()?));
             if let Some(s) = e_inv.as_ref().and_then(|e_inv| woodbury_inverse(e_inv, u)) {
                 return Some(s);
             }
         }
-        let l_inv = lower_triangular_inverse(&self.factor()?.l())?;
-        Some(l_inv.tr_mul(&l_inv))
+        inverse_from_factor(self.factor()?)
     }
 
     /// The subset of `rides`; `None` when its covariance is not positive definite.
@@ -504,6 +501,12 @@ fn lower_triangular_inverse(l: &DMatrix<f64>) -> Option<DMatrix<f64>> {
         }
     }
     Some(inv)
+}
+
+/// Σ⁻¹ = L⁻ᵀ L⁻¹ from the Cholesky factor Σ = L Lᵀ; `None` as [`lower_triangular_inverse`].
+fn inverse_from_factor(chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>) -> Option<DMatrix<f64>> {
+    let l_inv = lower_triangular_inverse(&chol.l())?;
+    Some(l_inv.tr_mul(&l_inv))
 }
 
 /// (E + U Uᵀ)⁻¹ from E⁻¹ (`e_inv`, symmetric) and U (N × k): E⁻¹ − E⁻¹U (I + UᵀE⁻¹U)⁻¹ UᵀE⁻¹
