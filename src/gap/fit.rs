@@ -56,8 +56,6 @@ pub struct Campaign<'a> {
     /// Each condition's bicycle as a function of the measured inputs (with the condition's
     /// known masses and controller): what [`Campaign::at_fit`] propagates their errors through.
     pub models: &'a [Parametrized],
-    /// What each coasting ride's slowing adds to a candidate's prediction.
-    pub coasting: &'a super::coasting::CoastingResponse,
 }
 
 /// Where each ride's parts lie in the residual vector: 2 (the eigenvalue's real and imaginary
@@ -237,11 +235,7 @@ impl<'a> Campaign<'a> {
                 let (bike, own) = bikes[c]
                     .get_or_insert_with(|| self.bike_on(&base(c), effects, &layout, params, c));
                 let with_shape = self.parts.of(i) > 2;
-                let (w, s) =
-                    predict_weave(bike, effects, own, &self.obs[i], guesses[i], with_shape)?;
-                let d = self.coasting.shift(i, effects, own);
-                let s = s.map(|s| Complex::from_polar(s.norm() + d[2], s.arg() + d[3]));
-                Some((w + Complex::new(d[0], d[1]), s))
+                predict_weave(bike, effects, own, &self.obs[i], guesses[i], with_shape)
             })
             .collect()
     }

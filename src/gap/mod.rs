@@ -33,7 +33,6 @@
 //! cannot tell apart, and the rides to make next), [`verdict`] (the words); this file runs them
 //! in order ([`diagnose`]).
 
-pub mod coasting;
 pub mod conditions;
 pub mod effects;
 pub mod fit;
@@ -526,8 +525,6 @@ pub fn diagnose_study(
             }
         }
     }
-    // A candidate with steer damping has its coasting correction's change in its prediction.
-    let coasting = coasting::CoastingResponse::new(rides, &condition_models, &ride_condition);
     let all: Vec<usize> = (0..n).collect();
     let condition_inputs: Vec<Parametrized> =
         per_condition.iter().map(|(m, _)| m.clone()).collect();
@@ -546,7 +543,6 @@ pub fn diagnose_study(
         assumed: effects::Assumed::NOMINAL,
         exp_cov: &exp_cov,
         models: &condition_inputs,
-        coasting: &coasting,
     };
     d.parts_per_ride = parts.most();
     d.dof = total;
@@ -594,11 +590,8 @@ pub fn diagnose_study(
                 (o.shape_ratio.se, o.shape_phase_rad.se)
             };
             let model_weave = Complex::new(o.weave.re - r0[at], o.weave.im - r0[at + 1]);
-            let (dr, dp) = if parts.of(i) > 2 {
-                (r0[at + 2], r0[at + 3])
-            } else {
-                shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave)
-            };
+            let (dr, dp) =
+                shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave);
             RideResidual {
                 ride: o.ride.clone(),
                 condition: is_study.then(|| study[ride_condition[i]].name.clone()),
@@ -691,11 +684,7 @@ pub fn diagnose_study(
                     let clock = effects::clock(&best.effects, &own);
                     let weave = Complex::new(o.weave.re - r[at], o.weave.im - r[at + 1]);
                     let v = effects::true_speed(&best.effects, &own, o);
-                    let (dr, dp) = if parts.of(i) > 2 {
-                        (r[at + 2], r[at + 3])
-                    } else {
-                        shape_residual(&bike, o, v, weave * clock)
-                    };
+                    let (dr, dp) = shape_residual(&bike, o, v, weave * clock);
                     RideResidual {
                         re: r[at],
                         im: r[at + 1],
