@@ -68,6 +68,10 @@ struct Z {
     kinematic_rel: f64,
     re: f64,
     im: f64,
+    /// σ and ω against the Whipple model of the true bicycle at the true speed (what the gap
+    /// stage predicts; the simulator's own linearization carries the resistances too).
+    re_whipple: f64,
+    im_whipple: f64,
 }
 
 fn coasting_rides(
@@ -93,6 +97,9 @@ fn coasting_rides(
         let at = r.fit.t_ref_s;
         let v_true = t.speed_at(at).ok_or("no truth speed")?;
         let w = t.weave_at(v_true).ok_or("no truth weave")?;
+        let whipple = bikeproc::gap::linear::LinearBike::whipple(&bike)
+            .weave_near(v_true, w)
+            .unwrap_or(nalgebra::Complex::new(f64::NAN, f64::NAN));
         let f = &r.fit.weave;
         let k = r.speed.sources.kinematic;
         if std::env::var("BIKEPROC_DEBUG").is_ok() {
@@ -111,6 +118,8 @@ fn coasting_rides(
             kinematic_rel: k.map_or(f64::NAN, |k| k.speed_mps / v_true - 1.0),
             re: (f.re - w.re) / f.re_se,
             im: (f.im - w.im) / f.im_se,
+            re_whipple: (f.re - whipple.re) / f.re_se,
+            im_whipple: (f.im - whipple.im) / f.im_se,
         })
     });
     let mut ok = Vec::new();
@@ -154,10 +163,24 @@ fn assert_calibrated(z: &[Z], failed: &[String]) {
 /// true): the speed where the eigenvalue applies, the noted reading carried by the measured
 /// slowing, has normalized errors with a standard deviation in 0.8–1.25 and a mean under 0.2;
 /// the weave's real and imaginary parts too (standard deviation 0.8–1.25).
+///
+/// Against what: the simulator's own linearization carries the coast's resistances (drag and
+/// rolling resistance lower the weave by 0.006–0.017 1/s in σ and 0.011–0.021 rad/s in ω at
+/// 3.9–5 m/s on two of these rides), the Whipple model that the gap stage predicts with does
+/// not. The ride stage's half correction of the coasting bias
+/// (`ride::dynamic::COASTING_BIAS_APPLIED`) leaves σ and ω +0.32 and +0.49 of their errors
+/// above the first and +0.02 and +0.04 from the second (means over these 100 rides): the
+/// gap stage compares with the second, so its mean error must stay within ±0.2 there.
 #[test]
 fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
     let (z, failed) = coasting_rides(100, 40_000, Effects::default(), (3.7, 6.3));
     assert_calibrated(&z, &failed);
+    let finite =
+        |f: fn(&Z) -> f64| -> Vec<f64> { z.iter().map(f).filter(|x| x.is_finite()).collect() };
+    let (re, _) = mean_sd(&finite(|z| z.re_whipple));
+    let (im, _) = mean_sd(&finite(|z| z.im_whipple));
+    println!("against the Whipple model: σ z mean {re:.3}, ω z mean {im:.3}");
+    assert!(re.abs() < 0.2 && im.abs() < 0.2, "σ {re}, ω {im}");
 }
 
 /// The same with the realistic effects (steer damping, compliant tyres, the sensors' masses;

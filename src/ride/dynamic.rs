@@ -486,6 +486,11 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
 /// on the second. Half is taken off; its error is 0.6 of that (0.3 of the bias, about a
 /// uniform spread over [0, bias]: 0.29); with the fits that had failed on rides with real
 /// modes now made on the weave alone, 0.5 (ω's normalized errors' spread stays 0.80).
+/// Those errors are against the simulator's own linearization, which carries the coast's
+/// resistances (they lower the weave by about 0.01–0.02 1/s); against the Whipple model of
+/// the true bicycle, which the gap stage predicts with, the half correction leaves σ +0.02
+/// and ω +0.04 of their errors on the knife-edge rides (tests/speed.rs), and with 0.6
+/// N·m·s/rad of steer damping σ −0.70: the damped bicycle's bias is another.
 const COASTING_BIAS_APPLIED: f64 = 0.5;
 /// The standard error left for the correction, as a fraction of the part taken off: a ride's
 /// own (`bikeproc dynamic`). Across a campaign the part not known is one and the same (the
