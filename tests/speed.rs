@@ -133,13 +133,17 @@ fn coasting_rides(
     (ok, failed)
 }
 
+/// One of the normalized errors of every ride, where it is finite.
+fn column(z: &[Z], f: fn(&Z) -> f64) -> Vec<f64> {
+    z.iter().map(f).filter(|x| x.is_finite()).collect()
+}
+
 /// Prints the normalized errors' means and standard deviations and asserts the bars:
 /// speed |mean| < 0.2 and sd in 0.8–1.25; σ and ω sd in 0.8–1.25; at most 2 rides failed; the
 /// kinematic speed's |mean| under 1 and sd under 1.25 (its SE holds the tyres' slip).
 fn assert_calibrated(z: &[Z], failed: &[String]) {
     println!("failed: {failed:?}");
-    let col =
-        |f: fn(&Z) -> f64| -> Vec<f64> { z.iter().map(f).filter(|x| x.is_finite()).collect() };
+    let col = |f: fn(&Z) -> f64| column(z, f);
     let (ms, ss) = mean_sd(&col(|z| z.speed));
     let (mk, sk) = mean_sd(&col(|z| z.kinematic));
     let (mkr, skr) = mean_sd(&col(|z| z.kinematic_rel));
@@ -175,10 +179,8 @@ fn assert_calibrated(z: &[Z], failed: &[String]) {
 fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
     let (z, failed) = coasting_rides(100, 40_000, Effects::default(), (3.7, 6.3));
     assert_calibrated(&z, &failed);
-    let finite =
-        |f: fn(&Z) -> f64| -> Vec<f64> { z.iter().map(f).filter(|x| x.is_finite()).collect() };
-    let (re, _) = mean_sd(&finite(|z| z.re_whipple));
-    let (im, _) = mean_sd(&finite(|z| z.im_whipple));
+    let (re, _) = mean_sd(&column(&z, |z| z.re_whipple));
+    let (im, _) = mean_sd(&column(&z, |z| z.im_whipple));
     println!("against the Whipple model: σ z mean {re:.3}, ω z mean {im:.3}");
     assert!(re.abs() < 0.2 && im.abs() < 0.2, "σ {re}, ω {im}");
 }

@@ -316,13 +316,16 @@ impl<'a> Campaign<'a> {
         inverse_from_factor(self.factor()?)
     }
 
+    /// The inverse of the whole covariance, made once ([`Campaign::make_inverse`]); `None` when
+    /// it cannot be made.
+    fn inverse(&self) -> Option<&DMatrix<f64>> {
+        self.inverse.get_or_init(|| self.make_inverse()).as_ref()
+    }
+
     /// The subset of `rides`; `None` when its covariance is not positive definite.
     pub fn subset(&self, rides: Vec<usize>) -> Option<Subset<'_, 'a>> {
         let every = rides.len() == self.obs.len() && rides.iter().enumerate().all(|(k, &i)| k == i);
-        if every
-            && self.model_factor.is_some()
-            && self.inverse.get_or_init(|| self.make_inverse()).is_some()
-        {
+        if every && self.model_factor.is_some() && self.inverse().is_some() {
             return Some(Subset {
                 campaign: self,
                 solve: Solve::Inverse,
@@ -349,7 +352,7 @@ impl<'a> Campaign<'a> {
         // Made once per campaign ([`Campaign::make_inverse`]): nalgebra's inverse of the
         // factor solved twice and factored the covariance again, half of `gap`'s time at 256
         // rides.
-        let inverse = self.inverse.get_or_init(|| self.make_inverse()).as_ref()?;
+        let inverse = self.inverse()?;
         let (start, p) = (self.parts.start(left_out), self.parts.of(left_out));
         let block = inverse.view((start, start), (p, p)).into_owned();
         Some(Subset {
@@ -449,7 +452,7 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
             // (the Schur complement of [`Solve::LeaveOneOut`], whatever ride i's own
             // residual): O(N²) per parameter set instead of per held-out ride.
             let shared = e.shared.get_or_init(|| {
-                let s = self.campaign.inverse.get()?.as_ref()?;
+                let s = self.campaign.inverse()?;
                 let mut r = DVector::zeros(parts.total());
                 for (i, ri) in e.per_ride.iter().enumerate() {
                     if let Some(ri) = ri {
@@ -539,10 +542,10 @@ impl Subset<'_, '_> {
     /// solve fails.
     fn chi2_of(&self, r: &DVector<f64>) -> f64 {
         match &self.solve {
-            Solve::Inverse => match self.campaign.inverse.get() {
-                Some(Some(s)) => r.dot(&(s * r)).max(0.0),
-                _ => f64::INFINITY,
-            },
+            Solve::Inverse => self
+                .campaign
+                .inverse()
+                .map_or(f64::INFINITY, |s| r.dot(&(s * r)).max(0.0)),
             Solve::Cholesky(chol) => chol
                 .l_dirty()
                 .solve_lower_triangular(r)
@@ -551,7 +554,7 @@ impl Subset<'_, '_> {
                 left_out,
                 block_inverse,
             } => {
-                let Some(Some(s)) = self.campaign.inverse.get() else {
+                let Some(s) = self.campaign.inverse() else {
                     return f64::INFINITY;
                 };
                 let parts = &self.campaign.parts;

@@ -489,8 +489,9 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
 /// Those errors are against the simulator's own linearization, which carries the coast's
 /// resistances (they lower the weave by about 0.01–0.02 1/s); against the Whipple model of
 /// the true bicycle, which the gap stage predicts with, the half correction leaves σ +0.02
-/// and ω +0.04 of their errors on the knife-edge rides (tests/speed.rs), and with 0.6
-/// N·m·s/rad of steer damping σ −0.70: the damped bicycle's bias is another.
+/// and ω +0.04 of their errors on the knife-edge rides (tests/speed.rs); on 200 rides with
+/// 0.6 N·m·s/rad of steer damping it left σ at −0.70 (measured once, issue 29): the damped
+/// bicycle's bias is another.
 const COASTING_BIAS_APPLIED: f64 = 0.5;
 /// The standard error left for the correction, as a fraction of the part taken off: a ride's
 /// own (`bikeproc dynamic`). Across a campaign the part not known is one and the same (the
