@@ -15,6 +15,7 @@ use super::linear::LinearBike;
 use super::Observation;
 use crate::model::uncertain::Parametrized;
 use crate::model::Benchmark;
+use crate::ride::dynamic::COASTING_BIAS_SE_FRACTION;
 use nalgebra::{Complex, DMatrix, DVector};
 
 /// A ride's predicted weave and, where asked for, its mode shape γ/θ.
@@ -56,6 +57,12 @@ pub struct Campaign<'a> {
     /// Each condition's bicycle as a function of the measured inputs (with the condition's
     /// known masses and controller): what [`Campaign::at_fit`] propagates their errors through.
     pub models: &'a [Parametrized],
+    /// Each coasting ride's replay on the measured bicycle ([`super::coasting`]).
+    pub coasting: &'a super::coasting::CoastingBase,
+    /// At a damped candidate's fit ([`Campaign::at_fit`]): the candidate's effects and what
+    /// its coasting replay adds to each ride's prediction under them, held while it is fitted
+    /// again; `None` elsewhere.
+    pub coasting_shift: Option<(Vec<Effect>, Vec<[f64; 4]>)>,
 }
 
 /// Where each ride's parts lie in the residual vector: 2 (the eigenvalue's real and imaginary
@@ -235,9 +242,39 @@ impl<'a> Campaign<'a> {
                 let (bike, own) = bikes[c]
                     .get_or_insert_with(|| self.bike_on(&base(c), effects, &layout, params, c));
                 let with_shape = self.parts.of(i) > 2;
-                predict_weave(bike, effects, own, &self.obs[i], guesses[i], with_shape)
+                let (w, s) =
+                    predict_weave(bike, effects, own, &self.obs[i], guesses[i], with_shape)?;
+                match &self.coasting_shift {
+                    Some((of, shifts)) if of.as_slice() == effects => {
+                        let d = shifts[i];
+                        let s = s.map(|s| Complex::from_polar(s.norm() + d[2], s.arg() + d[3]));
+                        Some((w + Complex::new(d[0], d[1]), s))
+                    }
+                    _ => Some((w, s)),
+                }
             })
             .collect()
+    }
+
+    /// The campaign with a damped candidate's coasting shifts ([`super::coasting`]) taken
+    /// where `effects` at `params` put the bicycle, for predictions under those effects; the
+    /// campaign itself for any other candidate.
+    pub fn with_coasting(&self, effects: &[Effect], params: &[f64]) -> Campaign<'a> {
+        let coasting_shift = super::coasting::CoastingBase::applies_to(effects).then(|| {
+            let layout = self.layout(effects);
+            let shifts = self.coasting.shifts(
+                self.obs,
+                self.conditions,
+                &self.ride_condition,
+                effects,
+                &|c| layout.condition_params(params, c),
+            );
+            (effects.to_vec(), shifts)
+        });
+        Campaign {
+            coasting_shift,
+            ..self.clone()
+        }
     }
 
     /// The campaign with the model's part of its covariance taken where `effects` at `params`
@@ -247,16 +284,20 @@ impl<'a> Campaign<'a> {
     /// steer motor's rotor of 0.05 kg·m² withheld from eight blind studies, the inertia fitted
     /// with it had z of sd 1.6 (−1.0 … +3.4) against its truth, with its own 1.1. `None` when a
     /// prediction fails at a perturbed input or the result is not a covariance.
+    ///
+    /// A damped candidate's coasting rides also get the change of their coasting replay there
+    /// ([`super::coasting`]), held while the candidate is fitted again.
     pub fn at_fit(&self, effects: &[Effect], params: &[f64]) -> Option<Campaign<'a>> {
         let models = self.models;
         let all: Vec<usize> = (0..self.obs.len()).collect();
         let nominal_base = |c: usize| self.conditions[c].base;
-        let at = self.predictions(effects, params, &nominal_base, &self.guesses, &all)?;
+        let this = self.with_coasting(effects, params);
+        let at = this.predictions(effects, params, &nominal_base, &this.guesses, &all)?;
         let guesses: Vec<Complex<f64>> = at.iter().map(|(w, _)| *w).collect();
         let inputs = &models.first()?.inputs;
         let (_, factor) = crate::uncertainty::propagate_factor(inputs, |x| {
             let base = |c: usize| models[c].benchmark_at(x);
-            let Some(pred) = self.predictions(effects, params, &base, &guesses, &all) else {
+            let Some(pred) = this.predictions(effects, params, &base, &guesses, &all) else {
                 return vec![f64::NAN; self.parts.total()];
             };
             let mut out = Vec::with_capacity(self.parts.total());
@@ -271,12 +312,32 @@ impl<'a> Campaign<'a> {
         if factor.nrows() != self.parts.total() || factor.iter().any(|v| !v.is_finite()) {
             return None;
         }
+        // The shifts' own error, as the ride stage's correction carries its own
+        // (COASTING_BIAS_SE_FRACTION of it): a column of the model's factor per part shifted.
+        let mut factor = factor;
+        if let Some((_, shifts)) = &this.coasting_shift {
+            let errors: Vec<(usize, f64)> = shifts
+                .iter()
+                .enumerate()
+                .flat_map(|(i, d)| {
+                    let start = self.parts.start(i);
+                    (0..self.parts.of(i))
+                        .map(move |a| (start + a, COASTING_BIAS_SE_FRACTION * d[a]))
+                })
+                .filter(|&(_, e)| e != 0.0)
+                .collect();
+            let n0 = factor.ncols();
+            factor = factor.resize_horizontally(n0 + errors.len(), 0.0);
+            for (j, (row, e)) in errors.into_iter().enumerate() {
+                factor[(row, n0 + j)] = e;
+            }
+        }
         Some(Campaign {
             cov: self.exp_cov + &factor * factor.transpose(),
             factor: std::sync::OnceLock::new(),
             inverse: std::sync::OnceLock::new(),
             model_factor: Some(factor),
-            ..self.clone()
+            ..this
         })
     }
 

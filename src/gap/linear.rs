@@ -25,7 +25,7 @@
 //! no lag it is the Whipple model (tested).
 
 use crate::model::{Benchmark, Canonical};
-use nalgebra::{Complex, DMatrix, Matrix3, Vector3};
+use nalgebra::{Complex, DMatrix, DVector, Matrix3, Vector3};
 
 /// Linear tyres: lateral force per unit normal load per radian of slip and of camber, and the
 /// force's lag.
@@ -218,10 +218,19 @@ impl LinearBike {
         Some(a)
     }
 
-    /// The mode's γ/θ (steer over roll, complex) at eigenvalue `lambda` and speed `v`: a right
-    /// eigenvector of the state matrix by inverse iteration (three steps from a shift 1e-9 off
-    /// the eigenvalue). `None` when the matrix or the iteration fails.
+    /// The mode's γ/θ (steer over roll, complex) at eigenvalue `lambda` and speed `v` (from
+    /// [`LinearBike::mode_vector`]). `None` when the matrix or the iteration fails.
     pub fn mode_shape(&self, v: f64, lambda: Complex<f64>) -> Option<Complex<f64>> {
+        let x = self.mode_vector(v, lambda)?;
+        let [roll, steer, ..] = self.angle_states();
+        let ratio = x[steer] / x[roll];
+        ratio.is_finite().then_some(ratio)
+    }
+
+    /// The right eigenvector of the state matrix at eigenvalue `lambda` and speed `v`, by
+    /// inverse iteration (three steps from a shift 1e-9 off the eigenvalue), scaled so that
+    /// its largest component is 1. `None` when the matrix or the iteration fails.
+    pub fn mode_vector(&self, v: f64, lambda: Complex<f64>) -> Option<DVector<Complex<f64>>> {
         let a = self.state_matrix(v)?;
         let n = a.nrows();
         let shift =
@@ -235,7 +244,7 @@ impl LinearBike {
                 }
         });
         let lu = m.lu();
-        let mut x = nalgebra::DVector::from_element(n, Complex::new(1.0, 0.0));
+        let mut x = DVector::from_element(n, Complex::new(1.0, 0.0));
         for _ in 0..3 {
             x = lu.solve(&x)?;
             let big = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
@@ -244,10 +253,19 @@ impl LinearBike {
             }
             x /= Complex::new(big, 0.0);
         }
-        // Roll and steer: states 0, 1 with rigid wheels; 1, 2 with tyres (ψ first).
-        let (roll, steer) = if self.tyres.is_some() { (1, 2) } else { (0, 1) };
-        let ratio = x[steer] / x[roll];
-        ratio.is_finite().then_some(ratio)
+        let k = (0..n).max_by(|&i, &j| x[i].norm().total_cmp(&x[j].norm()))?;
+        let pivot = x[k];
+        Some(x / pivot)
+    }
+
+    /// Roll, steer and their rates: states 0–3 with rigid wheels; 1, 2, 5, 6 with tyres (ψ
+    /// first, [`LinearBike::state_matrix`]).
+    pub fn angle_states(&self) -> [usize; 4] {
+        if self.tyres.is_some() {
+            [1, 2, 5, 6]
+        } else {
+            [0, 1, 2, 3]
+        }
     }
 
     /// Every eigenvalue of the state matrix at speed `v` (a rigid bicycle's through the fixed
@@ -271,6 +289,25 @@ impl LinearBike {
     }
 }
 
+impl crate::ride::dynamic::LinearWeave for LinearBike {
+    fn state_matrix_at(&self, v: f64) -> Option<DMatrix<f64>> {
+        self.state_matrix(v)
+    }
+
+    fn weave_mode(
+        &self,
+        v: f64,
+        toward: Complex<f64>,
+    ) -> Option<(Complex<f64>, DVector<Complex<f64>>)> {
+        let w = self.weave_near(v, toward)?;
+        Some((w, self.mode_vector(v, w)?))
+    }
+
+    fn angle_states(&self) -> [usize; 4] {
+        LinearBike::angle_states(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -279,6 +316,40 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../shared/reference/bicycleparameters/BenchmarkBenchmark.txt");
         Benchmark::load(&path).unwrap()
+    }
+
+    /// A coasting ride replayed on the rigid extended model and on the Whipple model it is
+    /// built from (`ride::dynamic::replay_coasting`, two eigenvector codes, two state-matrix
+    /// types) gives one bias: the gap stage's "no effect" is the ride stage's.
+    #[test]
+    fn the_coasting_replay_is_the_ride_stages() {
+        use crate::ride::dynamic::{replay_coasting, CoastingWindow, ReplayStart};
+        let b = benchmark();
+        let window = CoastingWindow {
+            start_s: 7.0,
+            end_s: 9.5,
+            t_ref_s: 8.1,
+            rate_hz: 100.0,
+            structure: crate::ride::modal::Structure {
+                real_modes: 1,
+                drift: false,
+                trend: false,
+            },
+            speed_mps: 4.5,
+            accel_mps2: -0.15,
+            measured: Complex::new(-0.4, 4.8),
+            weave_start: Complex::new(0.02, -0.01),
+            real_start: [0.004, -0.002, -0.02, 0.01],
+            real_rates: [-8.0, 0.0],
+        };
+        for from in [ReplayStart::Weave, ReplayStart::Fitted] {
+            let rigid = replay_coasting(&LinearBike::whipple(&b), &window, from).unwrap();
+            let whipple = replay_coasting(&Canonical::from_benchmark(&b), &window, from).unwrap();
+            assert!(rigid[1].abs() > 1e-4, "{rigid:?}");
+            for (x, y) in rigid.iter().zip(&whipple) {
+                assert!((x - y).abs() < 1e-9, "{from:?}: {rigid:?} {whipple:?}");
+            }
+        }
     }
 
     /// Without damping the extended model is the benchmark's: Meijaard et al. 2007, Table 2,

@@ -33,6 +33,7 @@
 //! cannot tell apart, and the rides to make next), [`verdict`] (the words); this file runs them
 //! in order ([`diagnose`]).
 
+pub mod coasting;
 pub mod conditions;
 pub mod effects;
 pub mod fit;
@@ -50,6 +51,7 @@ pub use ties::{heldout_contrast, ride_contrasts, NextRide, NextRides, UNTIE_SEPA
 pub use verdict::param_text;
 
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
+use crate::ride::dynamic::COASTING_BIAS_SE_FRACTION;
 use fit::Campaign;
 use nalgebra::{Complex, DMatrix};
 use observe::{shape_residual, speed_bands};
@@ -525,6 +527,8 @@ pub fn diagnose_study(
             }
         }
     }
+    // The coasting rides' replays on the measured bicycle, for the damped candidates' own.
+    let coasting = coasting::CoastingBase::new(rides, &condition_models, &ride_condition);
     let all: Vec<usize> = (0..n).collect();
     let condition_inputs: Vec<Parametrized> =
         per_condition.iter().map(|(m, _)| m.clone()).collect();
@@ -543,6 +547,8 @@ pub fn diagnose_study(
         assumed: effects::Assumed::NOMINAL,
         exp_cov: &exp_cov,
         models: &condition_inputs,
+        coasting: &coasting,
+        coasting_shift: None,
     };
     d.parts_per_ride = parts.most();
     d.dof = total;
@@ -590,8 +596,11 @@ pub fn diagnose_study(
                 (o.shape_ratio.se, o.shape_phase_rad.se)
             };
             let model_weave = Complex::new(o.weave.re - r0[at], o.weave.im - r0[at + 1]);
-            let (dr, dp) =
-                shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave);
+            let (dr, dp) = if parts.of(i) > 2 {
+                (r0[at + 2], r0[at + 3])
+            } else {
+                shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave)
+            };
             RideResidual {
                 ride: o.ride.clone(),
                 condition: is_study.then(|| study[ride_condition[i]].name.clone()),
@@ -671,7 +680,8 @@ pub fn diagnose_study(
                 })
                 .collect(),
         );
-        if let Some(r) = campaign.residuals(&best.effects, &best.params, &all) {
+        let at_best = campaign.with_coasting(&best.effects, &best.params);
+        if let Some(r) = at_best.residuals(&best.effects, &best.params, &all) {
             d.residuals_after = d
                 .residuals
                 .iter()
@@ -684,16 +694,33 @@ pub fn diagnose_study(
                     let clock = effects::clock(&best.effects, &own);
                     let weave = Complex::new(o.weave.re - r[at], o.weave.im - r[at + 1]);
                     let v = effects::true_speed(&best.effects, &own, o);
-                    let (dr, dp) = shape_residual(&bike, o, v, weave * clock);
+                    let (dr, dp) = if parts.of(i) > 2 {
+                        (r[at + 2], r[at + 3])
+                    } else {
+                        shape_residual(&bike, o, v, weave * clock)
+                    };
+                    // A damped candidate's coasting shift carries its own error.
+                    let se = |a: usize, own: f64| {
+                        at_best.coasting_shift.as_ref().map_or(own, |(_, shifts)| {
+                            own.hypot(COASTING_BIAS_SE_FRACTION * shifts[i][a])
+                        })
+                    };
+                    let (re_se, im_se) = (se(0, before.re_se), se(1, before.im_se));
+                    let ratio_se = se(2, before.shape_ratio_se);
+                    let phase_se = se(3, before.shape_phase_se_rad);
                     RideResidual {
                         re: r[at],
                         im: r[at + 1],
-                        re_z: r[at] / before.re_se,
-                        im_z: r[at + 1] / before.im_se,
+                        re_se,
+                        im_se,
+                        re_z: r[at] / re_se,
+                        im_z: r[at + 1] / im_se,
                         shape_ratio: dr,
-                        shape_ratio_z: dr / before.shape_ratio_se,
+                        shape_ratio_se: ratio_se,
+                        shape_ratio_z: dr / ratio_se,
                         shape_phase_rad: dp,
-                        shape_phase_z: dp / before.shape_phase_se_rad,
+                        shape_phase_se_rad: phase_se,
+                        shape_phase_z: dp / phase_se,
                         ..before.clone()
                     }
                 })

@@ -38,6 +38,9 @@ pub struct Observation {
     /// speed (`[re, im]` in 1/s, `[|γ/θ|, arg]`; [`crate::ride::dynamic::DynamicTest`]), 0
     /// otherwise: its error is common to the campaign's rides.
     pub coasting_bias: [f64; 4],
+    /// The window the ride stage replayed for `coasting_bias`, on a ride whose speed changed
+    /// over it ([`super::coasting`] replays each candidate's bicycle on it).
+    pub coasting: Option<crate::ride::dynamic::CoastingWindow>,
     /// The speed the lab set for the ride (a treadmill's setting given in the manifest), when
     /// there is one: a condition's rides of one set speed repeat one set-up. `None` for a
     /// coasting ride, whose noted reading is where it was released, not a set-up.
@@ -64,6 +67,7 @@ impl Observation {
             window_s: t.fit.end_s - t.fit.start_s,
             window_accel_mps2: t.speed.sources.window_accel_mps2,
             coasting_bias: t.coasting_bias,
+            coasting: t.coasting,
             set_speed_mps: None,
             window: {
                 let rows: Vec<&[f64; 3]> = t
@@ -112,6 +116,7 @@ impl Observation {
             window_s: b - a,
             window_accel_mps2: 0.0,
             coasting_bias: [0.0; 4],
+            coasting: None,
             set_speed_mps: d.set_speed_mps,
         })
     }

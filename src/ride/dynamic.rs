@@ -9,7 +9,9 @@
 //! Every way a ride can be unusable is named: no kick, a recording too short for an eigenvalue,
 //! a sensor that did not move, the two sensors swapped.
 
-use super::modal::{fit_modes, Eigenvalue, ModalError, ModalFit, ModalOptions, Structure};
+use super::modal::{
+    fit_modes, Eigenvalue, ModalError, ModalFit, ModalOptions, Start, Structure, MAX_REAL_MODES,
+};
 use super::read::{read_ride, RideError, RideSignals};
 pub use super::speed::SpeedSource;
 use super::speed::{Geometry, NotedReading, SpeedSources};
@@ -137,12 +139,15 @@ pub struct DynamicTest {
     pub catch_s: f64,
     /// The end of the push (s), when found.
     pub release_s: Option<f64>,
-    /// The fit's weave and mode shape, corrected by [`coasting_bias`].
+    /// The fit's weave and mode shape, corrected by [`replay_coasting`].
     pub fit: ModalFit,
-    /// What was taken off the fit for the coasting ([`coasting_bias`] times
+    /// What was taken off the fit for the coasting ([`replay_coasting`] times
     /// [`COASTING_BIAS_APPLIED`] for the eigenvalue, [`COASTING_SHAPE_APPLIED`] for the shape):
     /// `[re (1/s), im (1/s), |γ/θ|, arg γ/θ (rad)]`, zeros on a ride at constant speed.
     pub coasting_bias: [f64; 4],
+    /// On a ride whose speed changes over the window: the window as it was replayed for
+    /// `coasting_bias` (the gap stage replays each candidate's bicycle on it).
+    pub coasting: Option<CoastingWindow>,
     pub model: ModelWeave,
     /// θ and γ from half a second before the kick to half a second after the window (for
     /// plots): time (s), roll (rad), steer (rad).
@@ -195,21 +200,16 @@ pub fn dynamic_test(
     };
     let mut fit = fit;
     let canonical = Canonical::from_benchmark(&nominal).with_control(model.control);
-    let coasting_bias = coasting_bias(
-        &canonical,
-        &fit,
-        signals.sample_rate_hz,
-        speed.speed_mps,
-        accel,
-    )
-    .map_or([0.0; 4], |b| {
-        [
-            COASTING_BIAS_APPLIED * b[0],
-            COASTING_BIAS_APPLIED * b[1],
-            COASTING_SHAPE_APPLIED * b[2],
-            COASTING_SHAPE_APPLIED * b[3],
-        ]
-    });
+    let window = CoastingWindow::of(&fit, signals.sample_rate_hz, speed.speed_mps, accel);
+    let coasting_bias =
+        replay_coasting(&canonical, &window, ReplayStart::Weave).map_or([0.0; 4], |b| {
+            [
+                COASTING_BIAS_APPLIED * b[0],
+                COASTING_BIAS_APPLIED * b[1],
+                COASTING_SHAPE_APPLIED * b[2],
+                COASTING_SHAPE_APPLIED * b[3],
+            ]
+        });
     if fit.drift.is_none() {
         // The drift's fit failed: its error is taken from the model's slope dλ/dv times the
         // speed's change over half the window (what a constant fit can be off by at most).
@@ -276,6 +276,7 @@ pub fn dynamic_test(
         catch_s: signals.catch_s,
         fit,
         coasting_bias,
+        coasting: (accel != 0.0 && coasting_bias != [0.0; 4]).then_some(window),
         model,
         trace,
         warnings: signals.log.warnings.clone(),
@@ -477,7 +478,7 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
         .map(|(t, _)| t)
 }
 
-/// How much of [`coasting_bias`] is taken off the fitted eigenvalue, and (the same) the
+/// How much of [`replay_coasting`] is taken off the fitted eigenvalue, and (the same) the
 /// standard error left for it. The measured bicycle's rigid-wheeled model gives the bias; on
 /// simulated coasting rides the true bias was that (knife-edge wheels) or of the opposite sign
 /// (compliant tyres, steer damping: their mode shape changes differently with speed). Over
@@ -491,8 +492,9 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
 /// the true bicycle, which the gap stage predicts with, the half correction leaves σ +0.02
 /// and ω +0.04 of their errors on the knife-edge rides (tests/speed.rs); on 200 rides with
 /// 0.6 N·m·s/rad of steer damping it left σ at −0.70 (measured once, issue 29): the damped
-/// bicycle's bias is another.
-const COASTING_BIAS_APPLIED: f64 = 0.5;
+/// bicycle's bias is another, which the gap stage gives a damped candidate
+/// ([`crate::gap::coasting`]).
+pub const COASTING_BIAS_APPLIED: f64 = 0.5;
 /// The standard error left for the correction, as a fraction of the part taken off: a ride's
 /// own (`bikeproc dynamic`). Across a campaign the part not known is one and the same (the
 /// tyres and the damping the rides share decide its sign), so the gap stage treats it as one
@@ -505,13 +507,50 @@ pub const COASTING_BIAS_SE_FRACTION: f64 = 0.5;
 /// rides each), so 0.7 holds either within 1.2 of its standard deviations.
 pub const COASTING_BIAS_COMMON_FRACTION: f64 = 0.7;
 
-/// How much of [`coasting_bias`]'s mode-shape part is taken off the fitted shape. The fit holds
+/// How much of [`replay_coasting`]'s mode-shape part is taken off the fitted shape. The fit holds
 /// the shape constant over a window in which the slowing bicycle's shape changes; the replay
 /// gives what that does. On 10 effect-free noted campaigns (140 coasting rides at 0.05–0.24
 /// m/s², knife-edge wheels) the shape's residual |γ/θ| was −0.0100 ± 0.0030 and the replay's
 /// −0.0100 on average: fitted to such campaigns, a sensor clock came out 1.25 of its standard
 /// errors low (median of 12), the front frame's I_xx 0.6 low.
 pub const COASTING_SHAPE_APPLIED: f64 = 1.0;
+
+/// A linear bicycle a coasting ride can be replayed on ([`replay_coasting`]): the Whipple
+/// model here ([`Canonical`]), the gap stage's extended ones (damping, tyres) there.
+pub trait LinearWeave {
+    /// The state matrix at speed `v` (m/s).
+    fn state_matrix_at(&self, v: f64) -> Option<nalgebra::DMatrix<f64>>;
+    /// The oscillatory eigenvalue (ω > 0) at `v` nearest `toward`, with its right eigenvector
+    /// scaled so that its largest component is 1.
+    fn weave_mode(
+        &self,
+        v: f64,
+        toward: Complex<f64>,
+    ) -> Option<(Complex<f64>, nalgebra::DVector<Complex<f64>>)>;
+    /// The states that are the roll and the steer angle and their rates.
+    fn angle_states(&self) -> [usize; 4];
+}
+
+impl LinearWeave for Canonical {
+    fn state_matrix_at(&self, v: f64) -> Option<nalgebra::DMatrix<f64>> {
+        let a = self.state_matrix(v)?;
+        Some(nalgebra::DMatrix::from_column_slice(4, 4, a.as_slice()))
+    }
+
+    fn weave_mode(
+        &self,
+        v: f64,
+        toward: Complex<f64>,
+    ) -> Option<(Complex<f64>, nalgebra::DVector<Complex<f64>>)> {
+        let w = weave_near(self, v, toward)?;
+        let shape = self.mode_shape(v, w)?;
+        Some((w, nalgebra::DVector::from_column_slice(&shape)))
+    }
+
+    fn angle_states(&self) -> [usize; 4] {
+        [0, 1, 2, 3]
+    }
+}
 
 /// The model's oscillatory eigenvalue (ω > 0) at `v` nearest `toward` (the measured weave):
 /// the branch the ride's weave belongs to. `None` when the model has none there.
@@ -521,6 +560,65 @@ fn weave_near(model: &Canonical, v: f64, toward: Complex<f64>) -> Option<Complex
         .into_iter()
         .filter(|z| z.im > 0.0)
         .min_by(|a, b| (a - toward).norm().total_cmp(&(b - toward).norm()))
+}
+
+/// A coasting ride's fit as its replay needs it ([`replay_coasting`]): the window (s), the
+/// time the fit's eigenvalue applies at, the sampling rate, the fit's structure, the speed at
+/// `t_ref_s` (m/s) and the forward acceleration (m/s²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoastingWindow {
+    pub start_s: f64,
+    pub end_s: f64,
+    pub t_ref_s: f64,
+    pub rate_hz: f64,
+    pub structure: Structure,
+    pub speed_mps: f64,
+    pub accel_mps2: f64,
+    /// The measured weave (1/s), which picks the model's branch.
+    pub measured: Complex<f64>,
+    /// The fit's weave in θ at the window's start as a phasor (rad, [`ModalFit::weave_roll_phasor`])
+    /// and its real modes there (`[θ, γ, θ̇, γ̇]`, [`ModalFit::real_modes_state`]): where
+    /// [`ReplayStart::Fitted`] starts.
+    pub weave_start: Complex<f64>,
+    pub real_start: [f64; 4],
+    /// The fit's real modes' rates (1/s; 0 beyond its count): where the replay's fit starts.
+    pub real_rates: [f64; MAX_REAL_MODES],
+}
+
+/// About this many samples over the window in a [`ReplayStart::Fitted`] replay.
+const REPLAY_SAMPLES: f64 = 80.0;
+
+/// Where a replay ([`replay_coasting`]) starts its free motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReplayStart {
+    /// On the model's weave alone: the ride stage's correction, whose part taken off
+    /// ([`COASTING_BIAS_APPLIED`]) was measured with this start.
+    Weave,
+    /// Where the ride's fit says the motion began: its weave (the model's mode shape, the
+    /// fit's amplitude and phase in θ) and its real modes as fitted. On a damped bicycle's
+    /// coasting rides whose fit holds real modes, σ is read 0.13–0.15 1/s too damped, and only
+    /// a replay that carries those modes shows it (issue 29; [`crate::gap::coasting`]).
+    Fitted,
+}
+
+impl CoastingWindow {
+    /// The window of `fit` on a ride sampled at `rate_hz` whose speed at the fit's reference
+    /// time is `speed_mps`, changing at `accel_mps2`.
+    pub fn of(fit: &ModalFit, rate_hz: f64, speed_mps: f64, accel_mps2: f64) -> CoastingWindow {
+        CoastingWindow {
+            start_s: fit.start_s,
+            end_s: fit.end_s,
+            t_ref_s: fit.t_ref_s,
+            rate_hz,
+            structure: fit.structure,
+            speed_mps,
+            accel_mps2,
+            measured: Complex::new(fit.weave.re, fit.weave.im),
+            weave_start: fit.weave_roll_phasor(fit.start_s),
+            real_start: fit.real_modes_state(fit.start_s),
+            real_rates: std::array::from_fn(|k| fit.real_modes.get(k).map_or(0.0, |r| r.value)),
+        }
+    }
 }
 
 /// What a coasting bicycle's changing speed does to the fitted eigenvalue, beyond the drift
@@ -533,26 +631,49 @@ fn weave_near(model: &Canonical, v: f64, toward: Complex<f64>) -> Option<Complex
 /// modes and trends); the fitted eigenvalue less the
 /// frozen one at the speed where that fit applies is the bias (1/s, `[re, im]`), and the
 /// fitted mode shape less the frozen one's (`[|γ/θ|, arg γ/θ (rad)]`). `None` when the model has
-/// no weave there or the fit fails.
-pub fn coasting_bias(
-    model: &Canonical,
-    fit: &ModalFit,
-    rate_hz: f64,
-    speed_mps: f64,
-    accel_mps2: f64,
+/// no weave there or the fit fails. `model` is any linear bicycle: the gap stage replays each
+/// candidate's.
+pub fn replay_coasting(
+    model: &impl LinearWeave,
+    w: &CoastingWindow,
+    from: ReplayStart,
 ) -> Option<[f64; 4]> {
-    let speed_at = |t: f64| speed_mps + accel_mps2 * (t - fit.t_ref_s);
-    let measured = Complex::new(fit.weave.re, fit.weave.im);
-    let weave_at = |v: f64| weave_near(model, v, measured);
-    let v0 = speed_at(fit.start_s);
-    let shape = model.mode_shape(v0, weave_at(v0)?)?;
-    let mut x = nalgebra::Vector4::from_fn(|i, _| shape[i].re);
-    let f = |t: f64, x: &nalgebra::Vector4<f64>| -> Option<nalgebra::Vector4<f64>> {
-        Some(model.state_matrix(speed_at(t))? * x)
+    let speed_at = |t: f64| w.speed_mps + w.accel_mps2 * (t - w.t_ref_s);
+    let (start_weave, start) = model.weave_mode(speed_at(w.start_s), w.measured)?;
+    let states = model.angle_states();
+    let [roll_state, steer_state, ..] = states;
+    let mut x = match from {
+        ReplayStart::Weave => start.map(|z| z.re),
+        ReplayStart::Fitted => {
+            let scale = w.weave_start / start[roll_state];
+            let mut x = start.map(|z| (z * scale).re);
+            for (&s, r) in states.iter().zip(w.real_start) {
+                x[s] += r;
+            }
+            x
+        }
+    };
+    if x.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let f = |t: f64, x: &nalgebra::DVector<f64>| -> Option<nalgebra::DVector<f64>> {
+        Some(model.state_matrix_at(speed_at(t))? * x)
+    };
+    // The gap stage's replays (many per campaign) are sampled more sparsely, at about
+    // REPLAY_SAMPLES over the window: the least-squares fit of a smooth, noise-free motion
+    // hardly depends on it.
+    let rate_hz = match from {
+        ReplayStart::Weave => w.rate_hz,
+        ReplayStart::Fitted => {
+            let every = ((w.end_s - w.start_s) * w.rate_hz / REPLAY_SAMPLES)
+                .floor()
+                .max(1.0);
+            w.rate_hz / every
+        }
     };
     let sub = 4;
     let h = 1.0 / (rate_hz * sub as f64);
-    let n = ((fit.end_s - fit.start_s) * rate_hz).floor() as usize + 1;
+    let n = ((w.end_s - w.start_s) * rate_hz).floor() as usize + 1;
     let (mut ts, mut roll, mut steer) = (Vec::new(), Vec::new(), Vec::new());
     // A whisper of noise keeps the fit's noise levels and information criterion finite:
     // uniform, seeded, of standard deviation 1e-7 rad.
@@ -561,21 +682,21 @@ pub fn coasting_bias(
         let u: f64 = rand::RngExt::random(&mut rng);
         1e-7 * 12f64.sqrt() * (u - 0.5)
     };
-    let mut t = fit.start_s;
+    let mut t = w.start_s;
     for k in 0..n {
         if k > 0 {
             for _ in 0..sub {
                 let k1 = f(t, &x)?;
-                let k2 = f(t + 0.5 * h, &(x + k1 * (0.5 * h)))?;
-                let k3 = f(t + 0.5 * h, &(x + k2 * (0.5 * h)))?;
-                let k4 = f(t + h, &(x + k3 * h))?;
+                let k2 = f(t + 0.5 * h, &(&x + &k1 * (0.5 * h)))?;
+                let k3 = f(t + 0.5 * h, &(&x + &k2 * (0.5 * h)))?;
+                let k4 = f(t + h, &(&x + &k3 * h))?;
                 x += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
                 t += h;
             }
         }
-        ts.push(fit.start_s + k as f64 / rate_hz);
-        roll.push(x[0] + whisper());
-        steer.push(x[1] + whisper());
+        ts.push(w.start_s + k as f64 / rate_hz);
+        roll.push(x[roll_state] + whisper());
+        steer.push(x[steer_state] + whisper());
     }
     // The ride's structure first; the model's weave alone excites no real mode, so where the
     // ride's real modes make that fit fail (a fifth of coasting rides at 4–4.5 m/s, whose σ
@@ -589,20 +710,23 @@ pub fn coasting_bias(
                 resamples: 0,
                 seed: 1,
                 only: Some(structure),
+                start: (from == ReplayStart::Fitted).then_some(Start {
+                    weave: [start_weave.re, start_weave.im],
+                    real_rates: w.real_rates,
+                }),
             },
         )
         .ok()
     };
-    let sim = fit_as(fit.structure).or_else(|| {
+    let sim = fit_as(w.structure).or_else(|| {
         fit_as(Structure {
             real_modes: 0,
-            ..fit.structure
+            ..w.structure
         })
     })?;
     let v_ref = speed_at(sim.t_ref_s);
-    let frozen = weave_at(v_ref)?;
-    let frozen_shape = model.mode_shape(v_ref, frozen)?;
-    let ratio = frozen_shape[1] / frozen_shape[0];
+    let (frozen, mode) = model.weave_mode(v_ref, w.measured)?;
+    let ratio = mode[steer_state] / mode[roll_state];
     Some([
         sim.weave.re - frozen.re,
         sim.weave.im - frozen.im,

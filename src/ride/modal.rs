@@ -130,6 +130,33 @@ pub struct ModalFit {
 }
 
 impl ModalFit {
+    /// The weave's part of θ at time `t` as a phasor: θ_weave(t) = Re(A) (rad), A turning with
+    /// the fitted eigenvalue.
+    pub fn weave_roll_phasor(&self, t: f64) -> Complex<f64> {
+        let st = self.structure;
+        let p = &self.params;
+        let (e, cos, sin) = carrier(p, st, t - self.t_ref_s);
+        let l = st.nonlinear();
+        Complex::new(p[l], -p[l + 1]) * Complex::new(e * cos, e * sin)
+    }
+
+    /// The real modes' part of θ and γ at time `t`, and its rates: `[θ, γ, θ̇, γ̇]` (rad, rad/s).
+    pub fn real_modes_state(&self, t: f64) -> [f64; 4] {
+        let st = self.structure;
+        let p = &self.params;
+        let mut out = [0.0; 4];
+        for s in 0..2 {
+            let l = st.nonlinear() + s * st.linear();
+            for k in 0..st.real_modes {
+                let rate = p[real_index(st, k)];
+                let x = p[l + 2 + k] * (rate * (t - self.start_s)).exp();
+                out[s] += x;
+                out[s + 2] += rate * x;
+            }
+        }
+        out
+    }
+
     /// The fitted θ and γ at time `t` (s).
     pub fn eval(&self, t: f64) -> [f64; 2] {
         let st = self.structure;
@@ -585,6 +612,17 @@ pub struct ModalOptions {
     /// Fit this structure only instead of choosing one by the information criterion, and skip
     /// the drift's check: to repeat on a model's curve exactly the fit a ride got.
     pub only: Option<Structure>,
+    /// Where to start instead of the searches (the periodogram's frequency and a grid of σ
+    /// and of the real rates): for a replay of a model, whose eigenvalues are known.
+    pub start: Option<Start>,
+}
+
+/// A fit's starting point ([`ModalOptions::start`]): the weave's `[σ, ω]` and the real modes'
+/// rates (1/s; those beyond the structure's count unused).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Start {
+    pub weave: [f64; 2],
+    pub real_rates: [f64; MAX_REAL_MODES],
 }
 
 impl Default for ModalOptions {
@@ -593,6 +631,7 @@ impl Default for ModalOptions {
             resamples: 400,
             seed: 1,
             only: None,
+            start: None,
         }
     }
 }
@@ -637,22 +676,31 @@ pub fn fit_modes(
             trend: true,
         },
     };
-    // Starting point: ω from the periodogram, σ by a search (variable projection).
-    let omega0 = dominant_omega(t_s, x, weight);
-    let base = (0..=50)
-        .map(|k| -4.0 + 0.12 * k as f64)
-        .filter_map(|sigma| {
-            let p = problem.project(&[sigma, omega0])?;
-            Some((problem.cost(&p), p))
-        })
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .ok_or(ModalError::NoWeave)?
-        .1;
-    let base = solve(&problem, base).ok_or(ModalError::NoWeave)?;
-    let (sigma, omega) = if plausible(&base) {
-        (base[0], base[1])
-    } else {
-        (0.0, omega0)
+    // Starting point: ω from the periodogram, σ by a search (variable projection); or the
+    // eigenvalue given.
+    let (sigma, omega) = match options.start {
+        Some(Start {
+            weave: [sigma, omega],
+            ..
+        }) => (sigma, omega),
+        None => {
+            let omega0 = dominant_omega(t_s, x, weight);
+            let base = (0..=50)
+                .map(|k| -4.0 + 0.12 * k as f64)
+                .filter_map(|sigma| {
+                    let p = problem.project(&[sigma, omega0])?;
+                    Some((problem.cost(&p), p))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .ok_or(ModalError::NoWeave)?
+                .1;
+            let base = solve(&problem, base).ok_or(ModalError::NoWeave)?;
+            if plausible(&base) {
+                (base[0], base[1])
+            } else {
+                (0.0, omega0)
+            }
+        }
     };
     // Every structure, each from the base eigenvalue and the best starting real rates.
     let mut best: Option<Candidate> = None;
@@ -674,7 +722,8 @@ pub fn fit_modes(
     };
     for st in structures {
         problem.st = st;
-        let Some(c) = fit_structure(&problem, sigma, omega) else {
+        let rates = options.start.map(|s| s.real_rates);
+        let Some(c) = fit_structure(&problem, sigma, omega, rates) else {
             continue;
         };
         if best.as_ref().is_none_or(|b| c.bic < b.bic) {
@@ -772,7 +821,12 @@ pub fn vaf_with_modes(
 /// A structure fitted from the base eigenvalue: the real modes start from the best of a grid
 /// of rates (by the projected cost), then Levenberg–Marquardt on everything. `None` when it
 /// fails or lands somewhere unphysical (real rates beyond ±60 /s, two equal real modes).
-fn fit_structure(problem: &Problem<'_>, sigma: f64, omega: f64) -> Option<Candidate> {
+fn fit_structure(
+    problem: &Problem<'_>,
+    sigma: f64,
+    omega: f64,
+    rates: Option<[f64; MAX_REAL_MODES]>,
+) -> Option<Candidate> {
     const RATES: [f64; 5] = [-0.3, -1.0, -3.0, -8.0, -20.0];
     let st = problem.st;
     let head: Vec<f64> = if st.drift {
@@ -780,10 +834,11 @@ fn fit_structure(problem: &Problem<'_>, sigma: f64, omega: f64) -> Option<Candid
     } else {
         vec![sigma, omega]
     };
-    let starts: Vec<Vec<f64>> = match st.real_modes {
-        0 => vec![vec![]],
-        1 => RATES.iter().map(|&r| vec![r]).collect(),
-        _ => RATES
+    let starts: Vec<Vec<f64>> = match (st.real_modes, rates) {
+        (k, Some(r)) => vec![r[..k.min(MAX_REAL_MODES)].to_vec()],
+        (0, None) => vec![vec![]],
+        (1, None) => RATES.iter().map(|&r| vec![r]).collect(),
+        (_, None) => RATES
             .iter()
             .enumerate()
             .flat_map(|(i, &a)| RATES[i + 1..].iter().map(move |&b| vec![a, b]))
