@@ -46,6 +46,10 @@ pub struct Campaign<'a> {
     pub model_factor: Option<DMatrix<f64>>,
     /// The inverse of `exp_cov`, made once for every candidate's campaign.
     pub exp_inverse: &'a std::sync::OnceLock<Option<DMatrix<f64>>>,
+    /// The common part of `exp_cov` (the coasting correction's error shared by the rides,
+    /// `w wᵀ`): the rest is block-diagonal over the rides, which [`Campaign::at_fit`] uses to
+    /// add a damped candidate's own errors without factoring the whole again.
+    pub exp_common: &'a DVector<f64>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
     pub assumed: Assumed,
@@ -258,19 +262,21 @@ impl<'a> Campaign<'a> {
 
     /// The campaign with a damped candidate's coasting shifts ([`super::coasting`]) taken
     /// where `effects` at `params` put the bicycle, for predictions under those effects; the
-    /// campaign itself for any other candidate.
+    /// campaign itself for any other candidate, or where no ride coasts.
     pub fn with_coasting(&self, effects: &[Effect], params: &[f64]) -> Campaign<'a> {
-        let coasting_shift = super::coasting::CoastingBase::applies_to(effects).then(|| {
-            let layout = self.layout(effects);
-            let shifts = self.coasting.shifts(
-                self.obs,
-                self.conditions,
-                &self.ride_condition,
-                effects,
-                &|c| layout.condition_params(params, c),
-            );
-            (effects.to_vec(), shifts)
-        });
+        let coasting_shift = super::coasting::CoastingBase::applies_to(effects)
+            .then(|| {
+                let layout = self.layout(effects);
+                self.coasting.shifts(
+                    self.obs,
+                    self.conditions,
+                    &self.ride_condition,
+                    effects,
+                    &|c| layout.condition_params(params, c),
+                )
+            })
+            .filter(|shifts| shifts.iter().flatten().any(|&d| d != 0.0))
+            .map(|shifts| (effects.to_vec(), shifts));
         Campaign {
             coasting_shift,
             ..self.clone()
@@ -312,28 +318,14 @@ impl<'a> Campaign<'a> {
         if factor.nrows() != self.parts.total() || factor.iter().any(|v| !v.is_finite()) {
             return None;
         }
-        // The shifts' own error, as the ride stage's correction carries its own
-        // (COASTING_BIAS_SE_FRACTION of it): a column of the model's factor per part shifted.
-        let mut factor = factor;
-        if let Some((_, shifts)) = &this.coasting_shift {
-            let errors: Vec<(usize, f64)> = shifts
-                .iter()
-                .enumerate()
-                .flat_map(|(i, d)| {
-                    let start = self.parts.start(i);
-                    (0..self.parts.of(i))
-                        .map(move |a| (start + a, COASTING_BIAS_SE_FRACTION * d[a]))
-                })
-                .filter(|&(_, e)| e != 0.0)
-                .collect();
-            let n0 = factor.ncols();
-            factor = factor.resize_horizontally(n0 + errors.len(), 0.0);
-            for (j, (row, e)) in errors.into_iter().enumerate() {
-                factor[(row, n0 + j)] = e;
+        let mut cov = self.exp_cov + &factor * factor.transpose();
+        if let Some(d) = this.coasting_error() {
+            for (k, e) in d.iter().enumerate() {
+                cov[(k, k)] += e * e;
             }
         }
         Some(Campaign {
-            cov: self.exp_cov + &factor * factor.transpose(),
+            cov,
             factor: std::sync::OnceLock::new(),
             inverse: std::sync::OnceLock::new(),
             model_factor: Some(factor),
@@ -367,14 +359,60 @@ impl<'a> Campaign<'a> {
     /// positive definite) L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
     fn make_inverse(&self) -> Option<DMatrix<f64>> {
         if let Some(u) = &self.model_factor {
-            let e_inv = self
-                .exp_inverse
-                .get_or_init(|| inverse_from_factor(&self.exp_cov.clone().cholesky()?));
-            if let Some(s) = e_inv.as_ref().and_then(|e_inv| woodbury_inverse(e_inv, u)) {
+            let own;
+            let e_inv = match self.coasting_error() {
+                Some(d) => {
+                    own = self.exp_inverse_plus(&d);
+                    own.as_ref()
+                }
+                None => self
+                    .exp_inverse
+                    .get_or_init(|| inverse_from_factor(&self.exp_cov.clone().cholesky()?))
+                    .as_ref(),
+            };
+            if let Some(s) = e_inv.and_then(|e_inv| woodbury_inverse(e_inv, u)) {
                 return Some(s);
             }
         }
         inverse_from_factor(self.factor()?)
+    }
+
+    /// The standard deviations (in the residual vector's order) of a damped candidate's
+    /// coasting shifts' own error: [`COASTING_BIAS_SE_FRACTION`] of each shift, independent
+    /// between rides and parts (held together across the rides they left the estimate at a
+    /// median +0.52 of its errors on 30 noted campaigns, against +0.17). `None` without shifts.
+    fn coasting_error(&self) -> Option<DVector<f64>> {
+        let (_, shifts) = self.coasting_shift.as_ref()?;
+        let mut d = DVector::zeros(self.parts.total());
+        for (i, s) in shifts.iter().enumerate() {
+            let start = self.parts.start(i);
+            for a in 0..self.parts.of(i) {
+                d[start + a] = COASTING_BIAS_SE_FRACTION * s[a];
+            }
+        }
+        Some(d)
+    }
+
+    /// (E + diag(d²))⁻¹ for the experimental covariance E = B + w wᵀ (B block-diagonal over
+    /// the rides, w [`Campaign::exp_common`]): each ride's block inverted, then
+    /// Sherman–Morrison's update by w, O(N²) where factoring it afresh is O(N³).
+    fn exp_inverse_plus(&self, d: &DVector<f64>) -> Option<DMatrix<f64>> {
+        let n = self.parts.total();
+        let w = self.exp_common;
+        let mut b_inv = DMatrix::zeros(n, n);
+        for i in 0..self.obs.len() {
+            let (start, p) = (self.parts.start(i), self.parts.of(i));
+            let wi = w.rows(start, p);
+            let mut block = self.exp_cov.view((start, start), (p, p)) - wi * wi.transpose();
+            for a in 0..p {
+                block[(a, a)] += d[start + a].powi(2);
+            }
+            let inv = block.cholesky()?.inverse();
+            b_inv.view_mut((start, start), (p, p)).copy_from(&inv);
+        }
+        let y = &b_inv * w;
+        let denom = 1.0 + w.dot(&y);
+        (denom > 0.0).then(|| b_inv - &y * y.transpose() / denom)
     }
 
     /// The inverse of the whole covariance, made once ([`Campaign::make_inverse`]); `None` when

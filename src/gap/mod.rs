@@ -527,6 +527,17 @@ pub fn diagnose_study(
             }
         }
     }
+    // That common part, w wᵀ (the rest of exp_cov is block-diagonal over the rides).
+    let exp_common = {
+        use crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION as C;
+        let mut w = nalgebra::DVector::zeros(total);
+        for (i, o) in rides.iter().enumerate() {
+            for a in 0..parts.of(i) {
+                w[parts.start(i) + a] = C * o.coasting_bias[a];
+            }
+        }
+        w
+    };
     // The coasting rides' replays on the measured bicycle, for the damped candidates' own.
     let coasting = coasting::CoastingBase::new(rides, &condition_models, &ride_condition);
     let all: Vec<usize> = (0..n).collect();
@@ -544,6 +555,7 @@ pub fn diagnose_study(
         inverse: std::sync::OnceLock::new(),
         model_factor: None,
         exp_inverse: &exp_inverse,
+        exp_common: &exp_common,
         assumed: effects::Assumed::NOMINAL,
         exp_cov: &exp_cov,
         models: &condition_inputs,
