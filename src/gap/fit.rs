@@ -381,7 +381,7 @@ impl<'a> Campaign<'a> {
     /// coasting shifts' own error: [`COASTING_BIAS_SE_FRACTION`] of each shift, independent
     /// between rides and parts (held together across the rides they left the estimate at a
     /// median +0.52 of its errors on 30 noted campaigns, against +0.17). `None` without shifts.
-    fn coasting_error(&self) -> Option<DVector<f64>> {
+    pub fn coasting_error(&self) -> Option<DVector<f64>> {
         let (_, shifts) = self.coasting_shift.as_ref()?;
         let mut d = DVector::zeros(self.parts.total());
         for (i, s) in shifts.iter().enumerate() {

@@ -51,7 +51,6 @@ pub use ties::{heldout_contrast, ride_contrasts, NextRide, NextRides, UNTIE_SEPA
 pub use verdict::param_text;
 
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
-use crate::ride::dynamic::COASTING_BIAS_SE_FRACTION;
 use fit::Campaign;
 use nalgebra::{Complex, DMatrix};
 use observe::{shape_residual, speed_bands};
@@ -693,6 +692,7 @@ pub fn diagnose_study(
                 .collect(),
         );
         let at_best = campaign.with_coasting(&best.effects, &best.params);
+        let shift_error = at_best.coasting_error();
         if let Some(r) = at_best.residuals(&best.effects, &best.params, &all) {
             d.residuals_after = d
                 .residuals
@@ -713,9 +713,7 @@ pub fn diagnose_study(
                     };
                     // A damped candidate's coasting shift carries its own error.
                     let se = |a: usize, own: f64| {
-                        at_best.coasting_shift.as_ref().map_or(own, |(_, shifts)| {
-                            own.hypot(COASTING_BIAS_SE_FRACTION * shifts[i][a])
-                        })
+                        shift_error.as_ref().map_or(own, |e| own.hypot(e[at + a]))
                     };
                     let (re_se, im_se) = (se(0, before.re_se), se(1, before.im_se));
                     let ratio_se = se(2, before.shape_ratio_se);
