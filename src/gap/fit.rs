@@ -48,7 +48,7 @@ pub struct Campaign<'a> {
     pub exp_inverse: &'a std::sync::OnceLock<Option<DMatrix<f64>>>,
     /// The common part of `exp_cov` (the coasting correction's error shared by the rides,
     /// `w wᵀ`): the rest is block-diagonal over the rides, which [`Campaign::at_fit`] uses to
-    /// add a damped candidate's own errors without factoring the whole again.
+    /// add a candidate's coasting shifts' errors without factoring the whole again.
     pub exp_common: &'a DVector<f64>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
@@ -63,9 +63,9 @@ pub struct Campaign<'a> {
     pub models: &'a [Parametrized],
     /// Each coasting ride's replay on the measured bicycle ([`super::coasting`]).
     pub coasting: &'a super::coasting::CoastingBase,
-    /// At a damped candidate's fit ([`Campaign::at_fit`]): the candidate's effects and what
-    /// its coasting replay adds to each ride's prediction under them, held while it is fitted
-    /// again; `None` elsewhere.
+    /// At the fit of a candidate with coasting shifts ([`Campaign::at_fit`]): the candidate's
+    /// effects and what its coasting replay adds to each ride's prediction under them, held
+    /// while it is fitted again; `None` elsewhere.
     pub coasting_shift: Option<(Vec<Effect>, Vec<[f64; 4]>)>,
 }
 
@@ -260,7 +260,7 @@ impl<'a> Campaign<'a> {
             .collect()
     }
 
-    /// The campaign with a damped candidate's coasting shifts ([`super::coasting`]) taken
+    /// The campaign with a candidate's coasting shifts ([`super::coasting`]) taken
     /// where `effects` at `params` put the bicycle, for predictions under those effects; the
     /// campaign itself for any other candidate, or where no ride coasts.
     pub fn with_coasting(&self, effects: &[Effect], params: &[f64]) -> Campaign<'a> {
@@ -291,8 +291,8 @@ impl<'a> Campaign<'a> {
     /// with it had z of sd 1.6 (−1.0 … +3.4) against its truth, with its own 1.1. `None` when a
     /// prediction fails at a perturbed input or the result is not a covariance.
     ///
-    /// A damped candidate's coasting rides also get the change of their coasting replay there
-    /// ([`super::coasting`]), held while the candidate is fitted again.
+    /// A damped or speed-moving candidate's coasting rides also get the change of their
+    /// coasting replay there ([`super::coasting`]), held while the candidate is fitted again.
     pub fn at_fit(&self, effects: &[Effect], params: &[f64]) -> Option<Campaign<'a>> {
         let models = self.models;
         let all: Vec<usize> = (0..self.obs.len()).collect();
@@ -377,7 +377,7 @@ impl<'a> Campaign<'a> {
         inverse_from_factor(self.factor()?)
     }
 
-    /// The standard deviations (in the residual vector's order) of a damped candidate's
+    /// The standard deviations (in the residual vector's order) of a candidate's
     /// coasting shifts' own error: [`COASTING_BIAS_SE_FRACTION`] of each shift, independent
     /// between rides and parts (held together across the rides they left the estimate at a
     /// median +0.52 of its errors on 30 noted campaigns, against +0.17). `None` without shifts.

@@ -537,7 +537,7 @@ pub fn diagnose_study(
         }
         w
     };
-    // The coasting rides' replays on the measured bicycle, for the damped candidates' own.
+    // The coasting rides' replays on the measured bicycle, for the candidates' shifts.
     let coasting = coasting::CoastingBase::new(rides, &condition_models, &ride_condition);
     let all: Vec<usize> = (0..n).collect();
     let condition_inputs: Vec<Parametrized> =
@@ -711,7 +711,7 @@ pub fn diagnose_study(
                     } else {
                         shape_residual(&bike, o, v, weave * clock)
                     };
-                    // A damped candidate's coasting shift carries its own error.
+                    // A candidate's coasting shift carries its own error.
                     let se = |a: usize, own: f64| {
                         shift_error.as_ref().map_or(own, |e| own.hypot(e[at + a]))
                     };

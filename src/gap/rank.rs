@@ -29,6 +29,10 @@ pub struct Ranked {
     /// χ² of the fit to every ride, its degrees of freedom and the BIC `χ² + k ln(2N)`.
     pub chi2: f64,
     pub bic: f64,
+    /// χ² of the first fit, in the campaign's covariance at "no effect" and without coasting
+    /// shifts: the targeted test's ([`super::significance`]), whose null draws are made there.
+    #[serde(skip)]
+    pub chi2_test: f64,
     /// RMS of the held-out rides' residuals in their own standard errors, without and with
     /// the effect (each ride predicted from a fit to the others).
     pub heldout_rms_before: f64,
@@ -382,6 +386,7 @@ pub(super) fn rank(
             effects,
             bic: f.chi2 + f.params.len() as f64 * (parts as f64).ln(),
             chi2: f.chi2,
+            chi2_test: first.chi2,
             params: f.params,
             params_se: se,
             heldout_rms_before: rms(before),

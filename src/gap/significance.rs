@@ -253,7 +253,11 @@ fn orthonormal(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
 
 /// The campaign's targeted test: among the single effects of the ranking, the one whose fit
 /// gives the smallest p-value (its likelihood ratio χ²-distributed with as many degrees of
-/// freedom as it has parameters when the model is right, Wilks); that smallest p calibrated on
+/// freedom as it has parameters when the model is right, Wilks; from its first fit, in the
+/// covariance at "no effect" where the null draws are made, [`super::rank::Ranked::chi2_test`]:
+/// the final fit's coasting shifts, held at the first fit, are no part of those draws, and a
+/// speedometer's scale there took an effect-free campaign's p from 0.18 to 0.0055); that
+/// smallest p calibrated on
 /// the null draws of [`NullTest`], so that effects that move the weave alike (a trail and a
 /// front frame's inertia) count once and not as independent tries. The campaign's p-value is
 /// the same for the smaller of it and the χ² test's p. Each is capped by its Bonferroni bound
@@ -267,8 +271,8 @@ pub(super) fn targeted_test(d: &mut Diagnosis, null: Option<&NullTest>) {
         .iter()
         .map(|r| {
             let k = r.params.len();
-            let birge = (r.chi2 / d.dof.saturating_sub(k).max(1) as f64).max(1.0);
-            let lr = ((chi2_before - r.chi2) / birge).max(0.0);
+            let birge = (r.chi2_test / d.dof.saturating_sub(k).max(1) as f64).max(1.0);
+            let lr = ((chi2_before - r.chi2_test) / birge).max(0.0);
             (r.effect.clone(), lr, k, stats::chi2_sf(lr, k))
         })
         .min_by(|a, b| a.3.total_cmp(&b.3).then(b.1.total_cmp(&a.1)));
