@@ -537,3 +537,59 @@ fn noted_steer_damping_is_unbiased() {
     assert!(mean.abs() <= 0.7, "mean {mean:+.2}");
     assert!(within >= 8, "{within} of 10 within 2 SE");
 }
+
+/// A campaign whose rides give the eigenvalue alone (one ride's unusable shape makes every
+/// ride of its condition so; here asked for) with a damped candidate first, whose coasting
+/// shifts have four parts per ride: the residuals after it carry each ride's own shift error on
+/// the two parts the ride has, never beyond them (they once read the next ride's, and past the
+/// last ride an index out of bounds). Noted design (coasting rides), 0.1–0.6 N·m·s/rad.
+#[test]
+fn eigenvalue_only_rides_take_their_own_coasting_errors() {
+    use bikeproc::gap::{diagnose, observe::observations, GapOptions};
+    use bikeproc::ride::dynamic::run_campaign;
+    use bikeproc::ride::modal::ModalOptions;
+    let bike_path = root().join("data/lab_bike.toml");
+    let lab = LabBike::load(&bike_path).unwrap();
+    let text = std::fs::read_to_string(&bike_path).unwrap();
+    let (files, truth) = bikeproc::sim::campaign::blind_campaign_plus(
+        &lab,
+        "bike.toml",
+        Withheld::SteerDamping,
+        BlindDesign::Noted,
+        1003,
+        &[],
+        Draws::Broad,
+    )
+    .unwrap();
+    let d = bikeproc::sim::calibration::in_scratch("eigenvalue_only", &files, &text, &|dir| {
+        let manifest = RideManifest::load(&dir.join("rides.toml")).map_err(|e| e.to_string())?;
+        let model = uncertain::load(&dir.join("bike.toml")).map_err(|e| e.to_string())?;
+        let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
+        let (rides, failed) = observations(&results);
+        diagnose(
+            &rides,
+            &failed,
+            &model,
+            &GapOptions { shape: false },
+            &|_, _| {},
+        )
+        .map_err(|e| e.to_string())
+    })
+    .unwrap();
+    assert_eq!(d.parts_per_ride, 2);
+    let best = &d.ranking[0];
+    assert!(best
+        .effects
+        .contains(&bikeproc::gap::effects::Effect::SteerDamping));
+    println!(
+        "{}: {:?} (truth {:.3})",
+        best.effect, best.params, truth.params[0]
+    );
+    assert_eq!(d.residuals.len(), d.residuals_after.len());
+    let mut widened = 0;
+    for (b, a) in d.residuals.iter().zip(&d.residuals_after) {
+        assert!(a.re_se >= b.re_se && a.im_se >= b.im_se, "{}", b.ride);
+        widened += usize::from(a.re_se > b.re_se);
+    }
+    assert!(widened > 0, "no ride carries a shift error");
+}

@@ -711,9 +711,11 @@ pub fn diagnose_study(
                     } else {
                         shape_residual(&bike, o, v, weave * clock)
                     };
-                    // A candidate's coasting shift carries its own error.
-                    let se = |a: usize, own: f64| {
-                        shift_error.as_ref().map_or(own, |e| own.hypot(e[at + a]))
+                    // A candidate's coasting shift carries its own error (on the parts the
+                    // ride has: a ride without its shape has no shift there).
+                    let se = |a: usize, own: f64| match &shift_error {
+                        Some(e) if a < parts.of(i) => own.hypot(e[at + a]),
+                        _ => own,
                     };
                     let (re_se, im_se) = (se(0, before.re_se), se(1, before.im_se));
                     let ratio_se = se(2, before.shape_ratio_se);
