@@ -65,9 +65,6 @@ const RIDE_APPLIED: [f64; 4] = [
 #[derive(Debug, Clone, Default)]
 pub struct CoastingBase {
     rides: Vec<Option<[f64; 4]>>,
-    /// The ride stage's own replay of each ride, at its reported speed on the gap stage's
-    /// model: made for the first candidate that moves the speeds.
-    ride_stage: std::sync::OnceLock<Vec<Option<[f64; 4]>>>,
 }
 
 impl CoastingBase {
@@ -90,22 +87,23 @@ impl CoastingBase {
                 )
             })
             .collect();
-        CoastingBase {
-            rides,
-            ride_stage: std::sync::OnceLock::new(),
-        }
+        CoastingBase { rides }
     }
 
     /// Whether a candidate of `effects` has its coasting change in its prediction: damping
     /// (its own bias), and the effects that move the speed a ride applies at (where the ride
     /// stage made its correction).
     pub fn applies_to(effects: &[Effect]) -> bool {
-        effects.iter().any(|e| {
-            matches!(
-                e,
-                Effect::SteerDamping | Effect::SpeedScale | Effect::TimeScale
-            )
-        })
+        effects.contains(&Effect::SteerDamping) || Self::moves_speed(effects)
+    }
+
+    /// Whether `effects` is a speedometer's scale or a clock alone: the candidates whose
+    /// replays are taken at the speed they say the rides had. A pair keeps the ride stage's
+    /// correction at the reported speed: every replay costs about a millisecond per ride and
+    /// candidate, and with the pairs too `bikeproc gap data/rides.toml` took 0.79 s against
+    /// 0.70 (divan `gap_campaign_16_rides`, its bar 0.74 s).
+    fn moves_speed(effects: &[Effect]) -> bool {
+        matches!(effects, [Effect::SpeedScale] | [Effect::TimeScale])
     }
 
     /// What `effects` at `params` add to each ride's prediction (`params_of(c)`, condition
@@ -141,23 +139,13 @@ impl CoastingBase {
             linear_bike(&cond.base, &cond.control, &[], &[])
         };
         let damped = effects.contains(&Effect::SteerDamping);
-        let moves_speed = effects
-            .iter()
-            .any(|e| matches!(e, Effect::SpeedScale | Effect::TimeScale));
+        let moves_speed = Self::moves_speed(effects);
         // The speed the candidate says ride `i` had, where it is not the reported one.
         let moved = |i: usize| {
             let v = true_speed(effects, &params_of(ride_condition[i]), &obs[i]);
             let reported = obs[i].speed_mps;
             (moves_speed && v.is_finite() && (v - reported).abs() > 1e-9 * reported).then_some(v)
         };
-        let ride_stage = moves_speed.then(|| {
-            self.ride_stage.get_or_init(|| {
-                obs.par_iter()
-                    .enumerate()
-                    .map(|(i, o)| replay_coasting(&measured(i), &o.coasting?, ReplayStart::Weave))
-                    .collect()
-            })
-        });
         obs.par_iter()
             .enumerate()
             .map(|(i, o)| {
@@ -185,13 +173,15 @@ impl CoastingBase {
                         d = std::array::from_fn(|a| APPLIED[a] * (own[a] - base[a]));
                     }
                 }
-                let reported = ride_stage.and_then(|r| r.get(i).copied().flatten());
-                if let (Some(_), Some(reported)) = (speed, reported) {
+                // What the ride stage took off (`coasting_bias`: its replay at the reported
+                // speed, on the model the gap stage's replays use), against what it would have
+                // taken off at the candidate's.
+                if speed.is_some() {
                     if let Some(there) =
                         replay_coasting(&measured(i), &at_speed, ReplayStart::Weave)
                     {
                         for a in 0..4 {
-                            d[a] += RIDE_APPLIED[a] * (there[a] - reported[a]);
+                            d[a] += RIDE_APPLIED[a] * there[a] - o.coasting_bias[a];
                         }
                     }
                 }

@@ -656,9 +656,9 @@ pub fn replay_coasting(
     if x.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    let f = |t: f64, x: &nalgebra::DVector<f64>| -> Option<nalgebra::DVector<f64>> {
-        Some(model.state_matrix_at(speed_at(t))? * x)
-    };
+    // The state matrix at a time; each RK4 step needs it at its start, middle and end, and the
+    // end's is the next step's start: two matrices a step instead of four (the same values).
+    let a_at = |t: f64| model.state_matrix_at(speed_at(t));
     // The gap stage's replays (many per campaign) are sampled more sparsely, at about
     // REPLAY_SAMPLES over the window: the least-squares fit of a smooth, noise-free motion
     // hardly depends on it.
@@ -683,15 +683,19 @@ pub fn replay_coasting(
         1e-7 * 12f64.sqrt() * (u - 0.5)
     };
     let mut t = w.start_s;
+    let mut a_start = a_at(t)?;
     for k in 0..n {
         if k > 0 {
             for _ in 0..sub {
-                let k1 = f(t, &x)?;
-                let k2 = f(t + 0.5 * h, &(&x + &k1 * (0.5 * h)))?;
-                let k3 = f(t + 0.5 * h, &(&x + &k2 * (0.5 * h)))?;
-                let k4 = f(t + h, &(&x + &k3 * h))?;
+                let a_mid = a_at(t + 0.5 * h)?;
+                let a_end = a_at(t + h)?;
+                let k1 = &a_start * &x;
+                let k2 = &a_mid * &(&x + &k1 * (0.5 * h));
+                let k3 = &a_mid * &(&x + &k2 * (0.5 * h));
+                let k4 = &a_end * &(&x + &k3 * h);
                 x += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
                 t += h;
+                a_start = a_end;
             }
         }
         ts.push(w.start_s + k as f64 / rate_hz);
