@@ -35,10 +35,10 @@
 //!
 //! Only candidates with damping, whose bias this is, carry a replay of their own bicycle: the
 //! secants of the other effects in an earlier version were erratic near the weave speed (−3.2
-//! to +4.7 1/s per unit of a speedometer's scale). A candidate that moves the speed a ride
-//! applies at (a speedometer's scale, a clock) carries the ride stage's own correction moved
-//! to that speed: the ride stage made it at the reported speed, which such a candidate says
-//! was not the ride's.
+//! to +4.7 1/s per unit of a speedometer's scale). A speedometer's scale or a clock alone,
+//! which moves the speed a ride applies at, carries the ride stage's own correction moved to
+//! that speed: the ride stage made it at the reported speed, which such a candidate says was
+//! not the ride's.
 
 use super::conditions::ConditionModel;
 use super::effects::{linear_bike, true_speed, Effect};
@@ -111,7 +111,7 @@ impl CoastingBase {
     /// a ride at constant speed, where a replay fails, and for a candidate of neither kind.
     ///
     /// - Damping: the candidate's own replay less the measured bicycle's, both from the fit's
-    ///   start, at the candidate's speed.
+    ///   start.
     /// - A speedometer's scale or a clock moves the speed a ride applies at
     ///   ([`true_speed`]): the ride stage took its correction off the fit at the reported
     ///   speed, and the prediction carries the change of that correction (the ride stage's own
@@ -134,18 +134,8 @@ impl CoastingBase {
         if !Self::applies_to(effects) || self.rides.iter().all(Option::is_none) {
             return vec![[0.0; 4]; obs.len()];
         }
-        let measured = |i: usize| {
-            let cond = &conditions[ride_condition[i]];
-            linear_bike(&cond.base, &cond.control, &[], &[])
-        };
         let damped = effects.contains(&Effect::SteerDamping);
         let moves_speed = Self::moves_speed(effects);
-        // The speed the candidate says ride `i` had, where it is not the reported one.
-        let moved = |i: usize| {
-            let v = true_speed(effects, &params_of(ride_condition[i]), &obs[i]);
-            let reported = obs[i].speed_mps;
-            (moves_speed && v.is_finite() && (v - reported).abs() > 1e-9 * reported).then_some(v)
-        };
         obs.par_iter()
             .enumerate()
             .map(|(i, o)| {
@@ -153,33 +143,28 @@ impl CoastingBase {
                 else {
                     return [0.0; 4];
                 };
-                let speed = moved(i);
-                let at_speed = CoastingWindow {
-                    speed_mps: speed.unwrap_or(window.speed_mps),
-                    ..window
-                };
+                let c = ride_condition[i];
+                let cond = &conditions[c];
+                let params = params_of(c);
                 let mut d = [0.0; 4];
                 if damped {
-                    let c = ride_condition[i];
-                    let cond = &conditions[c];
-                    let own = linear_bike(&cond.base, &cond.control, effects, &params_of(c));
-                    let base = match speed {
-                        Some(_) => replay_coasting(&measured(i), &at_speed, ReplayStart::Fitted),
-                        None => Some(base),
-                    };
-                    if let (Some(own), Some(base)) =
-                        (replay_coasting(&own, &at_speed, ReplayStart::Fitted), base)
-                    {
+                    let own = linear_bike(&cond.base, &cond.control, effects, &params);
+                    if let Some(own) = replay_coasting(&own, &window, ReplayStart::Fitted) {
                         d = std::array::from_fn(|a| APPLIED[a] * (own[a] - base[a]));
                     }
                 }
                 // What the ride stage took off (`coasting_bias`: its replay at the reported
-                // speed, on the model the gap stage's replays use), against what it would have
-                // taken off at the candidate's.
-                if speed.is_some() {
-                    if let Some(there) =
-                        replay_coasting(&measured(i), &at_speed, ReplayStart::Weave)
-                    {
+                // speed, on the model the gap stage's replays use, bit for bit), against what
+                // it would have taken off at the speed the candidate says the ride had.
+                let v = true_speed(effects, &params, o);
+                let reported = o.speed_mps;
+                if moves_speed && v.is_finite() && (v - reported).abs() > 1e-9 * reported {
+                    let measured = linear_bike(&cond.base, &cond.control, &[], &[]);
+                    let at_speed = CoastingWindow {
+                        speed_mps: v,
+                        ..window
+                    };
+                    if let Some(there) = replay_coasting(&measured, &at_speed, ReplayStart::Weave) {
                         for a in 0..4 {
                             d[a] += RIDE_APPLIED[a] * there[a] - o.coasting_bias[a];
                         }
