@@ -44,21 +44,13 @@ use super::conditions::ConditionModel;
 use super::effects::{linear_bike, true_speed, Effect};
 use super::Observation;
 use crate::ride::dynamic::{
-    replay_coasting, CoastingWindow, ReplayStart, COASTING_BIAS_APPLIED, COASTING_SHAPE_APPLIED,
+    replay_coasting, CoastingWindow, ReplayStart, COASTING_APPLIED, COASTING_SHAPE_APPLIED,
 };
 use rayon::prelude::*;
 
 /// The part of a replay's change taken into a candidate's prediction: `[re, im, |γ/θ|, arg]`
 /// (the eigenvalue's whole, the shape's as the ride stage takes it).
 const APPLIED: [f64; 4] = [1.0, 1.0, COASTING_SHAPE_APPLIED, COASTING_SHAPE_APPLIED];
-
-/// The part of the ride stage's own replay ([`ReplayStart::Weave`]) that it took off each fit.
-const RIDE_APPLIED: [f64; 4] = [
-    COASTING_BIAS_APPLIED,
-    COASTING_BIAS_APPLIED,
-    COASTING_SHAPE_APPLIED,
-    COASTING_SHAPE_APPLIED,
-];
 
 /// Each coasting ride's replay on its condition's measured bicycle (`None` for a ride at
 /// constant speed, or where the replay fails): the base a candidate's replay is compared with.
@@ -166,7 +158,7 @@ impl CoastingBase {
                     };
                     if let Some(there) = replay_coasting(&measured, &at_speed, ReplayStart::Weave) {
                         for a in 0..4 {
-                            d[a] += RIDE_APPLIED[a] * there[a] - o.coasting_bias[a];
+                            d[a] += COASTING_APPLIED[a] * there[a] - o.coasting_bias[a];
                         }
                     }
                 }

@@ -201,14 +201,9 @@ pub fn dynamic_test(
     let mut fit = fit;
     let canonical = Canonical::from_benchmark(&nominal).with_control(model.control);
     let window = CoastingWindow::of(&fit, signals.sample_rate_hz, speed.speed_mps, accel);
-    let coasting_bias =
-        replay_coasting(&canonical, &window, ReplayStart::Weave).map_or([0.0; 4], |b| {
-            [
-                COASTING_BIAS_APPLIED * b[0],
-                COASTING_BIAS_APPLIED * b[1],
-                COASTING_SHAPE_APPLIED * b[2],
-                COASTING_SHAPE_APPLIED * b[3],
-            ]
+    let coasting_bias = replay_coasting(&canonical, &window, ReplayStart::Weave)
+        .map_or([0.0; 4], |b| {
+            std::array::from_fn(|a| COASTING_APPLIED[a] * b[a])
         });
     if fit.drift.is_none() {
         // The drift's fit failed: its error is taken from the model's slope dλ/dv times the
@@ -514,6 +509,14 @@ pub const COASTING_BIAS_COMMON_FRACTION: f64 = 0.7;
 /// −0.0100 on average: fitted to such campaigns, a sensor clock came out 1.25 of its standard
 /// errors low (median of 12), the front frame's I_xx 0.6 low.
 pub const COASTING_SHAPE_APPLIED: f64 = 1.0;
+/// The parts of a [`ReplayStart::Weave`] replay's `[re, im, |γ/θ|, arg]` that the ride stage
+/// takes off a coasting ride's fit ([`COASTING_BIAS_APPLIED`], [`COASTING_SHAPE_APPLIED`]).
+pub const COASTING_APPLIED: [f64; 4] = [
+    COASTING_BIAS_APPLIED,
+    COASTING_BIAS_APPLIED,
+    COASTING_SHAPE_APPLIED,
+    COASTING_SHAPE_APPLIED,
+];
 
 /// A linear bicycle a coasting ride can be replayed on ([`replay_coasting`]): the Whipple
 /// model here ([`Canonical`]), the gap stage's extended ones (damping, tyres) there.
