@@ -46,10 +46,10 @@ pub struct Campaign<'a> {
     pub model_factor: Option<DMatrix<f64>>,
     /// The inverse of `exp_cov`, made once for every candidate's campaign.
     pub exp_inverse: &'a std::sync::OnceLock<Option<DMatrix<f64>>>,
-    /// The common part of `exp_cov` (the coasting correction's error shared by the rides,
-    /// `w wᵀ`): the rest is block-diagonal over the rides, which [`Campaign::at_fit`] uses to
+    /// The common parts of `exp_cov` (the coasting correction's error shared by the rides and
+    /// the motion's size's, `W Wᵀ`, one column each): the rest is block-diagonal over the rides, which [`Campaign::at_fit`] uses to
     /// add a candidate's coasting shifts' errors without factoring the whole again.
-    pub exp_common: &'a DVector<f64>,
+    pub exp_common: &'a DMatrix<f64>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
     pub assumed: Assumed,
@@ -393,9 +393,9 @@ impl<'a> Campaign<'a> {
         Some(d)
     }
 
-    /// (E + diag(d²))⁻¹ for the experimental covariance E = B + w wᵀ (B block-diagonal over
-    /// the rides, w [`Campaign::exp_common`]): each ride's block inverted, then
-    /// Sherman–Morrison's update by w, O(N²) where factoring it afresh is O(N³).
+    /// (E + diag(d²))⁻¹ for the experimental covariance E = B + W Wᵀ (B block-diagonal over
+    /// the rides, W [`Campaign::exp_common`]): each ride's block inverted, then Woodbury's
+    /// update by W, O(N²) where factoring it afresh is O(N³).
     fn exp_inverse_plus(&self, d: &DVector<f64>) -> Option<DMatrix<f64>> {
         let n = self.parts.total();
         let w = self.exp_common;
@@ -411,8 +411,9 @@ impl<'a> Campaign<'a> {
             b_inv.view_mut((start, start), (p, p)).copy_from(&inv);
         }
         let y = &b_inv * w;
-        let denom = 1.0 + w.dot(&y);
-        (denom > 0.0).then(|| b_inv - &y * y.transpose() / denom)
+        let k = w.ncols();
+        let inner = (DMatrix::identity(k, k) + w.transpose() * &y).cholesky()?;
+        Some(&b_inv - &y * inner.solve(&y.transpose()))
     }
 
     /// The inverse of the whole covariance, made once ([`Campaign::make_inverse`]); `None` when

@@ -45,6 +45,11 @@ pub struct Observation {
     /// there is one: a condition's rides of one set speed repeat one set-up. `None` for a
     /// coasting ride, whose noted reading is where it was released, not a set-up.
     pub set_speed_mps: Option<f64>,
+    /// The motion's size over the window ([`crate::ride::dynamic::motion_size_rad2`]), 0 where
+    /// the window's angles are not at hand: the linear model's eigenvalue and mode shape are
+    /// the small motion's; a larger one's differ by about this times coefficients the rides
+    /// share ([`super::NONLINEAR_COMMON_FACTOR`]).
+    pub motion_sq_rad2: f64,
 }
 
 impl Observation {
@@ -69,6 +74,11 @@ impl Observation {
             coasting_bias: t.coasting_bias,
             coasting: t.coasting,
             set_speed_mps: None,
+            motion_sq_rad2: crate::ride::dynamic::motion_size_rad2(
+                t.trace.iter().copied(),
+                t.fit.start_s,
+                t.fit.end_s,
+            ),
             window: {
                 let rows: Vec<&[f64; 3]> = t
                     .trace
@@ -118,6 +128,7 @@ impl Observation {
             coasting_bias: [0.0; 4],
             coasting: None,
             set_speed_mps: d.set_speed_mps,
+            motion_sq_rad2: 0.0,
         })
     }
 }

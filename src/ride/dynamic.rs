@@ -222,12 +222,22 @@ pub fn dynamic_test(
             w.im_se = w.im_se.hypot(w.im_se_drift);
         }
     }
-    // The motion's size: the linear model's eigenvalue is the small motion's.
-    let nonlinear_se =
-        NONLINEAR_SE_PER_RAD2 * largest_roll_rad(&signals, fit.start_s, fit.end_s).powi(2);
+    // The motion's size: the linear model's eigenvalue and mode shape are the small motion's.
+    let motion = motion_size_rad2(
+        signals
+            .index
+            .iter()
+            .zip(signals.roll_rad.iter().zip(&signals.steer_rad))
+            .map(|(&i, (&r, &d))| [i as f64 / signals.sample_rate_hz, r, d]),
+        fit.start_s,
+        fit.end_s,
+    );
+    let [re_nl, im_nl, ratio_nl, phase_nl] = nonlinear_se(motion, fit.shape.ratio.value);
     let w = &mut fit.weave;
-    w.re_se = w.re_se.hypot(nonlinear_se);
-    w.im_se = w.im_se.hypot(nonlinear_se);
+    w.re_se = w.re_se.hypot(re_nl);
+    w.im_se = w.im_se.hypot(im_nl);
+    fit.shape.ratio.se = fit.shape.ratio.se.hypot(ratio_nl);
+    fit.shape.phase_rad.se = fit.shape.phase_rad.se.hypot(phase_nl);
     fit.weave.re -= coasting_bias[0];
     fit.weave.im -= coasting_bias[1];
     // The correction's own error (see COASTING_BIAS_APPLIED).
@@ -440,21 +450,38 @@ fn fit_span(s: &RideSignals, options: &ModalOptions, a: f64, b: f64) -> Result<M
     })
 }
 
-/// The eigenvalue of a motion of roll amplitude A differs from the small motion's by about
-/// κ A² (the Whipple bicycle's equations are odd in the lean and steer, so the first
-/// correction is cubic in the motion, quadratic in its frequency and growth). Its size, a
-/// standard error of this times the window's largest roll squared (1/s per rad²), from the
-/// nonlinear bicycle kicked at 12–18 N near the weave speed: windows that reached 0.2 rad of
-/// roll had σ 0.09 ± 0.11 /s low and ω 0.05 ± 0.05 rad/s high against the frozen linear
-/// eigenvalue; kicked at 3–5 N, 0.00 and 0.02.
-const NONLINEAR_SE_PER_RAD2: f64 = 2.5;
+/// A motion of size m differs from the small motion the linear model describes by about κ m in
+/// its eigenvalue and mode shape: the Whipple bicycle's equations are odd in the lean and the
+/// steer, so the first correction is cubic in the motion, of second order in its amplitude.
+/// The standard errors that puts on a ride's fit, per rad² of m ([`motion_size_rad2`]):
+/// `[σ (1/s), ω (1/s), |γ/θ| (a fraction of it), arg γ/θ (rad)]`. From the nonlinear
+/// bicycle: uncontrolled near the weave speed and kicked at 12–18 N, windows that reached 0.2
+/// rad of roll had σ 0.09 ± 0.11 /s low and ω 0.05 ± 0.05 rad/s high; with a steer motor and
+/// its roll-rate law (G = 1 and 2, 2.6–3.3 m/s, 10 rides each), σ 0.02–0.18 1/s low and ω
+/// 0.02–0.19 rad/s high (κ −0.3 to −0.9 and +0.4 to +1.6 per rad²), |γ/θ| up to 1 % high and
+/// arg up to 0.006 rad low (κ −0.04 to +0.4 and −0.07 to −0.12), 8–10 of the shape's own
+/// errors, which had no share for it; a quarter of the kick left σ and ω within 0.03 and the
+/// shape within 1.3 of its errors. A ride's own share is κ's scatter from ride to ride, about
+/// half its size; κ's part shared by a campaign's rides is the gap stage's
+/// ([`crate::gap::NONLINEAR_COMMON_FACTOR`] times these).
+pub const NONLINEAR_SE_PER_RAD2: [f64; 4] = [0.5, 0.5, 0.05, 0.03];
 
-/// The largest roll (rad, in size) between `from_s` and `to_s`.
-fn largest_roll_rad(s: &RideSignals, from_s: f64, to_s: f64) -> f64 {
-    roll_series(s)
-        .filter(|(t, _)| (from_s..=to_s).contains(t))
-        .map(|(_, r)| r.abs())
-        .fold(0.0, f64::max)
+/// The motion's size over `[from_s, to_s]` of samples `[t (s), roll (rad), steer (rad)]`: the
+/// largest roll squared plus the largest steer squared (rad²).
+pub fn motion_size_rad2(samples: impl Iterator<Item = [f64; 3]>, from_s: f64, to_s: f64) -> f64 {
+    let [roll, steer] = samples
+        .filter(|r| (from_s..=to_s).contains(&r[0]))
+        .fold([0.0f64; 2], |m, r| {
+            [m[0].max(r[1].abs()), m[1].max(r[2].abs())]
+        });
+    roll * roll + steer * steer
+}
+
+/// The standard errors of a fit's `[σ, ω, |γ/θ|, arg γ/θ]` from the motion's size `m` (rad²)
+/// ([`NONLINEAR_SE_PER_RAD2`]), the mode shape's ratio being `ratio`.
+pub fn nonlinear_se(m: f64, ratio: f64) -> [f64; 4] {
+    let k = NONLINEAR_SE_PER_RAD2;
+    [k[0] * m, k[1] * m, k[2] * m * ratio.abs(), k[3] * m]
 }
 
 /// The roll (rad) with its time (s), sample by sample.
