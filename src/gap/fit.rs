@@ -47,8 +47,9 @@ pub struct Campaign<'a> {
     /// The inverse of `exp_cov`, made once for every candidate's campaign.
     pub exp_inverse: &'a std::sync::OnceLock<Option<DMatrix<f64>>>,
     /// The common parts of `exp_cov` (the coasting correction's error shared by the rides and
-    /// the motion's size's, `W Wᵀ`, one column each): the rest is block-diagonal over the rides, which [`Campaign::at_fit`] uses to
-    /// add a candidate's coasting shifts' errors without factoring the whole again.
+    /// the motion's size's, `W Wᵀ`, one column each): the rest is block-diagonal over the
+    /// rides, which [`Campaign::at_fit`] uses to add a candidate's coasting shifts' errors
+    /// without factoring the whole again.
     pub exp_common: &'a DMatrix<f64>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).

@@ -258,8 +258,8 @@ fn orthonormal(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
 /// the final fit's coasting shifts, held at the first fit, are no part of those draws, and a
 /// speedometer's scale there took an effect-free campaign's p from 0.18 to 0.0055); that
 /// smallest p calibrated on the null draws of [`NullTest`], so that effects that move the
-/// weave alike (a trail and a front frame's inertia) count once and not as independent tries. The campaign's p-value is
-/// the same for the smaller of it and the χ² test's p. Each is capped by its Bonferroni bound
+/// weave alike (a trail and a front frame's inertia) count once and not as independent tries.
+/// The campaign's p-value is the same for the smaller of it and the χ² test's p. Each is capped by its Bonferroni bound
 /// (the draws resolve p-values down to 1/[`NULL_DRAWS`]; the bound below that). Sets `targeted`
 /// and `campaign_p_value`.
 pub(super) fn targeted_test(d: &mut Diagnosis, null: Option<&NullTest>) {

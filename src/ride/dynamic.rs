@@ -222,16 +222,20 @@ pub fn dynamic_test(
             w.im_se = w.im_se.hypot(w.im_se_drift);
         }
     }
+    let rate = signals.sample_rate_hz;
+    // From before the kick to past the window, and the catch when it follows within 5 s.
+    let to = (fit.end_s + 0.5).max((signals.catch_s + 0.3).min(fit.end_s + 5.0));
+    let (from, to) = (signals.kick_s - 0.5, to);
+    let trace = signals
+        .index
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| (k, i as f64 / rate))
+        .filter(|&(_, t)| t >= from && t <= to)
+        .map(|(k, t)| [t, signals.roll_rad[k], signals.steer_rad[k]])
+        .collect::<Vec<_>>();
     // The motion's size: the linear model's eigenvalue and mode shape are the small motion's.
-    let motion = motion_size_rad2(
-        signals
-            .index
-            .iter()
-            .zip(signals.roll_rad.iter().zip(&signals.steer_rad))
-            .map(|(&i, (&r, &d))| [i as f64 / signals.sample_rate_hz, r, d]),
-        fit.start_s,
-        fit.end_s,
-    );
+    let motion = motion_size_rad2(trace.iter().copied(), fit.start_s, fit.end_s);
     let [re_nl, im_nl, ratio_nl, phase_nl] = nonlinear_se(motion, fit.shape.ratio.value);
     let w = &mut fit.weave;
     w.re_se = w.re_se.hypot(re_nl);
@@ -261,18 +265,6 @@ pub fn dynamic_test(
         .se
         .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[3]);
     let model = model_weave(path, model, &speed, &fit.weave)?;
-    let rate = signals.sample_rate_hz;
-    // From before the kick to past the window, and the catch when it follows within 5 s.
-    let to = (fit.end_s + 0.5).max((signals.catch_s + 0.3).min(fit.end_s + 5.0));
-    let (from, to) = (signals.kick_s - 0.5, to);
-    let trace = signals
-        .index
-        .iter()
-        .enumerate()
-        .map(|(k, &i)| (k, i as f64 / rate))
-        .filter(|&(_, t)| t >= from && t <= to)
-        .map(|(k, t)| [t, signals.roll_rad[k], signals.steer_rad[k]])
-        .collect();
     Ok(DynamicTest {
         path: path.to_path_buf(),
         speed,

@@ -78,8 +78,9 @@ pub struct RideSignals {
 /// sensor at r from it (sensor axes), the sensor's acceleration along a bicycle axis e is that
 /// point's, `(v̇, v ω_z, −v ω_y)` in the bicycle's axes (x forward, y left, z up, the rear
 /// frame pitch-free), plus `e · (ω̇ × r + ω × (ω × r)) = c_e · r` with
-/// `c_e = e × ω̇ + (e · ω) ω − |ω|² e` (ω the gyro less its standstill bias, ω̇ by central
-/// differences). NaN at a gap's edge and where the angles file lacks the sample.
+/// `c_e = e × ω̇ + (e · ω) ω − |ω|² e` (ω the gyro less its standstill bias and ω̇, both from
+/// [`smoothed_rate`]). [`LeverSample::MISSING`] near a gap and where the angles file lacks the
+/// sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LeverSample {
     /// `c_e` along the forward, left and up axes (1/s², per metre of r's sensor-axis
@@ -94,6 +95,19 @@ pub struct LeverSample {
     /// The frame's rates about the up and left axes (rad/s, sensor's gyro in bicycle axes).
     pub up_rate_rad_per_s: f64,
     pub left_rate_rad_per_s: f64,
+}
+
+impl LeverSample {
+    /// A sample without its terms: every one NaN.
+    pub const MISSING: LeverSample = LeverSample {
+        forward: [f64::NAN; 3],
+        lateral: [f64::NAN; 3],
+        vertical: [f64::NAN; 3],
+        lateral_accel_mps2: f64::NAN,
+        vertical_accel_mps2: f64::NAN,
+        up_rate_rad_per_s: f64::NAN,
+        left_rate_rad_per_s: f64::NAN,
+    };
 }
 
 /// Half the width of the window (samples) over which [`smoothed_rate`] fits the gyro: 15
@@ -394,15 +408,7 @@ pub fn read_ride(
                         left_rate_rad_per_s: w.dot(&left),
                     }
                 }
-                _ => LeverSample {
-                    forward: [f64::NAN; 3],
-                    lateral: [f64::NAN; 3],
-                    vertical: [f64::NAN; 3],
-                    lateral_accel_mps2: f64::NAN,
-                    vertical_accel_mps2: f64::NAN,
-                    up_rate_rad_per_s: f64::NAN,
-                    left_rate_rad_per_s: f64::NAN,
-                },
+                _ => LeverSample::MISSING,
             }
         })
         .collect();
