@@ -92,9 +92,9 @@ impl Observation {
 }
 
 impl Observation {
-    /// A CSV ride's free decay ([`crate::ride::csv`]): its eigenvalue, its mode shape when it
-    /// was fitted from roll and steer (none from the roll rate alone), its speed from the
-    /// wheel-speed column or the reading given; `None` without a speed.
+    /// A CSV ride's free decay ([`crate::ride::csv`]): its eigenvalue, its mode shape when the
+    /// file has roll and steer angles (and their fit agrees with the roll rate's), its speed
+    /// from the wheel-speed column or the reading given; `None` without a speed.
     pub fn from_decay(ride: &str, d: &crate::ride::csv::DecaySummary) -> Option<Observation> {
         let (speed, source) = (d.speed_mps?, d.speed_source?);
         let w = &d.decay.weave;

@@ -128,12 +128,29 @@ pub(super) fn real_report(
     Ok(paths.len())
 }
 
+/// A decay's roll-and-steer fit shown beside its eigenvalue ("—" without one), "(disagrees)"
+/// where the two differ beyond two combined standard errors.
+fn beside_text(d: &crate::ride::csv::CsvDecay) -> String {
+    d.roll_and_steer_weave.map_or("—".to_string(), |r| {
+        format!(
+            "{}, {}{}",
+            pm(-r.re, r.re_se, 3),
+            pm(r.im, r.im_se, 3),
+            if d.fits_disagree() {
+                " (disagrees)"
+            } else {
+                ""
+            }
+        )
+    })
+}
+
 /// The free decays the other lab marked in its uncontrolled balance-assist recording (its README).
 pub const UNCONTROLLED_DECAYS_S: [(f64, f64); 3] =
     [(141.28, 142.71), (148.53, 149.94), (153.98, 155.50)];
 
 /// `real.md`'s section on the uncontrolled balance-assist recording: each marked free decay
-/// fitted from the CSV (roll and steer), the speed from the rear wheel, the Whipple model of
+/// fitted from the CSV (the roll rate, and roll and steer beside it), the speed from the rear wheel, the Whipple model of
 /// `Balanceassistv1` beside it.
 pub(super) fn uncontrolled_section(
     reference: &Path,
@@ -152,12 +169,15 @@ pub(super) fn uncontrolled_section(
          off, kicked sideways (`../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv`, 100 Hz:\n\
          its IMU's fused roll, the steer-angle sensor in 0.1–0.5° steps on an offset, the rear wheel's\n\
          speed). Each free decay that lab marked is fitted as `bikeproc dynamic FILE.csv --window A:B`\n\
-         fits it: roll and steer together, the weave with the real modes and offsets and trends the\n\
-         information criterion keeps; the speed is the rear wheel's over the window. Beside it, the\n\
+         fits it: the eigenvalue from the gyro's roll rate (one damped sinusoid on an offset), and\n\
+         beside it from roll and steer together (the weave with the real modes and offsets and trends\n\
+         the information criterion keeps), whose mode shape is kept where the two eigenvalues agree\n\
+         (the fused roll angle carries its filter's dynamics: on simulated recordings the roll rate's\n\
+         fit is the calibrated one); the speed is the rear wheel's over the window. Beside it, the\n\
          linear Whipple model of that bicycle (`Balanceassistv1Benchmark.txt`, its parameters'\n\
          uncertainty propagated, and the speed's).\n\n\
-         | window (s) | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | \\|γ/θ\\| | arg γ/θ (°) | model σ | model ω | model \\|γ/θ\\|, arg (°) | z σ | z ω |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+         | window (s) | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | roll and steer: σ, ω | \\|γ/θ\\| | arg γ/θ (°) | model σ | model ω | model \\|γ/θ\\|, arg (°) | z σ | z ω |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut zs = Vec::new();
     for &(a, b) in &UNCONTROLLED_DECAYS_S {
@@ -171,18 +191,24 @@ pub(super) fn uncontrolled_section(
         };
         let e = &d.weave;
         let m = crate::ride::dynamic::model_weave_at(&path, &model, v.value, v.se, e)?;
-        let Some(s) = &d.shape else {
-            anyhow::bail!("{}: no mode shape fitted", path.display());
-        };
+        let (ratio, phase) = d.shape.map_or(("—".to_string(), "—".to_string()), |s| {
+            (
+                pm(s.ratio.value, s.ratio.se, 3),
+                pm(
+                    s.phase_rad.value.to_degrees(),
+                    s.phase_rad.se.to_degrees(),
+                    1,
+                ),
+            )
+        });
         let _ =
             writeln!(
             md,
-            "| {a:.2}–{b:.2} | {} | {} | {} | {} | {} | {} | {} | {:.3}, {:.1} | {:+.1} | {:+.1} |",
+            "| {a:.2}–{b:.2} | {} | {} | {} | {} | {ratio} | {phase} | {} | {} | {:.3}, {:.1} | {:+.1} | {:+.1} |",
             pm(v.value, v.se, 3),
             pm(-e.re, e.re_se, 3),
             pm(e.im, e.im_se, 3),
-            pm(s.ratio.value, s.ratio.se, 3),
-            pm(s.phase_rad.value.to_degrees(), s.phase_rad.se.to_degrees(), 1),
+            beside_text(&d),
             pm(-m.re, m.re_se, 3),
             pm(m.im, m.im_se, 3),
             m.shape_ratio,
@@ -227,7 +253,7 @@ pub(super) fn uncontrolled_section(
          swing that grows (a new push), one that lasts over {} times the one before (the swinging\n\
          stops: held, leaning on the harness, drifting), one within the background sway, the next\n\
          kick, or {} s. That lab marked 141.28–142.71, 148.53–149.94 and 153.98–155.50 s by hand.\n\n\
-         | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | roll rate alone: σ, ω | VAF θ, γ | z σ | z ω |\n\
+         | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | roll and steer: σ, ω | VAF | z σ | z ω |\n\
          |---|---|---|---|---|---|---|---|---|---|\n",
         kicks.len(),
         crate::ride::csv::KICK_OVER_BACKGROUND,
@@ -247,23 +273,13 @@ pub(super) fn uncontrolled_section(
                 });
                 let _ = writeln!(
                     md,
-                    "| {:.2} | {a:.2}–{b:.2} | {} | {v} | {} | {} | {} | {:.3}, {:.3} | {z} |",
+                    "| {:.2} | {a:.2}–{b:.2} | {} | {v} | {} | {} | {} | {} | {z} |",
                     k.kick.at_s,
                     why_window(&k.kick),
                     pm(-e.re, e.re_se, 3),
                     pm(e.im, e.im_se, 3),
-                    d.decay.roll_rate_weave.map_or("—".to_string(), |r| format!(
-                        "{}, {}{}",
-                        pm(-r.re, r.re_se, 3),
-                        pm(r.im, r.im_se, 3),
-                        if d.decay.fits_disagree() {
-                            " (disagrees)"
-                        } else {
-                            ""
-                        }
-                    )),
-                    d.decay.vaf[0],
-                    d.decay.vaf[1]
+                    beside_text(&d.decay),
+                    d.decay.vaf_text()
                 );
             }
             (None, why) => {
@@ -494,7 +510,7 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
          per controller, the speedometer's scale and the clock per condition; the ranking rests on each\n\
          condition predicted from the others (its own equipment at the others' mean). The controlled\n\
          segments enter by their eigenvalue (the roll rate alone), the uncontrolled decays by their\n\
-         eigenvalue and mode shape (roll and steer), in one likelihood. Repeated kicks of one set-up\n\
+         eigenvalue (the roll rate) and mode shape (roll and steer), in one likelihood. Repeated kicks of one set-up\n\
          enter with the scatter between them estimated from the repeats{}.\n\n\
          | condition | controller | rides | χ² against the model (dof) |\n|---|---|---|---|\n",
         d.between_kick_scatter.as_ref().map_or(String::new(), |s| format!(
