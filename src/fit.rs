@@ -839,10 +839,12 @@ fn fit_from_guess(
 
 /// Fits a damped sinusoid x(t) = a + e^{−στ}(b sin ωτ + c cos ωτ) to a short record (down to
 /// half a cycle, where no spectrum resolves the frequency): the start is the best of a grid
-/// over ω in `omega_range` (0.05 rad/s steps) and σ from −2 to 6 /s (0.25 /s steps), each with
-/// its linear parameters solved, then Levenberg–Marquardt from it ([`fit_damped_sinusoid`]).
-/// For a roll-rate record after a kick: the weave's σ and ω (the eigenvalue −σ ± iω) with the
-/// fit's standard errors; no trend (half a cycle cannot tell one from the swing).
+/// over σ from −2 to 6 /s (0.25 /s steps) and ω in `omega_range`, each point with its linear
+/// parameters solved: ω in steps of 0.25 rad/s first, then in steps of 0.05 rad/s within 0.25
+/// of the [`SHORT_DECAY_REFINED`] best of those (a record of at most 10 s has minima at least
+/// 0.6 rad/s wide); then Levenberg–Marquardt from it ([`fit_damped_sinusoid`]). For a
+/// roll-rate record after a kick: the weave's σ and ω (the eigenvalue −σ ± iω) with the fit's
+/// standard errors; no trend (half a cycle cannot tell one from the swing).
 pub fn fit_short_decay(
     t: &[f64],
     x: &[f64],
@@ -861,34 +863,57 @@ pub fn fit_short_decay(
         .iter()
         .map(|s| tau.iter().map(|t| (-s * t).exp()).collect())
         .collect();
+    let sum_sq: f64 = x.iter().map(|v| v * v).sum();
     let mut carrier = vec![(0.0, 0.0); tau.len()];
-    let mut best: Option<(Vec<f64>, f64)> = None;
-    let mut omega = omega_range.0;
-    while omega <= omega_range.1 + 1e-9 {
+    // The best (parameters, residual sum of squares) over every σ at one ω.
+    let mut best_at = |omega: f64| -> Option<(Vec<f64>, f64)> {
         for (slot, t) in carrier.iter_mut().zip(&tau) {
             *slot = (omega * t).sin_cos();
         }
-        for (&sigma, env) in sigmas.iter().zip(&envelopes) {
-            if let Some((p, r)) = linear_step_on(sigma, omega, env, &carrier, x) {
+        sigmas
+            .iter()
+            .zip(&envelopes)
+            .filter_map(|(&sigma, env)| linear_step_on(sigma, omega, env, &carrier, x, sum_sq))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let grid = |lo: f64, hi: f64, step: f64| {
+        let n = ((hi - lo) / step + 1e-9).floor() as usize;
+        (0..=n).map(move |k| lo + step * k as f64)
+    };
+    let (coarse, fine) = (0.25, 0.05);
+    let mut coarse_best: Vec<(f64, f64)> = grid(omega_range.0, omega_range.1, coarse)
+        .filter_map(|omega| best_at(omega).map(|(_, r)| (omega, r)))
+        .collect();
+    coarse_best.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for &(centre, _) in coarse_best.iter().take(SHORT_DECAY_REFINED) {
+        let lo = (centre - coarse).max(omega_range.0);
+        let hi = (centre + coarse).min(omega_range.1);
+        for omega in grid(lo, hi, fine) {
+            if let Some((p, r)) = best_at(omega) {
                 if best.as_ref().is_none_or(|b| r < b.1) {
                     best = Some((p, r));
                 }
             }
         }
-        omega += 0.05;
     }
     let (p0, _) = best.ok_or_else(|| FitError::NoConvergence("no starting point".into()))?;
     fit_damped_sinusoid(&tau, x, t_ref, &p0, false)
 }
 
+/// The coarse grid's best frequencies that [`fit_short_decay`] refines.
+pub const SHORT_DECAY_REFINED: usize = 3;
+
 /// [`linear_step`] without a trend from a record's envelope `e^{−στ}` and carrier
-/// `(sin ωτ, cos ωτ)` at every sample.
+/// `(sin ωτ, cos ωτ)` at every sample; the residual sum of squares from the normal equations
+/// (Σx² − pᵀAᵀx, `sum_sq` = Σx²).
 fn linear_step_on(
     sigma: f64,
     omega: f64,
     envelope: &[f64],
     carrier: &[(f64, f64)],
     x: &[f64],
+    sum_sq: f64,
 ) -> Option<(Vec<f64>, f64)> {
     let mut ata = nalgebra::Matrix3::<f64>::zeros();
     let mut atb = nalgebra::Vector3::<f64>::zeros();
@@ -898,12 +923,7 @@ fn linear_step_on(
         atb += row * xi;
     }
     let sol = ata.cholesky()?.solve(&atb);
-    let r: f64 = envelope
-        .iter()
-        .zip(carrier)
-        .zip(x)
-        .map(|((&e, &(s, c)), &xi)| (sol[0] + (sol[1] * (e * s) + sol[2] * (e * c)) - xi).powi(2))
-        .sum();
+    let r = sum_sq - sol.dot(&atb);
     r.is_finite()
         .then(|| (vec![sol[0], sol[1], sol[2], sigma, omega], r))
 }

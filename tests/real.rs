@@ -861,3 +861,31 @@ fn stability_with_a_controller_from_the_command_line() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("README.md:"));
 }
+
+/// Issue 32 item 5: the second pass over a long recording keeps exactly the rows inside one of
+/// the windows, whatever their order and overlap (each row's time against every window, here
+/// by a plain scan, is the independent expectation), and reads nothing past the last end.
+#[test]
+fn the_windowed_reader_keeps_the_rows_of_every_window() {
+    use bikeproc::ride::csv::{read_csv_ride, read_csv_ride_within, Columns};
+    let dir = std::env::temp_dir().join(format!("bikeproc_within_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("rows.csv");
+    let mut text = String::from("time_s,roll_rate_rad_per_s\n");
+    for i in 0..5000 {
+        text += &format!("{:.2},{:.4}\n", i as f64 * 0.01, (i as f64 * 0.07).sin());
+    }
+    std::fs::write(&path, text).unwrap();
+    let windows = [(30.0, 31.5), (2.0, 9.0), (5.0, 6.0), (8.5, 12.25), (40.0, 40.0)];
+    let all = read_csv_ride(&path, &Columns::default(), None).unwrap();
+    let kept = read_csv_ride_within(&path, &Columns::default(), None, Some(&windows)).unwrap();
+    let want: Vec<f64> = all
+        .time_s
+        .iter()
+        .copied()
+        .filter(|&t| windows.iter().any(|&(a, b)| t >= a && t <= b))
+        .collect();
+    assert_eq!(kept.time_s, want);
+    assert_eq!(want.len(), 1026 + 151 + 1);
+    std::fs::remove_dir_all(&dir).ok();
+}

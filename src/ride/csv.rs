@@ -400,9 +400,25 @@ pub fn read_csv_ride_within(
     windows: Option<&[(f64, f64)]>,
 ) -> Result<CsvRide, RideError> {
     let mut values: [Vec<f64>; 6] = Default::default();
-    let last_end = windows.map(|w| w.iter().fold(f64::NEG_INFINITY, |m, &(_, b)| m.max(b)));
+    // The windows by their starts, with the latest end among each one and those before it: a
+    // time lies in some window when the latest end among the windows started by then reaches it
+    // (a binary search a row, where a scan of every window made a long recording's second pass
+    // quadratic in its kicks).
+    let mut sorted: Vec<(f64, f64)> = windows.map(<[_]>::to_vec).unwrap_or_default();
+    sorted.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let latest_end: Vec<f64> = sorted
+        .iter()
+        .scan(f64::NEG_INFINITY, |m, &(_, b)| {
+            *m = m.max(b);
+            Some(*m)
+        })
+        .collect();
+    let last_end = windows.map(|_| latest_end.last().copied().unwrap_or(f64::NEG_INFINITY));
     let (columns, _) = stream_rows(path, given, rate_hz, |_, row| {
-        let keep = windows.is_none_or(|w| w.iter().any(|&(a, b)| row[0] >= a && row[0] <= b));
+        let keep = windows.is_none() || {
+            let started = sorted.partition_point(|&(a, _)| a <= row[0]);
+            started > 0 && latest_end[started - 1] >= row[0]
+        };
         if keep {
             for (v, x) in values.iter_mut().zip(row) {
                 if !x.is_nan() {
@@ -509,8 +525,8 @@ pub const WHOLE_RECORD_MAX_S: f64 = 10.0;
 const ROLL_RATE_OMEGA_RANGE: (f64, f64) = (1.0, 20.0);
 
 /// Fits the free decay in `window_s` of `ride` (the whole record when `None` and it is shorter
-/// than [`WHOLE_RECORD_MAX_S`]): from roll and steer angles when the file has both, else from
-/// the roll rate alone.
+/// than [`WHOLE_RECORD_MAX_S`]): the eigenvalue from the roll rate wherever the file has one
+/// (else from roll and steer), the mode shape from roll and steer ([`CsvDecay`]).
 pub fn fit_decay(
     ride: &CsvRide,
     window_s: Option<(f64, f64)>,
@@ -535,9 +551,7 @@ pub fn fit_decay(
             ))
         }
     };
-    let idx: Vec<usize> = (0..ride.time_s.len())
-        .filter(|&i| ride.time_s[i] >= a && ride.time_s[i] <= b)
-        .collect();
+    let idx: Vec<usize> = within(&ride.time_s, (a, b)).collect();
     if idx.len() < MIN_WINDOW_SAMPLES {
         return Err(err(
             path,
@@ -1183,7 +1197,7 @@ impl KickReport {
         let mut text = format!("{}: {} kicks found\n", self.file, self.kicks.len());
         for (k, d) in self.kicks.iter().enumerate() {
             text += &format!(
-                "\nkick {} at {:.2} s (roll rate {:+.3} rad/s), free decay {:.2} – {:.2} s: from {}, to {}\n",
+                "\nkick {} at {:.2} s (roll rate {:+.3} rad/s), free decay {:.2} – {:.2} s: starts {}, ends {}\n",
                 k + 1,
                 d.kick.at_s,
                 d.kick.peak_roll_rate_rad_per_s,
@@ -1299,6 +1313,12 @@ pub fn find_kicks_file(
 }
 
 /// Each of `kicks` fitted on `ride` (which holds at least their windows' rows).
+/// The samples whose times (strictly increasing, as the reader keeps them) lie in `[a, b]`.
+fn within(time_s: &[f64], (a, b): (f64, f64)) -> std::ops::Range<usize> {
+    let start = time_s.partition_point(|&t| t < a);
+    start..start.max(time_s.partition_point(|&t| t <= b))
+}
+
 fn decays_of(
     ride: &CsvRide,
     kicks: Vec<Kick>,
@@ -1306,16 +1326,15 @@ fn decays_of(
     model: Option<&Parametrized>,
     options: &ModalOptions,
 ) -> Vec<KickDecay> {
+    use rayon::prelude::*;
+    // Each kick's fits are its own (the bootstrap seeded by `options`): in parallel, in order.
     kicks
-        .into_iter()
+        .into_par_iter()
         .map(|kick| {
             let fitted = fit_decay(ride, Some(kick.window_s), options).and_then(|d| {
                 if let Some(w) = &ride.wheel_speed_mps {
                     let (a, b) = kick.window_s;
-                    let v: Vec<f64> = (0..ride.time_s.len())
-                        .filter(|&i| ride.time_s[i] >= a && ride.time_s[i] <= b)
-                        .map(|i| w[i])
-                        .collect();
+                    let v: Vec<f64> = within(&ride.time_s, (a, b)).map(|i| w[i]).collect();
                     let (lo, hi) = v
                         .iter()
                         .fold((f64::INFINITY, 0.0f64), |(l, h), &x| (l.min(x), h.max(x)));
