@@ -805,8 +805,11 @@ const PUSH_S: f64 = 1.0;
 /// The longest free decay taken after a kick (s): a bound on the work, far beyond a stable
 /// weave's decay to the background.
 pub const DECAY_MAX_S: f64 = 10.0;
-/// The shortest (s): less is not a decay to fit.
-pub const DECAY_MIN_S: f64 = 0.8;
+/// The shortest (s): less is not a decay to fit. A controller that damps the weave hard leaves
+/// little: that lab marked 9 of its 63 controlled decays shorter than 0.8 s, the shortest 0.49 s
+/// (gain 10 at 6 km/h); 0.45 s is half a cycle of a 7 rad/s weave, the least
+/// [`crate::fit::fit_short_decay`] resolves.
+pub const DECAY_MIN_S: f64 = 0.45;
 /// A half-swing lasting more than this times the one before it has stopped swinging: a free
 /// decay's half-swings last half its period each (a fifth longer at most where the damping is
 /// heavy and the amplitude-dependent frequency drifts).
@@ -1124,8 +1127,15 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
             } else {
                 t(prev.end) - t(prev.begin)
             };
-            let this_s = t(this.end) - t(this.begin);
             let complete = w + 1 < swings.len();
+            // The last half-swing changes sides no more: where it sinks under `level` after its
+            // peak the free motion has reached the background (a hard-damped weave's second
+            // half-swing, a sixth of the first, does so before it would end); its length so far
+            // is its length.
+            let sinks = (!complete)
+                .then(|| (this.peak..this.end).find(|&i| s(i).abs() < level))
+                .flatten();
+            let this_s = t(sinks.unwrap_or(this.end)) - t(this.begin);
             if this.amplitude > prev.amplitude && complete {
                 end = (t(this.begin), DecayEnd::Grows);
             } else if this_s > STALL_RATIO * prev_s && prev_s > 0.0 {
@@ -1151,6 +1161,8 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
                 end = (at, DecayEnd::Stalls);
             } else if this.amplitude < level {
                 end = (t(this.begin), DecayEnd::NoiseFloor);
+            } else if let Some(i) = sinks {
+                end = (t(i), DecayEnd::NoiseFloor);
             } else {
                 continue;
             }
