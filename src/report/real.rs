@@ -150,8 +150,8 @@ pub const UNCONTROLLED_DECAYS_S: [(f64, f64); 3] =
     [(141.28, 142.71), (148.53, 149.94), (153.98, 155.50)];
 
 /// `real.md`'s section on the uncontrolled balance-assist recording: each marked free decay
-/// fitted from the CSV (the roll rate, and roll and steer beside it), the speed from the rear wheel, the Whipple model of
-/// `Balanceassistv1` beside it.
+/// fitted from the CSV (the roll rate, and roll and steer beside it), the speed from the rear
+/// wheel, the Whipple model of `Balanceassistv1` beside it.
 pub(super) fn uncontrolled_section(
     reference: &Path,
     progress: &mut dyn FnMut(&str),
