@@ -282,11 +282,7 @@ fn the_roll_rates_fit_is_the_calibrated_one() {
     use bikeproc::ride::csv::{read_csv_ride, ride_decays, Columns, FittedFrom};
     use bikeproc::ride::modal::ModalOptions;
     use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec};
-    let lab = bikeproc::inertia::bike::LabBike::load(
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml"),
-    )
-    .unwrap();
-    let bike = bikeproc::model::lab::lab_to_benchmark(&lab);
+    let bike = lab_benchmark();
     let (tau_s, sensor_x_m, sensor_h_m, step_deg) = (0.5, 0.3, 0.7, 0.1);
     let mut rng = seeded(11);
     let dir = std::env::temp_dir().join(format!("bikeproc_fused_{}", std::process::id()));
@@ -376,11 +372,7 @@ fn a_simulated_csv_ride_gives_the_simulators_weave() {
     use bikeproc::ride::csv::{fit_decay, read_csv_ride, Columns};
     use bikeproc::ride::modal::ModalOptions;
     use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec};
-    let lab = bikeproc::inertia::bike::LabBike::load(
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml"),
-    )
-    .unwrap();
-    let bike = bikeproc::model::lab::lab_to_benchmark(&lab);
+    let bike = lab_benchmark();
     let dir = std::env::temp_dir().join(format!("bikeproc_real_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     for seed in 1..=5u64 {
@@ -540,11 +532,7 @@ fn every_kick_of_a_long_simulated_recording_is_found_and_fitted() {
     use bikeproc::ride::csv::{read_csv_ride, ride_decays, ride_decays_file, Columns};
     use bikeproc::ride::modal::ModalOptions;
     use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec};
-    let lab = bikeproc::inertia::bike::LabBike::load(
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml"),
-    )
-    .unwrap();
-    let bike = bikeproc::model::lab::lab_to_benchmark(&lab);
+    let bike = lab_benchmark();
     let mut rng = seeded(7);
     let mut csv = String::from("time,gyro_x,wheel\n");
     let mut t0 = 0.0;
@@ -958,4 +946,14 @@ fn a_controllers_short_decays_are_found_and_fitted() {
     }
     assert_eq!(kicks.len(), 20);
     assert!(agree >= 17, "{agree} of 20 within 25 % (σ) and 10 % (ω)");
+}
+
+/// The lab's measured bicycle (`data/lab_bike.toml`) in benchmark parameters: the simulator's
+/// truth for the simulated recordings here.
+fn lab_benchmark() -> bikeproc::model::Benchmark {
+    let lab = bikeproc::inertia::bike::LabBike::load(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml"),
+    )
+    .unwrap();
+    bikeproc::model::lab::lab_to_benchmark(&lab)
 }
