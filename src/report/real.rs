@@ -245,14 +245,15 @@ pub(super) fn uncontrolled_section(
     let _ = write!(
         md,
         "\n**Every kick, found.** `bikeproc dynamic FILE.csv` without a window finds {} kicks in the\n\
-         recording (roll-rate peaks over {} times its median while the wheel turns and over {} times\n\
-         the largest swing of the second before the kick's motion began) and fits each; kicks while\n\
-         the treadmill starts or stops are listed, not fitted. Each decay starts where the push is\n\
-         over: at the push's own peak when its swing rose in under {} of its fall (an impulse), else\n\
-         at the swing back (a hand pushing through its swing). It ends where the free motion ends: a\n\
-         swing that grows (a new push), one that lasts over {} times the one before (the swinging\n\
-         stops: held, leaning on the harness, drifting), one within the background sway, the next\n\
-         kick, or {} s. That lab marked 141.28–142.71, 148.53–149.94 and 153.98–155.50 s by hand.\n\n\
+         recording (roll-rate peaks over {} times the background's median |roll rate|, read from the\n\
+         lower quartile while the wheel turns, and over {} times the largest swing of the second\n\
+         before the kick's motion began) and fits each; kicks while the treadmill starts or stops\n\
+         are listed, not fitted. Each decay starts where the push is over: at the push's own peak\n\
+         when its swing rose in under {} of its fall (an impulse), else at the swing back (a hand\n\
+         pushing through its swing). It ends where the free motion ends: a swing that grows (a new\n\
+         push; a weave growing at a steady rate goes on), one that lasts over {} times the one\n\
+         before (the swinging stops: held, leaning on the harness, drifting), one within the\n\
+         background sway, the next kick, or {} s. That lab marked 141.28–142.71, 148.53–149.94 and 153.98–155.50 s by hand.\n\n\
          | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | roll and steer: σ, ω | VAF | z σ | z ω |\n\
          |---|---|---|---|---|---|---|---|---|---|\n",
         kicks.len(),

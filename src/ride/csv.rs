@@ -790,9 +790,10 @@ impl DecayEnd {
 }
 
 /// A kick's peak roll rate is at least this many times the recording's background (the
-/// median |roll rate| while the wheel turns at over [`MOVING_MPS`], or over the whole record
-/// without a wheel-speed column): a riderless bicycle on a treadmill sways at the background
-/// level, a kick stands out by an order of magnitude.
+/// median |roll rate| of its quiet stretches, from the lower quartile of |roll rate| while the
+/// wheel turns at over [`MOVING_MPS`], or over the whole record without a wheel-speed column):
+/// a riderless bicycle on a treadmill sways at the background level, a kick stands out by an
+/// order of magnitude.
 pub const KICK_OVER_BACKGROUND: f64 = 8.0;
 /// Two peaks closer than this (s) are one kick.
 pub const KICK_SEPARATION_S: f64 = 1.5;
@@ -814,6 +815,10 @@ pub const DECAY_MIN_S: f64 = 0.45;
 /// decay's half-swings last half its period each (a fifth longer at most where the damping is
 /// heavy and the amplitude-dependent frequency drifts).
 pub const STALL_RATIO: f64 = 1.4;
+/// A swing that grows is the weave's own growth, not a new push, where the swing after it
+/// grows by its ratio within this factor ([`find_kicks`]).
+pub const GROWTH_STEADY: f64 = 1.5;
+
 /// A stalled half-swing still follows the free decay to its due turning point when it has
 /// reached this fraction of the size the decay predicts there.
 const FOLLOWS_DECAY: f64 = 2.0 / 3.0;
@@ -1020,15 +1025,18 @@ fn no_roll(path: &Path) -> RideError {
 
 /// The median of `x` (reordered), as [`crate::signal::median`] takes it: the mean of the two
 /// middle values of an even count.
-fn median_f32(x: &mut [f32]) -> f64 {
-    let n = x.len();
-    let (lower, &mut upper, _) = x.select_nth_unstable_by(n / 2, f32::total_cmp);
-    if n % 2 == 1 {
-        return f64::from(upper);
-    }
-    let below = lower.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    0.5 * (f64::from(below) + f64::from(upper))
+/// The background's median |roll rate| from the lower quartile of `x` (|roll rate| while the
+/// wheel turns): for a background of normal noise the median of |x| is 2.113 times its lower
+/// quartile (0.6745 against 0.3186 standard deviations), and the quartile stays the
+/// background's while kicks' motion fills up to three quarters of the time, where the median
+/// becomes the motion's (a weave that grows for seconds after each kick).
+fn background_f32(x: &mut [f32]) -> f64 {
+    let (_, &mut quartile, _) = x.select_nth_unstable_by(x.len() / 4, f32::total_cmp);
+    BACKGROUND_MEDIAN_OVER_QUARTILE * f64::from(quartile)
 }
+
+/// The median of a normal variable's absolute value over its lower quartile.
+const BACKGROUND_MEDIAN_OVER_QUARTILE: f64 = 0.674_489_750_196_081_7 / 0.318_639_363_964_375_1;
 
 /// [`find_kicks`] on a recording's [`KickSeries`].
 fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
@@ -1042,7 +1050,7 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
     if moving.len() < MIN_WINDOW_SAMPLES {
         return Vec::new();
     }
-    let background = median_f32(&mut moving);
+    let background = background_f32(&mut moving);
     drop(moving);
     let threshold = KICK_OVER_BACKGROUND * background.max(f64::MIN_POSITIVE);
     // The swings from the rate's moving mean over about 0.1 s (a sensor's spikes are no swing).
@@ -1073,13 +1081,15 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
     }
     // A kick arrives on a bicycle that is not already swinging at its size: a kick whose
     // largest peak is no more than KICK_OVER_SWING times the largest swing of the second
-    // before its motion began is part of a motion under way (a decay's late swings, the
-    // capsize's drift).
-    groups.retain(|&(_, largest)| {
-        let before = (0..largest)
+    // before its motion began (PUSH_S before its first peak over the threshold) is part of a
+    // motion under way (a decay's late swings, the capsize's drift). From the first peak, not
+    // the largest: a weave that grows after its kick (below the weave speed) has its largest
+    // swings seconds on, where the second before is the growth itself.
+    groups.retain(|&(first, largest)| {
+        let before = (0..first)
             .rev()
-            .take_while(|&i| t(largest) - t(i) <= 1.0 + PUSH_S)
-            .filter(|&i| t(largest) - t(i) >= PUSH_S)
+            .take_while(|&i| t(first) - t(i) <= 1.0 + PUSH_S)
+            .filter(|&i| t(first) - t(i) >= PUSH_S)
             .map(|i| s(i).abs())
             .fold(0.0f64, f64::max);
         rate(largest).abs() > KICK_OVER_SWING * before
@@ -1136,8 +1146,20 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
                 .then(|| (this.peak..this.end).find(|&i| s(i).abs() < level))
                 .flatten();
             let this_s = t(sinks.unwrap_or(this.end)) - t(this.begin);
-            if this.amplitude > prev.amplitude && complete {
+            // A swing larger than the one before is a new push unless the growth goes on at
+            // its rate (within a factor GROWTH_STEADY from one half-swing to the next): a weave
+            // below its weave speed grows by e^{σ T/2} a half-swing, a push by a step.
+            let steady_growth = swings.get(w + 1).is_some_and(|next| {
+                let (now, then) = (
+                    this.amplitude / prev.amplitude,
+                    next.amplitude / this.amplitude,
+                );
+                then > 1.0 && (then / now).ln().abs() < GROWTH_STEADY.ln()
+            });
+            if this.amplitude > prev.amplitude && complete && !steady_growth {
                 end = (t(this.begin), DecayEnd::Grows);
+            } else if this.amplitude > prev.amplitude && steady_growth {
+                continue;
             } else if this_s > STALL_RATIO * prev_s && prev_s > 0.0 {
                 // The free motion runs into the stalled swing as far as it follows the decay:
                 // to the swing's due turning point where it has reached FOLLOWS_DECAY of the
