@@ -259,9 +259,9 @@ fn orthonormal(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
 /// speedometer's scale there took an effect-free campaign's p from 0.18 to 0.0055); that
 /// smallest p calibrated on the null draws of [`NullTest`], so that effects that move the
 /// weave alike (a trail and a front frame's inertia) count once and not as independent tries.
-/// The campaign's p-value is the same for the smaller of it and the χ² test's p. Each is capped by its Bonferroni bound
-/// (the draws resolve p-values down to 1/[`NULL_DRAWS`]; the bound below that). Sets `targeted`
-/// and `campaign_p_value`.
+/// The campaign's p-value is the same for the smaller of it and the χ² test's p. Each is
+/// capped by its Bonferroni bound (the draws resolve p-values down to 1/[`NULL_DRAWS`]; the
+/// bound below that). Sets `targeted` and `campaign_p_value`.
 pub(super) fn targeted_test(d: &mut Diagnosis, null: Option<&NullTest>) {
     let chi2_before = d.chi2;
     let singles: Vec<&Ranked> = d.ranking.iter().filter(|r| r.effects.len() == 1).collect();

@@ -1023,8 +1023,6 @@ fn no_roll(path: &Path) -> RideError {
     )
 }
 
-/// The median of `x` (reordered), as [`crate::signal::median`] takes it: the mean of the two
-/// middle values of an even count.
 /// The background's median |roll rate| from the lower quartile of `x` (|roll rate| while the
 /// wheel turns): for a background of normal noise the median of |x| is 2.113 times its lower
 /// quartile (0.6745 against 0.3186 standard deviations), and the quartile stays the
@@ -1156,10 +1154,11 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
                 );
                 then > 1.0 && (then / now).ln().abs() < GROWTH_STEADY.ln()
             });
-            if this.amplitude > prev.amplitude && complete && !steady_growth {
-                end = (t(this.begin), DecayEnd::Grows);
-            } else if this.amplitude > prev.amplitude && steady_growth {
+            let grows = this.amplitude > prev.amplitude;
+            if grows && steady_growth {
                 continue;
+            } else if grows && complete {
+                end = (t(this.begin), DecayEnd::Grows);
             } else if this_s > STALL_RATIO * prev_s && prev_s > 0.0 {
                 // The free motion runs into the stalled swing as far as it follows the decay:
                 // to the swing's due turning point where it has reached FOLLOWS_DECAY of the
@@ -1346,13 +1345,13 @@ pub fn find_kicks_file(
     Ok((find_kicks_in(&series), span_s))
 }
 
-/// Each of `kicks` fitted on `ride` (which holds at least their windows' rows).
 /// The samples whose times (strictly increasing, as the reader keeps them) lie in `[a, b]`.
 fn within(time_s: &[f64], (a, b): (f64, f64)) -> std::ops::Range<usize> {
     let start = time_s.partition_point(|&t| t < a);
     start..start.max(time_s.partition_point(|&t| t <= b))
 }
 
+/// Each of `kicks` fitted on `ride` (which holds at least their windows' rows).
 fn decays_of(
     ride: &CsvRide,
     kicks: Vec<Kick>,
