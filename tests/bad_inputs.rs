@@ -108,6 +108,10 @@ fn far_times_and_absurd_rates_say_what_is_wrong() {
         ("row_at_1e300.log", "a hole of 1.000000e300 s"),
         ("long_hole.log", "a hole of 2.000000e3 s"),
         ("long_hole.csv", "a hole of 2.991010e3 s"),
+        (
+            "latin1_bytes.csv",
+            "latin1_bytes.csv:9:13: bytes that are not UTF-8 text in field 3",
+        ),
         ("sample_rate_1e300.log", "at most 100000"),
         (
             "time_backwards.log",
