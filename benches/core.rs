@@ -392,6 +392,46 @@ fn find_kicks_by_rows(bencher: divan::Bencher, rows: usize) {
     bencher.bench(|| find_kicks_file(&path, &Columns::default(), None).expect("reads"));
 }
 
+/// The real uncontrolled recording's three hand-marked decays (141.28–142.71 s, 148.53–149.94 s,
+/// 153.98–155.50 s) as `(t, roll, steer)` in s and rad, read once.
+fn marked_decays() -> &'static Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+    static DECAYS: OnceLock<Vec<(Vec<f64>, Vec<f64>, Vec<f64>)>> = OnceLock::new();
+    DECAYS.get_or_init(|| {
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv");
+        let text = std::fs::read_to_string(&path).expect("the reference recording");
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|f| f.parse().expect("a number")).collect())
+            .collect();
+        // Columns: time_s, roll_rad, …, steer_deg (9th).
+        [(141.28, 142.71), (148.53, 149.94), (153.98, 155.50)]
+            .iter()
+            .map(|&(a, b)| {
+                let w: Vec<&Vec<f64>> = rows.iter().filter(|r| (a..=b).contains(&r[0])).collect();
+                (
+                    w.iter().map(|r| r[0]).collect(),
+                    w.iter().map(|r| r[1]).collect(),
+                    w.iter().map(|r| r[8].to_radians()).collect(),
+                )
+            })
+            .collect()
+    })
+}
+
+/// Issue 32: the roll-and-steer modal fit of one kick (its structure search, the drift's check
+/// and 400 resamples), on each of the real recording's marked decays: the cost that sets how
+/// fast a long recording with angles is analysed (3,348 such fits in the 10-million-row one).
+#[divan::bench(args = [0, 1, 2], sample_count = 20)]
+fn modal_fit_marked_decay(bencher: divan::Bencher, k: usize) {
+    use bikeproc::ride::modal::{fit_modes, ModalOptions};
+    let (t, roll, steer) = &marked_decays()[k];
+    bencher.bench(|| {
+        fit_modes(divan::black_box(t), roll, steer, &ModalOptions::default()).expect("fits")
+    });
+}
+
 /// Issue 34: `bikeproc sensitivity` on a real bicycle: the characteristic speeds (0–10 m/s
 /// in steps of 0.01 m/s, refined), every parameter's derivatives and the variance budget
 /// (acceptance: under 10 ms).
