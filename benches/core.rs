@@ -392,10 +392,13 @@ fn find_kicks_by_rows(bencher: divan::Bencher, rows: usize) {
     bencher.bench(|| find_kicks_file(&path, &Columns::default(), None).expect("reads"));
 }
 
+/// A window of a ride: time (s), roll and steer (rad).
+type Window = (Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// The real uncontrolled recording's three hand-marked decays (141.28–142.71 s, 148.53–149.94 s,
-/// 153.98–155.50 s) as `(t, roll, steer)` in s and rad, read once.
-fn marked_decays() -> &'static Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-    static DECAYS: OnceLock<Vec<(Vec<f64>, Vec<f64>, Vec<f64>)>> = OnceLock::new();
+/// 153.98–155.50 s), read once.
+fn marked_decays() -> &'static Vec<Window> {
+    static DECAYS: OnceLock<Vec<Window>> = OnceLock::new();
     DECAYS.get_or_init(|| {
         let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
             .join("../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv");
