@@ -1024,3 +1024,123 @@ fn a_weave_that_grows_is_found_and_fitted() {
     let kicks = ClosedFormKicks::new((-0.3, 3.2), 12, 9.0, (0.15, 0.3), 5.0);
     closed_form_kicks_agree(kicks, 23, 10);
 }
+
+/// Issue 32's held-out bars on the simulator: a treadmill recording of the balance-assist
+/// bicycle (its BicycleParameters file) with that lab's controller (steer torque G (4.7 − v) φ̇
+/// below 4.7 m/s, G = 8, the motor's rotor weightless), two kicks at each of six belt speeds
+/// (6–16 km/h), written as that lab's microcontroller writes it: no time column, a roll-rate
+/// gyro (0.005 rad/s of noise) and the wheel's speed, read at `--rate 100` without windows.
+/// At least 90 % of the kicks are found (a fitted decay starting from the push's end to half a
+/// weave period after it) and at least 85 % of those agree with the simulator's own linearized
+/// weave at the belt's speed as the issue asks of that lab's fits: ω within 10 %, σ within
+/// 25 % or 2 standard errors. Measured: 12 of 12 found, 11 of 12 agree (σ at 1.67 m/s 25 %
+/// more damped than the linearized −2.89 /s). Before the decay's end stopped following a tenth
+/// of the kick's peak, the eight decays at 1.7–3.3 m/s (σ −1.4 to −2.9 /s) fell under it within
+/// 0.45 s and 4 of 12 were found.
+#[test]
+fn a_controlled_treadmill_recording_meets_the_held_out_bars() {
+    use bikeproc::ride::csv::{read_csv_ride, ride_decays, Columns};
+    use bikeproc::ride::modal::ModalOptions;
+    use bikeproc::sim::ride::{simulate_ride, Effects, MotorController, RideSpec, SteerMotor};
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let bike = bikeproc::model::Benchmark::load(
+        &root.join("../shared/reference/bicycleparameters/Balanceassistv1Benchmark.txt"),
+    )
+    .unwrap();
+    let g = 8.0;
+    let effects = Effects {
+        steer_motor: Some(SteerMotor {
+            reflected_inertia_kgm2: 0.0,
+            controller: Some(MotorController {
+                speeds_mps: vec![0.0, 4.7, 20.0],
+                gains: vec![
+                    [0.0, 0.0, 4.7 * g, 0.0],
+                    [0.0; 4],
+                    [0.7 * 15.3, 0.0, 0.0, 0.0],
+                ],
+                delivered: 1.0,
+            }),
+        }),
+        ..Effects::default()
+    };
+    let mut rng = seeded(32);
+    let mut csv = String::from("gyro_x,wheel\n");
+    let mut rows = 0usize;
+    let mut truths = Vec::new();
+    for (k, kmh) in [6.0, 8.0, 10.0, 12.0, 14.0, 16.0]
+        .iter()
+        .flat_map(|v| [v, v])
+        .enumerate()
+    {
+        let v = kmh / 3.6;
+        let mut spec = RideSpec::lab(v, effects.clone());
+        spec.motion = bikeproc::sim::whipple::Motion::ImposedSpeed;
+        spec.kick.peak_force_n = rng.range(100.0, 200.0);
+        let truth = simulate_ride(&bike, &spec, 320 + k as u64).unwrap().truth;
+        let n = truth.roll_rad.len();
+        let t0 = rows as f64 / truth.rate_hz;
+        for i in 1..n - 1 {
+            let rate = (truth.roll_rad[i + 1] - truth.roll_rad[i - 1]) * truth.rate_hz / 2.0;
+            csv += &format!(
+                "{:.6},{:.3}\n",
+                rate + 0.005 * rng.normal(),
+                truth.speed_mps[i] + 0.02 * rng.normal()
+            );
+            rows += 1;
+        }
+        truths.push((t0, v, spec.kick.duration_s, truth));
+    }
+    let dir = std::env::temp_dir().join(format!("bikeproc_held_out_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("treadmill.log");
+    std::fs::write(&path, csv).unwrap();
+    let cols: Columns = "roll_rate=gyro_x,wheel_speed=wheel".parse().unwrap();
+    let ride = read_csv_ride(&path, &cols, Some(100.0)).unwrap();
+    let kicks = ride_decays(&ride, None, None, None, &ModalOptions::default()).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    for k in &kicks {
+        println!(
+            "kick at {:.2} s, window {:.2?}, {:?}, {:?}, {:?}",
+            k.kick.at_s, k.kick.window_s, k.kick.starts, k.kick.ends, k.not_fitted
+        );
+    }
+    let (mut found, mut agree) = (0, 0);
+    for (t0, v, push_s, truth) in &truths {
+        let want = truth.weave_at(*v).unwrap();
+        let push_end = t0 + truth.kick_s + push_s;
+        let half_period = std::f64::consts::PI / want.im;
+        let Some(d) = kicks.iter().find_map(|k| {
+            let after = k.kick.window_s.0 - push_end;
+            (-0.05..half_period + 0.05)
+                .contains(&after)
+                .then_some(k.decay.as_ref()?)
+        }) else {
+            println!("{v:.2} m/s: not found (truth {want:.3})");
+            continue;
+        };
+        found += 1;
+        let e = d.decay.weave;
+        let ok = (e.im - want.im).abs() <= 0.1 * want.im
+            && ((e.re - want.re).abs() <= 0.25 * want.re.abs()
+                || (e.re - want.re).abs() <= 2.0 * e.re_se);
+        agree += usize::from(ok);
+        println!(
+            "{v:.2} m/s: {:.3} ± {:.3} + {:.3} ± {:.3}i, truth {want:.3}{}",
+            e.re,
+            e.re_se,
+            e.im,
+            e.im_se,
+            if ok { "" } else { " (disagrees)" }
+        );
+    }
+    println!(
+        "{found} of {} found, {agree} of {found} agree",
+        truths.len()
+    );
+    assert!(
+        found * 10 >= 9 * truths.len(),
+        "{found} of {} found",
+        truths.len()
+    );
+    assert!(agree * 100 >= 85 * found, "{agree} of {found} agree");
+}

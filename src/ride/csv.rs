@@ -1104,7 +1104,10 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
             None => (t(n - 1), DecayEnd::RecordEnds),
         };
         let until = (p..n).find(|&i| t(i) >= limit_t).unwrap_or(n - 1);
-        let level = (2.0 * background).max(0.1 * rate(p).abs());
+        // The background sway's level, not a share of the kick's size: a strongly damped
+        // decay (a controller's, σ −2 to −4 /s) falls under a tenth of its peak within 0.45 s
+        // while its swings still stand ten times over the gyro's noise.
+        let level = 2.0 * background;
         let swings = half_swings(s, p, until, level);
         if swings.len() < 2 {
             continue;
@@ -1227,7 +1230,9 @@ pub struct KickReport {
 impl KickReport {
     /// The kicks found, each with its window and its decay or why it gave none.
     pub fn to_text(&self) -> String {
-        let mut text = format!("{}: {} kicks found\n", self.file, self.kicks.len());
+        let n = self.kicks.len();
+        let plural = if n == 1 { "" } else { "s" };
+        let mut text = format!("{}: {n} kick{plural} found\n", self.file);
         for (k, d) in self.kicks.iter().enumerate() {
             text += &format!(
                 "\nkick {} at {:.2} s (roll rate {:+.3} rad/s), free decay {:.2} – {:.2} s: starts {}, ends {}\n",
