@@ -274,10 +274,27 @@ pub fn recognise(path: &Path) -> Kind {
     if lines
         .first()
         .is_some_and(|l| l.contains(',') || l.contains(';'))
+        || single_column(&lines)
     {
         return Kind::Table;
     }
     Kind::Unknown
+}
+
+/// A table of one channel: a name of one word (or a first number) over rows of one number each
+/// (a microcontroller logging its roll-rate gyro alone), judged on the first rows read.
+fn single_column(lines: &[&str]) -> bool {
+    let number = |l: &str| l.parse::<f64>().is_ok_and(f64::is_finite);
+    let rows: Vec<&str> = lines.iter().copied().filter(|l| !l.is_empty()).collect();
+    let (Some(first), true) = (rows.first(), rows.len() >= 3) else {
+        return false;
+    };
+    let named = first
+        .chars()
+        .all(|c| c.is_alphanumeric() || "_-.()/".contains(c))
+        && first.chars().next().is_some_and(char::is_alphabetic);
+    // The last line read may be cut short by the sniff's length.
+    (named || number(first)) && rows[1..rows.len() - 1].iter().all(|l| number(l))
 }
 
 /// The `kind = "…"` of a test manifest's line.
@@ -370,5 +387,37 @@ mod tests {
         assert_eq!(recognise(&data("lab_bike.toml")), Kind::LabBike);
         assert_eq!(recognise(&data("")), Kind::Folder);
         assert_eq!(angles_beside(&data("ride_03_cal.log")), data("ride_03.log"));
+    }
+
+    /// One channel logged alone is a table, named or not; prose, a key list and a single
+    /// number are not.
+    #[test]
+    fn a_table_of_one_channel_is_a_table() {
+        let dir = std::env::temp_dir().join(format!("bikeproc_kind_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let rows: String = (0..400)
+            .map(|k| format!("{:.4}\n", (0.1 * k as f64).sin()))
+            .collect();
+        for (name, text, kind) in [
+            ("named.log", format!("gyro_x\n{rows}"), Kind::Table),
+            ("unnamed.log", rows.clone(), Kind::Table),
+            (
+                "crlf.txt",
+                format!("roll_rate_rad_per_s\r\n{}", rows.replace('\n', "\r\n")),
+                Kind::Table,
+            ),
+            (
+                "prose.txt",
+                "A note\non the rides\nof Tuesday\n".to_string(),
+                Kind::Unknown,
+            ),
+            ("words.log", format!("gyro x\n{rows}"), Kind::Unknown),
+            ("two.log", "speed\n4.1\n".to_string(), Kind::Unknown),
+        ] {
+            let path = dir.join(name);
+            std::fs::write(&path, text).unwrap();
+            assert_eq!(recognise(&path), kind, "{name}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

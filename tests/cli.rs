@@ -577,3 +577,47 @@ fn a_table_without_a_time_column_is_read_at_its_rate() {
     assert!((im - at_rate[1]).abs() < 1e-9 * im, "{v}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 32 item 1, files as they come: a roll-rate gyro logged alone, one number a row under
+/// its name, no time column (`--rate 100`). `dynamic` takes it for a table (it was refused as
+/// "not an IMU log or a manifest") and finds its one kick: a decay x = 0.6 e^{−1.2 t}
+/// sin(9 t) rad/s with 0.005 rad/s of noise, fitted to σ within 5 % and ω within 1 %.
+#[test]
+fn a_roll_rate_logged_alone_is_a_table() {
+    use bikeproc::sim::draw::{seeded, Draw};
+    let mut rng = seeded(11);
+    let mut text = String::from("gyro_x\n");
+    for i in 0..1500 {
+        let t = i as f64 * 0.01;
+        let tau = t - 6.0;
+        let kick = if (0.0..6.0).contains(&tau) {
+            0.6 * (-1.2 * tau).exp() * (9.0 * tau).sin()
+        } else {
+            0.0
+        };
+        text += &format!("{:.5}\n", kick + 0.005 * rng.normal());
+    }
+    let dir = std::env::temp_dir().join(format!("bikeproc_one_column_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("gyro.log");
+    std::fs::write(&path, text).unwrap();
+    let (code, out, err) = bikeproc(&[
+        "dynamic",
+        path.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--columns",
+        "roll_rate=gyro_x",
+        "--json",
+    ]);
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(code, 0, "{err}");
+    let json: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let kicks = json["kicks"].as_array().unwrap();
+    assert_eq!(kicks.len(), 1, "{out}");
+    let weave = &kicks[0]["weave"];
+    let (re, im) = (weave["re"].as_f64().unwrap(), weave["im"].as_f64().unwrap());
+    println!("σ {re}, ω {im}");
+    assert!((re + 1.2).abs() < 0.06, "σ {re}");
+    assert!((im - 9.0).abs() < 0.09, "ω {im}");
+}
