@@ -936,9 +936,23 @@ impl ClosedFormKicks {
 /// no others, each fitted, and that for at least `at_least` of them the fit agrees with the
 /// closed form within the tolerances that lab's fits are held to (σ within 25 %, ω within
 /// 10 %).
-fn closed_form_kicks_agree(spec: ClosedFormKicks, seed: u64, at_least: usize) {
+/// The kicks of a treadmill recording written as a microcontroller logs it (`gyro_x,wheel`
+/// over rows at 100 Hz, no time column), found and fitted without windows.
+fn kicks_of_treadmill_log(name: &str, text: &str) -> Vec<bikeproc::ride::csv::KickDecay> {
     use bikeproc::ride::csv::{read_csv_ride, ride_decays, Columns};
     use bikeproc::ride::modal::ModalOptions;
+    let dir = std::env::temp_dir().join(format!("bikeproc_{name}_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("treadmill.log");
+    std::fs::write(&path, text).unwrap();
+    let cols: Columns = "roll_rate=gyro_x,wheel_speed=wheel".parse().unwrap();
+    let ride = read_csv_ride(&path, &cols, Some(100.0)).unwrap();
+    let kicks = ride_decays(&ride, None, None, None, &ModalOptions::default()).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    kicks
+}
+
+fn closed_form_kicks_agree(spec: ClosedFormKicks, seed: u64, at_least: usize) {
     let mut rng = seeded(seed);
     let kicks_at: Vec<f64> = (0..spec.kicks)
         .map(|k| 0.6 * spec.spacing_s + spec.spacing_s * k as f64 + rng.range(0.0, 1.0))
@@ -959,14 +973,7 @@ fn closed_form_kicks_agree(spec: ClosedFormKicks, seed: u64, at_least: usize) {
         }
         text += &format!("{x:.5},{:.3}\n", 2.5 + 0.02 * rng.normal());
     }
-    let dir = std::env::temp_dir().join(format!("bikeproc_closed_{seed}_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("kicks.log");
-    std::fs::write(&path, text).unwrap();
-    let cols: Columns = "roll_rate=gyro_x,wheel_speed=wheel".parse().unwrap();
-    let ride = read_csv_ride(&path, &cols, Some(100.0)).unwrap();
-    let kicks = ride_decays(&ride, None, None, None, &ModalOptions::default()).unwrap();
-    std::fs::remove_dir_all(&dir).ok();
+    let kicks = kicks_of_treadmill_log(&format!("closed_{seed}"), &text);
     let mut agree = 0;
     for &at in &kicks_at {
         let k = kicks
@@ -1039,8 +1046,6 @@ fn a_weave_that_grows_is_found_and_fitted() {
 /// 0.45 s and 4 of 12 were found.
 #[test]
 fn a_controlled_treadmill_recording_meets_the_held_out_bars() {
-    use bikeproc::ride::csv::{read_csv_ride, ride_decays, Columns};
-    use bikeproc::ride::modal::ModalOptions;
     use bikeproc::sim::ride::{simulate_ride, Effects, MotorController, RideSpec, SteerMotor};
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let bike = bikeproc::model::Benchmark::load(
@@ -1090,14 +1095,7 @@ fn a_controlled_treadmill_recording_meets_the_held_out_bars() {
         }
         truths.push((t0, v, spec.kick.duration_s, truth));
     }
-    let dir = std::env::temp_dir().join(format!("bikeproc_held_out_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("treadmill.log");
-    std::fs::write(&path, csv).unwrap();
-    let cols: Columns = "roll_rate=gyro_x,wheel_speed=wheel".parse().unwrap();
-    let ride = read_csv_ride(&path, &cols, Some(100.0)).unwrap();
-    let kicks = ride_decays(&ride, None, None, None, &ModalOptions::default()).unwrap();
-    std::fs::remove_dir_all(&dir).ok();
+    let kicks = kicks_of_treadmill_log("held_out", &csv);
     for k in &kicks {
         println!(
             "kick at {:.2} s, window {:.2?}, {:?}, {:?}, {:?}",
