@@ -1104,9 +1104,13 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
             None => (t(n - 1), DecayEnd::RecordEnds),
         };
         let until = (p..n).find(|&i| t(i) >= limit_t).unwrap_or(n - 1);
-        // The background sway's level, not a share of the kick's size: a strongly damped
-        // decay (a controller's, σ −2 to −4 /s) falls under a tenth of its peak within 0.45 s
-        // while its swings still stand ten times over the gyro's noise.
+        // The background sway's level, not a share of the kick's size, for the three things
+        // it sets: where the push's rise began, which swings change sides, where the decay
+        // sinks. With a tenth of the peak, a push lasting a third of a fast weave's period (a
+        // controller's, ω 13–14 rad/s at 1.7–3.3 m/s) rose from that tenth in under three
+        // quarters of its fall and was taken for an impulse, the swing back nearly as large
+        // then ended the decay at once; and a decay of σ −1.4 to −2.9 /s sank under the tenth
+        // within 0.5 s while its swings stood ten times over the gyro's noise.
         let level = 2.0 * background;
         let swings = half_swings(s, p, until, level);
         if swings.len() < 2 {
