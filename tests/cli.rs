@@ -580,7 +580,8 @@ fn a_table_without_a_time_column_is_read_at_its_rate() {
 
 /// Issue 32 item 1, files as they come: a roll-rate gyro logged alone, one number a row under
 /// its name, no time column (`--rate 100`). `dynamic` takes it for a table (it was refused as
-/// "not an IMU log or a manifest") and finds its one kick: a decay x = 0.6 e^{−1.2 t}
+/// "not an IMU log or a manifest"), names its column where no roll rate is known by name, and,
+/// told which it is, finds its one kick: a decay x = 0.6 e^{−1.2 t}
 /// sin(9 t) rad/s with 0.005 rad/s of noise, fitted to σ within 5 % and ω within 1 %.
 #[test]
 fn a_roll_rate_logged_alone_is_a_table() {
@@ -601,6 +602,13 @@ fn a_roll_rate_logged_alone_is_a_table() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("gyro.log");
     std::fs::write(&path, text).unwrap();
+    // Its channel's name is none bikeproc knows: the error lists the columns and says how.
+    let (code, _, err) = bikeproc(&["dynamic", path.to_str().unwrap(), "--rate", "100"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("among its columns (gyro_x)") && err.contains("--columns roll_rate=NAME"),
+        "{err}"
+    );
     let (code, out, err) = bikeproc(&[
         "dynamic",
         path.to_str().unwrap(),

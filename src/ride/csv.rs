@@ -240,6 +240,20 @@ fn plan(
             found.push((q, k, factor, headers[k].clone()));
         }
     }
+    if !found
+        .iter()
+        .any(|f| matches!(f.0, Quantity::Roll | Quantity::RollRate))
+    {
+        return Err(err(
+            path,
+            format!(
+                "no roll rate or roll angle among its columns ({}): kicks are found and \
+                 fitted in one of them; name it with --columns roll_rate=NAME (rad/s, or \
+                 NAME:deg for °/s) or roll=NAME",
+                headers.join(", ")
+            ),
+        ));
+    }
     let time_column = found
         .iter()
         .find(|f| f.0 == Quantity::Time)
