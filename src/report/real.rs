@@ -253,7 +253,8 @@ pub(super) fn uncontrolled_section(
          pushing through its swing). It ends where the free motion ends: a swing that grows (a new\n\
          push; a weave growing at a steady rate goes on), one that lasts over {} times the one\n\
          before (the swinging stops: held, leaning on the harness, drifting), one within the\n\
-         background sway, the next kick, or {} s. That lab marked 141.28–142.71, 148.53–149.94 and 153.98–155.50 s by hand.\n\n\
+         background sway, the next kick, or {} s. That lab marked 141.28–142.71, 148.53–149.94\n\
+         and 153.98–155.50 s by hand.\n\n\
          | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | roll and steer: σ, ω | VAF | z σ | z ω |\n\
          |---|---|---|---|---|---|---|---|---|---|\n",
         kicks.len(),

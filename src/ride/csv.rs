@@ -919,11 +919,8 @@ impl KickSeries {
             series.push(row[0], value, row[5].is_nan() || row[5] > MOVING_MPS);
             true
         })?;
-        let has = |q: Quantity| columns.iter().any(|c| c.0 == q);
-        if !has(Quantity::RollRate) {
-            if !has(Quantity::Roll) {
-                return Err(no_roll(path));
-            }
+        // The columns have a roll rate or a roll angle ([`plan`] refuses a file with neither).
+        if !columns.iter().any(|c| c.0 == Quantity::RollRate) {
             series.differentiate();
         }
         Ok((series, columns))
@@ -1029,7 +1026,8 @@ pub fn find_kicks(ride: &CsvRide) -> Result<Vec<Kick>, RideError> {
     Ok(find_kicks_in(&series))
 }
 
-/// The error of a file without roll rate or roll, where kicks are looked for.
+/// The error of a ride in memory without roll rate or roll, where kicks are looked for (a file
+/// is refused where its columns are read, [`plan`]).
 fn no_roll(path: &Path) -> RideError {
     err(
         path,
