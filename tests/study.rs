@@ -99,7 +99,13 @@ fn a_blind_study_names_the_steer_motor() {
             }
         }
     }
-    eprintln!("single campaigns naming actuator_gain + steer_inertia: {singles_naming_both} of 12");
+    // One powered condition alone rarely tells the two apart (docs/study-calibration.md: 23
+    // of 150 single campaigns); the study is needed where most of them do not.
+    eprintln!("single campaigns naming actuator_gain + steer_inertia: {singles_naming_both} of 9");
+    assert!(
+        singles_naming_both <= 4,
+        "{singles_naming_both} of 9 powered conditions alone named both"
+    );
 }
 
 /// The real balance-assist study from the command line (the acceptance command): one

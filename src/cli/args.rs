@@ -598,12 +598,16 @@ pub enum SimCommand {
     /// (named, the values' coverage, the effect-free p-values) as Markdown.
     #[command(
         name = "study-calibration",
-        after_help = "Example (docs/study-calibration.md, about 20 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --controls 50 --out docs/study-calibration.md"
+        after_help = "Example (docs/study-calibration.md, about 7 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --near-nominal 20 --controls 50 --out docs/study-calibration.md"
     )]
     StudyCalibration {
         /// Blind studies (seeds 1 to N).
         #[arg(long, default_value_t = 50)]
         studies: u64,
+        /// Studies whose motor delivers within 5 % of the commanded torque (seeds 2001
+        /// onwards): the rotor alone is the answer.
+        #[arg(long, default_value_t = 20)]
+        near_nominal: u64,
         /// Effect-free studies (seeds 1001 onwards).
         #[arg(long, default_value_t = 50)]
         controls: u64,

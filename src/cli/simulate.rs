@@ -77,10 +77,11 @@ pub fn simulate(s: SimCommand) -> Result<()> {
         } => return gap_calibration(campaigns, controls, &only, &bike, &out, results.as_deref()),
         SimCommand::StudyCalibration {
             studies,
+            near_nominal,
             controls,
             bike,
             out,
-        } => return study_calibration(studies, controls, &bike, &out),
+        } => return study_calibration(studies, near_nominal, controls, &bike, &out),
         SimCommand::RideFaults { out } => {
             let bike = LabBike::load(Path::new("data/lab_bike.toml"))?;
             return write_generated(&out, &campaign::ride_fault_fixtures(&bike)?);
@@ -194,35 +195,48 @@ fn write_generated(out: &Path, files: &campaign::Files) -> Result<()> {
 /// `simulate gap-calibration`: the blind campaigns run one after the other (each uses both
 /// cores), a line on standard error per campaign.
 /// `simulate study-calibration`: blind and effect-free studies, diagnosed and tallied.
-fn study_calibration(studies: u64, controls: u64, bike: &Path, out: &Path) -> Result<()> {
-    use sim::study::{run_study, study_markdown};
+fn study_calibration(
+    studies: u64,
+    near_nominal: u64,
+    controls: u64,
+    bike: &Path,
+    out: &Path,
+) -> Result<()> {
+    use sim::study::{run_study, study_markdown, StudyKind};
     let command = format!(
-        "bikeproc simulate study-calibration --studies {studies} --controls {controls} --out {}",
+        "bikeproc simulate study-calibration --studies {studies} --near-nominal {near_nominal} \
+         --controls {controls} --out {}",
         out.display()
     );
     let lab = LabBike::load(bike)?;
     let text =
         std::fs::read_to_string(bike).with_context(|| format!("reading {}", bike.display()))?;
-    let cases: Vec<(u64, bool)> = (1..=studies)
-        .map(|s| (s, false))
-        .chain((1001..1001 + controls).map(|s| (s, true)))
+    let n0 = sim::study::NEAR_NOMINAL_SEEDS;
+    let cases: Vec<(u64, StudyKind)> = (1..=studies)
+        .map(|s| (s, StudyKind::Blind))
+        .chain((n0..n0 + near_nominal).map(|s| (s, StudyKind::NearNominal)))
+        .chain((1001..1001 + controls).map(|s| (s, StudyKind::EffectFree)))
         .collect();
     let (mut results, mut failures) = (Vec::new(), Vec::new());
-    for (k, &(seed, effect_free)) in cases.iter().enumerate() {
-        match run_study(&lab, &text, seed, effect_free) {
+    for (k, &(seed, kind)) in cases.iter().enumerate() {
+        match run_study(&lab, &text, seed, kind) {
             Ok(r) => {
                 note!(
                     "[{}/{}] {} seed {seed}: p {:.2e}, best {}, pair {:?}",
                     k + 1,
                     cases.len(),
-                    if effect_free { "effect-free" } else { "blind" },
+                    match kind {
+                        StudyKind::Blind => "blind",
+                        StudyKind::NearNominal => "near-nominal",
+                        StudyKind::EffectFree => "effect-free",
+                    },
                     r.campaign_p_value,
                     r.best,
                     r.motor_fit.as_ref().map(|f| &f.0)
                 );
                 results.push(r);
             }
-            Err(e) => failures.push(format!("seed {seed} (effect-free {effect_free}): {e}")),
+            Err(e) => failures.push(format!("seed {seed} ({kind:?}): {e}")),
         }
     }
     write_atomic(
