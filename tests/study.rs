@@ -45,13 +45,14 @@ fn diagnose(s: &Study) -> Diagnosis {
 /// its delivered gain per controller, its inertia shared — on each of three seeds, with the
 /// study's JSON (`params_by_condition`, `heldout_rms_by_condition`, `conditions`).
 ///
-/// The values against their standard errors: each within 3.5 of them (a guard; the coverage
-/// over 50 studies is docs/study-calibration.md's). Measured on seeds 1–3: the inertia at z
-/// −1.24, +1.03, +0.29; the gains at +0.64, +1.46, +1.39; +3.27, +0.53, +0.38; +0.71, +0.68,
-/// −0.25 (seed 2's G = 1: 1.328 ± 0.053 for 1.155). Before the motion's size was an error the
-/// rides share (`gap::NONLINEAR_COMMON_FACTOR`), seed 3's gains were 0.890 ± 0.013 for 0.844.
-/// The single-campaign diagnoses of the same rides are printed (how often each names the
-/// pair), not asserted.
+/// The values against their standard errors: each within 2 of them, as the blind
+/// study asks (over 50 studies, docs/study-calibration.md: 43 of 50 name the pair with every
+/// value within 2). Measured on seeds 1–3 (the draws with the delivered gain a tenth or more
+/// from nominal, one coefficient of the motion's size per condition): the gains at +0.62,
+/// +0.55, +0.99; +1.34, +0.11, +0.13; +1.18, +0.42, +0.25 and the inertia at −1.24, +1.10,
+/// +0.34. With one coefficient for the study, seed 2's G = 1 gain lay at z +2.9. The
+/// single-campaign diagnoses of the same rides name the pair in at most 4 of the 9 powered
+/// conditions (23 of 150 over the 50 studies).
 #[test]
 fn a_blind_study_names_the_steer_motor() {
     let mut singles_naming_both = 0;
@@ -74,7 +75,7 @@ fn a_blind_study_names_the_steer_motor() {
         for ((value, se), t) in best.params.iter().zip(&best.params_se).zip(truths) {
             let z = (value - t) / se;
             assert!(
-                z.abs() < 3.5,
+                z.abs() <= 2.0,
                 "seed {seed}: {value:.4} ± {se:.4} for {t:.4} (z {z:+.2}), {:?}",
                 best.params
             );
@@ -99,8 +100,6 @@ fn a_blind_study_names_the_steer_motor() {
             }
         }
     }
-    // One powered condition alone rarely tells the two apart (docs/study-calibration.md: 23
-    // of 150 single campaigns); the study is needed where most of them do not.
     eprintln!("single campaigns naming actuator_gain + steer_inertia: {singles_naming_both} of 9");
     assert!(
         singles_naming_both <= 4,
