@@ -1139,7 +1139,23 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
             .unwrap_or(0);
         let rise_s = t(push.peak) - t(rise_from) - half as f64 * dt;
         let quarter_s = t(push.end) - t(push.peak);
-        let (first, starts) = if rise_s < FORCED_RISE_QUARTERS * quarter_s {
+        // A swing larger than the one before is a new push unless the growth goes on at its
+        // rate (within a factor GROWTH_STEADY from one half-swing to the next): a weave below
+        // its weave speed grows by e^{σ T/2} a half-swing, a push by a step.
+        let steady_growth = |w: usize| {
+            swings.get(w + 1).is_some_and(|next| {
+                let (now, then) = (
+                    swings[w].amplitude / swings[w - 1].amplitude,
+                    next.amplitude / swings[w].amplitude,
+                );
+                then > 1.0 && (then / now).ln().abs() < GROWTH_STEADY.ln()
+            })
+        };
+        // A push that rose like an impulse but whose swing back is larger, not growing on at
+        // its rate, was still pushing: its own swing is forced, as a slow push's is.
+        let forced_on =
+            swings.len() > 2 && swings[1].amplitude > swings[0].amplitude && !steady_growth(1);
+        let (first, starts) = if rise_s < FORCED_RISE_QUARTERS * quarter_s && !forced_on {
             (0, DecayStart::AtPeak)
         } else {
             (1, DecayStart::SwingBack)
@@ -1163,18 +1179,8 @@ fn find_kicks_in(series: &KickSeries) -> Vec<Kick> {
                 .then(|| (this.peak..this.end).find(|&i| s(i).abs() < level))
                 .flatten();
             let this_s = t(sinks.unwrap_or(this.end)) - t(this.begin);
-            // A swing larger than the one before is a new push unless the growth goes on at
-            // its rate (within a factor GROWTH_STEADY from one half-swing to the next): a weave
-            // below its weave speed grows by e^{σ T/2} a half-swing, a push by a step.
-            let steady_growth = swings.get(w + 1).is_some_and(|next| {
-                let (now, then) = (
-                    this.amplitude / prev.amplitude,
-                    next.amplitude / this.amplitude,
-                );
-                then > 1.0 && (then / now).ln().abs() < GROWTH_STEADY.ln()
-            });
             let grows = this.amplitude > prev.amplitude;
-            if grows && steady_growth {
+            if grows && steady_growth(w) {
                 continue;
             } else if grows && complete {
                 end = (t(this.begin), DecayEnd::Grows);
