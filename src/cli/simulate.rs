@@ -225,18 +225,14 @@ fn study_calibration(
                     "[{}/{}] {} seed {seed}: p {:.2e}, best {}, pair {:?}",
                     k + 1,
                     cases.len(),
-                    match kind {
-                        StudyKind::Blind => "blind",
-                        StudyKind::NearNominal => "near-nominal",
-                        StudyKind::EffectFree => "effect-free",
-                    },
+                    kind.label(),
                     r.campaign_p_value,
                     r.best,
                     r.motor_fit.as_ref().map(|f| &f.0)
                 );
                 results.push(r);
             }
-            Err(e) => failures.push(format!("seed {seed} ({kind:?}): {e}")),
+            Err(e) => failures.push(format!("seed {seed} ({}): {e}", kind.label())),
         }
     }
     write_atomic(

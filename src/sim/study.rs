@@ -176,6 +176,8 @@ pub const NEAR_NOMINAL_SEEDS: u64 = 2001;
 
 /// The steer motor's two effects as the diagnosis names them together.
 const PAIR: &str = "actuator_gain + steer_inertia";
+/// Its rotor alone.
+const INERTIA: &str = "steer_inertia";
 
 /// The kinds of study a calibration runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -186,6 +188,17 @@ pub enum StudyKind {
     NearNominal,
     /// A weightless rotor, the torque as commanded.
     EffectFree,
+}
+
+impl StudyKind {
+    /// Its name in a calibration's progress lines.
+    pub fn label(self) -> &'static str {
+        match self {
+            StudyKind::Blind => "blind",
+            StudyKind::NearNominal => "near-nominal",
+            StudyKind::EffectFree => "effect-free",
+        }
+    }
 }
 
 /// What the diagnosis said of one blind study, beside its truth.
@@ -240,10 +253,11 @@ pub fn run_study(
         let model = crate::model::uncertain::load(&bike).map_err(|e| e.to_string())?;
         let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})
             .map_err(|e| e.to_string())?;
-        let names_pair = |d: &crate::gap::Diagnosis| {
+        // `effect` named: first, or tied at the top, with a significant gap.
+        let names = |d: &crate::gap::Diagnosis, effect: &str| {
             d.significant
-                && (d.ranking.first().is_some_and(|b| b.effect == PAIR)
-                    || d.tied.iter().any(|t| t == PAIR))
+                && (d.ranking.first().is_some_and(|b| b.effect == effect)
+                    || d.tied.iter().any(|t| t == effect))
         };
         let motor_fit = d
             .ranking
@@ -260,7 +274,7 @@ pub fn run_study(
             let one = m.model(None).map_err(|e| e.to_string())?;
             let s =
                 crate::gap::diagnose_campaign(m, &one, &|_, _, _| {}).map_err(|e| e.to_string())?;
-            if names_pair(&s) {
+            if names(&s, PAIR) {
                 singles_named += 1;
                 if let Some(r) = s.ranking.iter().find(|r| r.effect == PAIR) {
                     singles_inertia.push((r.params[1], r.params_se[1]));
@@ -270,18 +284,13 @@ pub fn run_study(
         let inertia_alone = d
             .ranking
             .iter()
-            .find(|r| r.effect == "steer_inertia")
+            .find(|r| r.effect == INERTIA)
             .map(|r| (r.params[0], r.params_se[0]));
         Ok(StudyResult {
             seed,
             kind,
             inertia_alone,
-            names_inertia_alone: d.significant
-                && (d
-                    .ranking
-                    .first()
-                    .is_some_and(|b| b.effect == "steer_inertia")
-                    || d.tied.iter().any(|t| t == "steer_inertia")),
+            names_inertia_alone: names(&d, INERTIA),
             truth: (!effect_free).then(|| truth.clone()),
             rides_used: d.rides_used,
             significant: d.significant,
@@ -291,7 +300,7 @@ pub fn run_study(
                 .first()
                 .map_or(String::new(), |r| r.effect.clone()),
             tied: d.tied.clone(),
-            named: names_pair(&d),
+            named: names(&d, PAIR),
             motor_fit,
             singles_named,
             singles_inertia,
@@ -308,10 +317,11 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
          Each study is `bikeproc simulate blind-study`: the lab's bicycle (off from its measured \
          values by a draw of their errors) with a geared steer motor whose reflected inertia \
          (0.01–0.1 kg·m²) and delivered gain (0.4–0.9 or 1.1–1.3, 39 % below the 0.67 once \
-         taken as plausible) are withheld, ridden unpowered (10 rides, 3.4–5.2 m/s) and powered at the \
-         gains G = {:?} (10 rides each, 2.5–3.5 m/s); near-nominal studies have the rotor \
-         with the torque within 5 % of the commanded (the rotor alone is then the answer); \
-         effect-free studies have a weightless rotor and the torque as commanded. Each is diagnosed from its files as `bikeproc gap \
+         taken as plausible) are withheld, ridden unpowered (10 rides, 3.4–5.2 m/s) and \
+         powered at the gains G = {:?} (10 rides each, 2.5–3.5 m/s); near-nominal studies have \
+         the rotor with the torque within 5 % of the commanded (the rotor alone is then the \
+         answer); effect-free studies have a weightless rotor and the torque as commanded. \
+         Each is diagnosed from its files as `bikeproc gap \
          DIR/study.toml` does, then each powered condition alone.\n\n",
         STUDY_GAINS
     );
@@ -401,7 +411,10 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
     );
     let missed: Vec<&&StudyResult> = blind.iter().filter(|r| !r.named).collect();
     if !missed.is_empty() {
-        let _ = write!(md, "\nNot named:\n\n| seed | rotor kg·m² | delivered | rides used | p | named instead |\n|---|---|---|---|---|---|\n");
+        md.push_str(
+            "\nNot named:\n\n| seed | rotor kg·m² | delivered | rides used | p | named instead |\n\
+             |---|---|---|---|---|---|\n",
+        );
         for r in missed {
             let Some(t) = &r.truth else { continue };
             let _ = writeln!(
