@@ -554,18 +554,18 @@ mod tests {
     use super::*;
 
     /// A value within its standard error of the search's edge is a bound, shown as one: the
-    /// rear frame's I_xz factor (search 0.4–1.8) at 0.45 ± 0.1 is "≤ 0.55"; at 0.9 ± 0.1 it is
-    /// an estimate; at the upper edge without a standard error, "≥ 1.8".
+    /// rear frame's I_xz factor (search 0.25–2.2) at 0.3 ± 0.1 is "≤ 0.4"; at 0.9 ± 0.1 it is
+    /// an estimate; at the upper edge without a standard error, "≥ 2.2".
     #[test]
     fn a_value_at_the_search_edge_is_a_bound() {
         let spec = Effect::FrameIxz.params()[0];
-        assert!(at_bound(&spec, 0.45, 0.1));
+        assert!(at_bound(&spec, 0.3, 0.1));
         assert!(!at_bound(&spec, 0.9, 0.1));
-        assert!(at_bound(&spec, 1.8, f64::INFINITY));
+        assert!(at_bound(&spec, 2.2, f64::INFINITY));
         assert!(!at_bound(&spec, 1.2, f64::INFINITY));
-        let text = super::super::verdict::bound_text(&spec, 0.45, 0.1);
-        assert!(text.starts_with("≤ 0.550 × measured"), "{text}");
-        let text = super::super::verdict::bound_text(&spec, 1.8, f64::NAN);
-        assert!(text.starts_with("≥ 1.800 × measured"), "{text}");
+        let text = super::super::verdict::bound_text(&spec, 0.3, 0.1);
+        assert!(text.starts_with("≤ 0.400 × measured"), "{text}");
+        let text = super::super::verdict::bound_text(&spec, 2.2, f64::NAN);
+        assert!(text.starts_with("≥ 2.200 × measured"), "{text}");
     }
 }
