@@ -94,6 +94,24 @@ pub fn propagate_factor<F: Fn(&[f64]) -> Vec<f64>>(
 ) -> (Vec<f64>, DMatrix<f64>) {
     let cov = inputs.covariance();
     let (y0, jac) = jacobian(inputs.values(), &cov, f);
+    (y0, factor_of(&jac, &cov))
+}
+
+/// [`propagate`] and [`propagate_factor`] from one Jacobian: the outputs, their covariance
+/// `J Σ Jᵀ` and its factor `U`.
+pub fn propagate_with_factor<F: Fn(&[f64]) -> Vec<f64>>(
+    inputs: &Inputs,
+    f: F,
+) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let cov = inputs.covariance();
+    let (y0, jac) = jacobian(inputs.values(), &cov, f);
+    let out_cov = &jac * &cov * jac.transpose();
+    let factor = factor_of(&jac, &cov);
+    (y0, out_cov, factor)
+}
+
+/// `U = J V √D` for the inputs' covariance `Σ = V D Vᵀ` over the inputs with an error.
+fn factor_of(jac: &DMatrix<f64>, cov: &DMatrix<f64>) -> DMatrix<f64> {
     let with_error: Vec<usize> = (0..cov.nrows()).filter(|&i| cov[(i, i)] > 0.0).collect();
     let sub = cov
         .select_rows(with_error.iter())
@@ -101,7 +119,7 @@ pub fn propagate_factor<F: Fn(&[f64]) -> Vec<f64>>(
     let eig = sub.symmetric_eigen();
     let root =
         eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|d| d.max(0.0).sqrt()));
-    (y0, jac.select_columns(with_error.iter()) * root)
+    jac.select_columns(with_error.iter()) * root
 }
 
 /// The outputs of `f` at `x` and their Jacobian by central differences, the step for input `i`

@@ -40,16 +40,14 @@ pub struct Campaign<'a> {
     /// Its Cholesky factor, made once ([`Campaign::factor`]).
     pub factor: std::sync::OnceLock<Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>>,
     /// Its inverse, made on the first leave-one-out subset ([`Campaign::leave_one_out`]).
-    pub inverse: std::sync::OnceLock<Option<DMatrix<f64>>>,
-    /// At a candidate's fit ([`Campaign::at_fit`]): the model's part of `cov` as a factor U,
-    /// `cov = exp_cov + U Uᵀ`, so that the inverse is an update of `exp_cov`'s.
+    pub inverse: std::sync::OnceLock<Option<Inverse>>,
+    /// The model's part of `cov` as a factor U, `cov = exp_cov + U Uᵀ` (at the measured
+    /// bicycle, or at a candidate's fit: [`Campaign::at_fit`]), so that the inverse keeps the
+    /// structure ([`LowRankInverse`]); `None` where it is not known.
     pub model_factor: Option<DMatrix<f64>>,
-    /// The inverse of `exp_cov`, made once for every candidate's campaign.
-    pub exp_inverse: &'a std::sync::OnceLock<Option<DMatrix<f64>>>,
     /// The common parts of `exp_cov` (the coasting correction's error shared by the rides and
     /// the motion's size's, `W Wᵀ`, one column each): the rest is block-diagonal over the
-    /// rides, which [`Campaign::at_fit`] uses to add a candidate's coasting shifts' errors
-    /// without factoring the whole again.
+    /// rides, which [`Campaign::make_inverse`] uses at a candidate's fit.
     pub exp_common: &'a DMatrix<f64>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
@@ -134,9 +132,9 @@ pub struct Subset<'c, 'a> {
 enum Solve {
     /// By the Cholesky factor of the subset's covariance.
     Cholesky(nalgebra::Cholesky<f64, nalgebra::Dyn>),
-    /// Every ride, rᵀ S r by the campaign's inverse S: at a candidate's fit, where S is
-    /// Woodbury's update ([`Campaign::make_inverse`]) and factoring the covariance would cost
-    /// O(N³) per candidate.
+    /// Every ride, rᵀ S r by the campaign's inverse S where the model's factor is known: S by
+    /// its structure ([`LowRankInverse`]), O(N k) a product where the Cholesky factor's solve is
+    /// O(N²) and factoring each candidate's covariance O(N³).
     Inverse,
     /// Every ride but `left_out`, from the whole campaign's inverse covariance S: with the
     /// residual r of every ride (zero for the one left out) and u = S r,
@@ -353,29 +351,36 @@ impl<'a> Campaign<'a> {
             .as_ref()
     }
 
-    /// The inverse of [`Campaign::cov`]. At a candidate's fit, Woodbury's update of the
-    /// experiment's inverse E⁻¹ by the model's factor U: (E + U Uᵀ)⁻¹ = E⁻¹ − E⁻¹U (I +
-    /// UᵀE⁻¹U)⁻¹ UᵀE⁻¹, O(N² k) for k measured inputs against the O(N³) of factoring every
-    /// candidate's covariance afresh; otherwise (or where the update's capacitance is not
-    /// positive definite) L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
-    fn make_inverse(&self) -> Option<DMatrix<f64>> {
+    /// The inverse of [`Campaign::cov`]. At a candidate's fit, from its structure
+    /// ([`LowRankInverse`]: each ride's block of the experiment's covariance, the coasting
+    /// shifts' own errors on its diagonal, and as common columns the experiment's and the
+    /// model's factor U); otherwise (or where that update's capacitance is not positive
+    /// definite) L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
+    fn make_inverse(&self) -> Option<Inverse> {
         if let Some(u) = &self.model_factor {
-            let own;
-            let e_inv = match self.coasting_error() {
-                Some(d) => {
-                    own = self.exp_inverse_plus(&d);
-                    own.as_ref()
-                }
-                None => self
-                    .exp_inverse
-                    .get_or_init(|| inverse_from_factor(&self.exp_cov.clone().cholesky()?))
-                    .as_ref(),
-            };
-            if let Some(s) = e_inv.and_then(|e_inv| woodbury_inverse(e_inv, u)) {
-                return Some(s);
+            let d = self.coasting_error();
+            let w = self.exp_common;
+            let blocks = (0..self.obs.len())
+                .map(|i| {
+                    let (start, p) = (self.parts.start(i), self.parts.of(i));
+                    let wi = w.rows(start, p);
+                    let mut block = self.exp_cov.view((start, start), (p, p)) - wi * wi.transpose();
+                    if let Some(d) = &d {
+                        for a in 0..p {
+                            block[(a, a)] += d[start + a].powi(2);
+                        }
+                    }
+                    block
+                })
+                .collect();
+            let mut v = DMatrix::zeros(self.parts.total(), w.ncols() + u.ncols());
+            v.columns_mut(0, w.ncols()).copy_from(w);
+            v.columns_mut(w.ncols(), u.ncols()).copy_from(u);
+            if let Some(s) = LowRankInverse::new(blocks, &self.parts, &v) {
+                return Some(Inverse::LowRank(s));
             }
         }
-        inverse_from_factor(self.factor()?)
+        inverse_from_factor(self.factor()?).map(Inverse::Dense)
     }
 
     /// The standard deviations (in the residual vector's order) of a candidate's
@@ -394,32 +399,9 @@ impl<'a> Campaign<'a> {
         Some(d)
     }
 
-    /// (E + diag(d²))⁻¹ for the experimental covariance E = B + W Wᵀ (B block-diagonal over
-    /// the rides, W [`Campaign::exp_common`]): each ride's block inverted, then Woodbury's
-    /// update by W, O(N²) where factoring it afresh is O(N³).
-    fn exp_inverse_plus(&self, d: &DVector<f64>) -> Option<DMatrix<f64>> {
-        let n = self.parts.total();
-        let w = self.exp_common;
-        let mut b_inv = DMatrix::zeros(n, n);
-        for i in 0..self.obs.len() {
-            let (start, p) = (self.parts.start(i), self.parts.of(i));
-            let wi = w.rows(start, p);
-            let mut block = self.exp_cov.view((start, start), (p, p)) - wi * wi.transpose();
-            for a in 0..p {
-                block[(a, a)] += d[start + a].powi(2);
-            }
-            let inv = block.cholesky()?.inverse();
-            b_inv.view_mut((start, start), (p, p)).copy_from(&inv);
-        }
-        let y = &b_inv * w;
-        let k = w.ncols();
-        let inner = (DMatrix::identity(k, k) + w.transpose() * &y).cholesky()?;
-        Some(&b_inv - &y * inner.solve(&y.transpose()))
-    }
-
     /// The inverse of the whole covariance, made once ([`Campaign::make_inverse`]); `None` when
     /// it cannot be made.
-    fn inverse(&self) -> Option<&DMatrix<f64>> {
+    fn inverse(&self) -> Option<&Inverse> {
         self.inverse.get_or_init(|| self.make_inverse()).as_ref()
     }
 
@@ -453,9 +435,7 @@ impl<'a> Campaign<'a> {
         // Made once per campaign ([`Campaign::make_inverse`]): nalgebra's inverse of the
         // factor solved twice and factored the covariance again, half of `gap`'s time at 256
         // rides.
-        let inverse = self.inverse()?;
-        let (start, p) = (self.parts.start(left_out), self.parts.of(left_out));
-        let block = inverse.view((start, start), (p, p)).into_owned();
+        let block = self.inverse()?.block(&self.parts, left_out);
         Some(Subset {
             campaign: self,
             rides: (0..self.obs.len()).filter(|&j| j != left_out).collect(),
@@ -560,7 +540,7 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
                         r.rows_mut(parts.start(i), parts.of(i)).copy_from(ri);
                     }
                 }
-                let sr = s * &r;
+                let sr = s.mul(parts, &r);
                 let q = r.dot(&sr);
                 Some((sr, q))
             });
@@ -613,14 +593,90 @@ fn inverse_from_factor(chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>) -> Option<
     Some(l_inv.tr_mul(&l_inv))
 }
 
-/// (E + U Uᵀ)⁻¹ from E⁻¹ (`e_inv`, symmetric) and U (N × k): E⁻¹ − E⁻¹U (I + UᵀE⁻¹U)⁻¹ UᵀE⁻¹
-/// (Woodbury's identity); `None` when the k × k capacitance is not positive definite.
-fn woodbury_inverse(e_inv: &DMatrix<f64>, u: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let eu = e_inv * u;
-    let k = u.ncols();
-    let capacitance = DMatrix::identity(k, k) + u.tr_mul(&eu);
-    let solved = capacitance.cholesky()?.solve(&eu.transpose());
-    Some(e_inv - eu * solved)
+/// A campaign's inverse covariance S = Σ⁻¹, dense or by its structure.
+#[derive(Clone)]
+pub enum Inverse {
+    Dense(DMatrix<f64>),
+    LowRank(LowRankInverse),
+}
+
+impl Inverse {
+    /// S r.
+    fn mul(&self, parts: &Parts, r: &DVector<f64>) -> DVector<f64> {
+        match self {
+            Inverse::Dense(s) => s * r,
+            Inverse::LowRank(s) => s.mul(parts, r),
+        }
+    }
+
+    /// Sᵢᵢ, ride `i`'s block.
+    fn block(&self, parts: &Parts, i: usize) -> DMatrix<f64> {
+        match self {
+            Inverse::Dense(s) => {
+                let (start, p) = (parts.start(i), parts.of(i));
+                s.view((start, start), (p, p)).into_owned()
+            }
+            Inverse::LowRank(s) => s.block(parts, i),
+        }
+    }
+}
+
+/// The inverse of a covariance block-diagonal over the rides but for a few common columns,
+/// Σ = B + V Vᵀ (B each ride's block, V the parts every ride shares: the coasting correction's,
+/// the motion's size's, the model's factor from the measured inputs): by Woodbury's identity
+/// Σ⁻¹ = B⁻¹ − Z G⁻¹ Zᵀ with Z = B⁻¹ V and G = I + Vᵀ B⁻¹ V. A product Σ⁻¹ r costs O(N k) and a
+/// ride's block O(k²) for N residual parts and k columns, where the dense inverse costs O(N²)
+/// a product and N² numbers: with 1,000 rides (4,000 parts) the dense one held 128 MB a
+/// candidate and the held-out refits' products took most of `bikeproc gap`'s 292 s.
+#[derive(Clone)]
+pub struct LowRankInverse {
+    /// B⁻¹, ride by ride.
+    blocks: Vec<DMatrix<f64>>,
+    /// Z = B⁻¹ V (N × k).
+    z: DMatrix<f64>,
+    /// G⁻¹ (k × k).
+    g_inv: DMatrix<f64>,
+}
+
+impl LowRankInverse {
+    /// From B's blocks (in the rides' order of `parts`) and V (N × k); `None` when a block or G
+    /// is not positive definite.
+    fn new(blocks: Vec<DMatrix<f64>>, parts: &Parts, v: &DMatrix<f64>) -> Option<LowRankInverse> {
+        let mut z = DMatrix::zeros(v.nrows(), v.ncols());
+        let mut inverses = Vec::with_capacity(blocks.len());
+        for (i, block) in blocks.into_iter().enumerate() {
+            let (start, p) = (parts.start(i), parts.of(i));
+            let inv = block.cholesky()?.inverse();
+            z.rows_mut(start, p).copy_from(&(&inv * v.rows(start, p)));
+            inverses.push(inv);
+        }
+        let k = v.ncols();
+        let g = DMatrix::identity(k, k) + v.tr_mul(&z);
+        Some(LowRankInverse {
+            blocks: inverses,
+            g_inv: g.cholesky()?.inverse(),
+            z,
+        })
+    }
+
+    /// Σ⁻¹ r.
+    fn mul(&self, parts: &Parts, r: &DVector<f64>) -> DVector<f64> {
+        let y = &self.g_inv * self.z.tr_mul(r);
+        let mut out = -(&self.z * y);
+        for (i, inv) in self.blocks.iter().enumerate() {
+            let (start, p) = (parts.start(i), parts.of(i));
+            let own = inv * r.rows(start, p);
+            let mut rows = out.rows_mut(start, p);
+            rows += &own;
+        }
+        out
+    }
+
+    /// Ride `i`'s block of Σ⁻¹.
+    fn block(&self, parts: &Parts, i: usize) -> DMatrix<f64> {
+        let zi = self.z.rows(parts.start(i), parts.of(i));
+        &self.blocks[i] - zi * &self.g_inv * zi.transpose()
+    }
 }
 
 /// The χ² of every ride but i, rᵀ Σ₋ᵢ⁻¹ r over the others' residuals, from the whole
@@ -643,10 +699,9 @@ impl Subset<'_, '_> {
     /// solve fails.
     fn chi2_of(&self, r: &DVector<f64>) -> f64 {
         match &self.solve {
-            Solve::Inverse => self
-                .campaign
-                .inverse()
-                .map_or(f64::INFINITY, |s| r.dot(&(s * r)).max(0.0)),
+            Solve::Inverse => self.campaign.inverse().map_or(f64::INFINITY, |s| {
+                r.dot(&s.mul(&self.campaign.parts, r)).max(0.0)
+            }),
             Solve::Cholesky(chol) => chol
                 .l_dirty()
                 .solve_lower_triangular(r)
@@ -660,14 +715,14 @@ impl Subset<'_, '_> {
                 };
                 let parts = &self.campaign.parts;
                 // Every ride's residual, zero for the one left out.
-                let mut full = DVector::zeros(s.nrows());
+                let mut full = DVector::zeros(parts.total());
                 let mut at = 0;
                 for &i in &self.rides {
                     let p = parts.of(i);
                     full.rows_mut(parts.start(i), p).copy_from(&r.rows(at, p));
                     at += p;
                 }
-                let u = s * &full;
+                let u = s.mul(parts, &full);
                 let ui = u.rows(parts.start(*left_out), parts.of(*left_out));
                 let chi2 = full.dot(&u) - (block_inverse * ui).dot(&ui);
                 chi2.max(0.0)
@@ -1118,21 +1173,41 @@ mod tests {
         }
     }
 
-    /// Woodbury's update against the sum inverted whole: a seeded SPD E of 40 and a factor
-    /// of 7 columns, as the model's measured inputs add to a campaign's covariance.
+    /// The structured inverse against the sum inverted whole: ten rides of 4 and 2 parts, each
+    /// ride's block a seeded SPD matrix, and 7 common columns, as the model's measured inputs
+    /// and the experiment's shared parts add to a campaign's covariance; its products and
+    /// blocks within 1e-10 of the dense inverse's.
     #[test]
-    fn a_woodbury_update_is_the_sum_inverted() {
+    fn a_low_rank_inverse_is_the_sum_inverted() {
         use rand::{RngExt, SeedableRng};
         let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(34);
-        let n = 40;
-        let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
-        let e = &g * g.transpose() + DMatrix::identity(n, n) * 0.2;
-        let u = DMatrix::from_fn(n, 7, |_, _| rng.random::<f64>() - 0.5);
-        let e_inv = e.clone().cholesky().unwrap().inverse();
-        let ours = woodbury_inverse(&e_inv, &u).unwrap();
-        let whole = (&e + &u * u.transpose()).cholesky().unwrap().inverse();
-        let err = (&ours - &whole).amax();
-        assert!(err < 1e-10 * whole.amax(), "{err}");
+        let parts = Parts::new((0..10).map(|i| if i % 3 == 0 { 2 } else { 4 }).collect());
+        let n = parts.total();
+        let mut whole = DMatrix::zeros(n, n);
+        let blocks: Vec<DMatrix<f64>> = (0..10)
+            .map(|i| {
+                let p = parts.of(i);
+                let g = DMatrix::from_fn(p, p, |_, _| rng.random::<f64>() - 0.5);
+                let b = &g * g.transpose() + DMatrix::identity(p, p) * 0.2;
+                whole
+                    .view_mut((parts.start(i), parts.start(i)), (p, p))
+                    .copy_from(&b);
+                b
+            })
+            .collect();
+        let v = DMatrix::from_fn(n, 7, |_, _| rng.random::<f64>() - 0.5);
+        whole += &v * v.transpose();
+        let dense = whole.cholesky().unwrap().inverse();
+        let ours = LowRankInverse::new(blocks, &parts, &v).unwrap();
+        let r = DVector::from_fn(n, |_, _| rng.random::<f64>() - 0.5);
+        let err = (ours.mul(&parts, &r) - &dense * &r).amax();
+        assert!(err < 1e-10 * (&dense * &r).amax(), "product off by {err}");
+        for i in 0..10 {
+            let (start, p) = (parts.start(i), parts.of(i));
+            let want = dense.view((start, start), (p, p));
+            let err = (ours.block(&parts, i) - want).amax();
+            assert!(err < 1e-10 * dense.amax(), "block {i} off by {err}");
+        }
     }
 
     /// The triangular inverse against nalgebra's general solve of the identity.

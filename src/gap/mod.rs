@@ -584,7 +584,6 @@ pub fn diagnose_study(
     let all: Vec<usize> = (0..n).collect();
     let condition_inputs: Vec<Parametrized> =
         per_condition.iter().map(|(m, _)| m.clone()).collect();
-    let exp_inverse = std::sync::OnceLock::new();
     let campaign = Campaign {
         obs: rides,
         conditions: &condition_models,
@@ -594,8 +593,7 @@ pub fn diagnose_study(
         cov: &exp_cov + &model_cov,
         factor: std::sync::OnceLock::new(),
         inverse: std::sync::OnceLock::new(),
-        model_factor: None,
-        exp_inverse: &exp_inverse,
+        model_factor: Some(wm.factor.select_rows(model_idx.iter())),
         exp_common: &exp_common,
         assumed: effects::Assumed::NOMINAL,
         exp_cov: &exp_cov,

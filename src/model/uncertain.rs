@@ -7,7 +7,7 @@ use super::params::{Benchmark, ParamError};
 use super::{Canonical, Stability, SteerControl};
 use crate::inertia::bike::LabBike;
 use crate::signal::wrap_near;
-use crate::uncertainty::{propagate, propagate_se, Inputs, Measured};
+use crate::uncertainty::{propagate, propagate_se, propagate_with_factor, Inputs, Measured};
 use nalgebra::Complex;
 use std::path::Path;
 
@@ -414,6 +414,9 @@ pub struct WeaveModel {
     /// Covariance of `[re₀, im₀, |γ/θ|₀, arg₀, re₁, …]` (arg in rad), propagated from the
     /// parameters: correlated across speeds, since one parameter set makes every speed's weave.
     pub cov: nalgebra::DMatrix<f64>,
+    /// That covariance as a factor U (parts × measured inputs with an error), `U Uᵀ = cov`
+    /// ([`crate::uncertainty::propagate_factor`]).
+    pub factor: nalgebra::DMatrix<f64>,
 }
 
 /// The parts [`Parametrized::weave_model`] gives per speed.
@@ -456,7 +459,7 @@ impl Parametrized {
                 shapes.push(shape_of(&nominal, v, e[0]));
             }
         }
-        let (_, cov) = propagate(&self.inputs, |x| {
+        let (_, cov, factor) = propagate_with_factor(&self.inputs, |x| {
             let mut out = Vec::with_capacity(WEAVE_PARTS * weaves.len());
             let mut k = 0;
             for ((condition, speeds), sweep) in conditions.iter().zip(&sweeps) {
@@ -475,6 +478,7 @@ impl Parametrized {
             weaves,
             shapes,
             cov,
+            factor,
         })
     }
 }
