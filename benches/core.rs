@@ -265,9 +265,9 @@ fn data_campaign_observations() -> (
 }
 
 /// Issues 17 and 33: the diagnosis's cost against the number of rides: the 16 rides of
-/// `data/rides.toml` taken 1/2, 1, 2, 4 and 8 times (the copies 0.02 m/s apart), every
+/// `data/rides.toml` taken 1/2, 1, 2, … 32 times (the copies 0.02 m/s apart), every
 /// candidate and pair fitted and left one ride out at a time.
-#[divan::bench(sample_count = 3, args = [8, 16, 32, 64, 128])]
+#[divan::bench(sample_count = 3, args = [8, 16, 32, 64, 128, 256, 512])]
 fn gap_diagnosis_by_rides(bencher: divan::Bencher, n: usize) {
     use bikeproc::gap::{diagnose, GapOptions, Observation};
     let (model, base) = data_campaign_observations();
