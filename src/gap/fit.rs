@@ -39,15 +39,15 @@ pub struct Campaign<'a> {
     pub cov: DMatrix<f64>,
     /// Its Cholesky factor, made once ([`Campaign::factor`]).
     pub factor: std::sync::OnceLock<Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>>,
-    /// Its inverse, made on the first leave-one-out subset ([`Campaign::leave_one_out`]).
+    /// Its inverse, made on first use ([`Campaign::make_inverse`]).
     pub inverse: std::sync::OnceLock<Option<Inverse>>,
     /// The model's part of `cov` as a factor U, `cov = exp_cov + U Uᵀ` (at the measured
     /// bicycle, or at a candidate's fit: [`Campaign::at_fit`]), so that the inverse keeps the
-    /// structure ([`LowRankInverse`]); `None` where it is not known.
-    pub model_factor: Option<DMatrix<f64>>,
+    /// structure ([`LowRankInverse`]).
+    pub model_factor: DMatrix<f64>,
     /// The common parts of `exp_cov` (the coasting correction's error shared by the rides and
     /// the motion's size's, `W Wᵀ`, one column each): the rest is block-diagonal over the
-    /// rides, which [`Campaign::make_inverse`] uses at a candidate's fit.
+    /// rides, which [`Campaign::make_inverse`] uses.
     pub exp_common: &'a DMatrix<f64>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
@@ -132,9 +132,9 @@ pub struct Subset<'c, 'a> {
 enum Solve {
     /// By the Cholesky factor of the subset's covariance.
     Cholesky(nalgebra::Cholesky<f64, nalgebra::Dyn>),
-    /// Every ride, rᵀ S r by the campaign's inverse S where the model's factor is known: S by
-    /// its structure ([`LowRankInverse`]), O(N k) a product where the Cholesky factor's solve is
-    /// O(N²) and factoring each candidate's covariance O(N³).
+    /// Every ride, rᵀ S r by the campaign's inverse S, kept by its structure
+    /// ([`LowRankInverse`]): O(N k) a product where the Cholesky factor's solve is O(N²) and
+    /// factoring each candidate's covariance O(N³).
     Inverse,
     /// Every ride but `left_out`, from the whole campaign's inverse covariance S: with the
     /// residual r of every ride (zero for the one left out) and u = S r,
@@ -327,7 +327,7 @@ impl<'a> Campaign<'a> {
             cov,
             factor: std::sync::OnceLock::new(),
             inverse: std::sync::OnceLock::new(),
-            model_factor: Some(factor),
+            model_factor: factor,
             ..this
         })
     }
@@ -351,36 +351,34 @@ impl<'a> Campaign<'a> {
             .as_ref()
     }
 
-    /// The inverse of [`Campaign::cov`]. At a candidate's fit, from its structure
-    /// ([`LowRankInverse`]: each ride's block of the experiment's covariance, the coasting
-    /// shifts' own errors on its diagonal, and as common columns the experiment's and the
-    /// model's factor U); otherwise (or where that update's capacitance is not positive
-    /// definite) L⁻ᵀ L⁻¹ from the factor Σ = L Lᵀ.
+    /// The inverse of [`Campaign::cov`], from its structure ([`LowRankInverse`]: each ride's
+    /// block of the experiment's covariance, a candidate's coasting shifts' own errors on its
+    /// diagonal, and as common columns the experiment's and the model's factor U); where a
+    /// block or the update's capacitance is not positive definite, L⁻ᵀ L⁻¹ from the factor
+    /// Σ = L Lᵀ.
     fn make_inverse(&self) -> Option<Inverse> {
-        if let Some(u) = &self.model_factor {
-            let d = self.coasting_error();
-            let w = self.exp_common;
-            let blocks = (0..self.obs.len())
-                .map(|i| {
-                    let (start, p) = (self.parts.start(i), self.parts.of(i));
-                    let wi = w.rows(start, p);
-                    let mut block = self.exp_cov.view((start, start), (p, p)) - wi * wi.transpose();
-                    if let Some(d) = &d {
-                        for a in 0..p {
-                            block[(a, a)] += d[start + a].powi(2);
-                        }
+        let d = self.coasting_error();
+        let (w, u) = (self.exp_common, &self.model_factor);
+        let blocks = (0..self.obs.len())
+            .map(|i| {
+                let (start, p) = (self.parts.start(i), self.parts.of(i));
+                let wi = w.rows(start, p);
+                let mut block = self.exp_cov.view((start, start), (p, p)) - wi * wi.transpose();
+                if let Some(d) = &d {
+                    for a in 0..p {
+                        block[(a, a)] += d[start + a].powi(2);
                     }
-                    block
-                })
-                .collect();
-            let mut v = DMatrix::zeros(self.parts.total(), w.ncols() + u.ncols());
-            v.columns_mut(0, w.ncols()).copy_from(w);
-            v.columns_mut(w.ncols(), u.ncols()).copy_from(u);
-            if let Some(s) = LowRankInverse::new(blocks, &self.parts, &v) {
-                return Some(Inverse::LowRank(s));
-            }
+                }
+                block
+            })
+            .collect();
+        let mut v = DMatrix::zeros(self.parts.total(), w.ncols() + u.ncols());
+        v.columns_mut(0, w.ncols()).copy_from(w);
+        v.columns_mut(w.ncols(), u.ncols()).copy_from(u);
+        match LowRankInverse::new(blocks, &self.parts, &v) {
+            Some(s) => Some(Inverse::LowRank(s)),
+            None => inverse_from_factor(self.factor()?).map(Inverse::Dense),
         }
-        inverse_from_factor(self.factor()?).map(Inverse::Dense)
     }
 
     /// The standard deviations (in the residual vector's order) of a candidate's
@@ -408,7 +406,7 @@ impl<'a> Campaign<'a> {
     /// The subset of `rides`; `None` when its covariance is not positive definite.
     pub fn subset(&self, rides: Vec<usize>) -> Option<Subset<'_, 'a>> {
         let every = rides.len() == self.obs.len() && rides.iter().enumerate().all(|(k, &i)| k == i);
-        if every && self.model_factor.is_some() && self.inverse().is_some() {
+        if every && self.inverse().is_some() {
             return Some(Subset {
                 campaign: self,
                 solve: Solve::Inverse,

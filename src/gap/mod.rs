@@ -593,7 +593,7 @@ pub fn diagnose_study(
         cov: &exp_cov + &model_cov,
         factor: std::sync::OnceLock::new(),
         inverse: std::sync::OnceLock::new(),
-        model_factor: Some(wm.factor.select_rows(model_idx.iter())),
+        model_factor: wm.factor.select_rows(model_idx.iter()),
         exp_common: &exp_common,
         assumed: effects::Assumed::NOMINAL,
         exp_cov: &exp_cov,
