@@ -1064,7 +1064,8 @@ fn central_differences(
 
 /// Standard errors of fitted parameters from the χ² curvature, `cov = 2 H⁻¹` (central
 /// differences, steps of 1e-3 of each range), inflated by √(χ²/dof) when that exceeds 1 (the
-/// scatter the covariance does not explain). `NaN` where the curvature is not positive.
+/// scatter the covariance does not explain). `NaN` where the curvature is not positive, or
+/// where the rides do not touch the parameter at all.
 pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
     let (lo, hi) = subset.campaign.layout(effects).bounds();
     let n = lo.len();
@@ -1078,19 +1079,28 @@ pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) ->
         .saturating_sub(n)
         .max(1) as f64;
     let birge = (fit.chi2 / dof).max(1.0);
-    match (hess * 0.5).try_inverse() {
-        Some(inv) => (0..n)
-            .map(|i| {
-                let v = inv[(i, i)] * birge;
-                if v > 0.0 && v.is_finite() {
-                    v.sqrt()
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect(),
-        None => vec![f64::NAN; n],
+    // A parameter the rides do not touch (a condition's own gain where none of its rides was
+    // usable) has no curvature and no cross terms: it has no standard error, and the others'
+    // come from the rest of the Hessian (the whole one is singular).
+    let largest = (0..n).map(|i| hess[(i, i)].abs()).fold(0.0, f64::max);
+    let touched: Vec<usize> = (0..n)
+        .filter(|&i| hess[(i, i)].is_finite() && hess[(i, i)].abs() > 1e-12 * largest)
+        .collect();
+    let mut se = vec![f64::NAN; n];
+    if let Some(inv) = (hess
+        .select_rows(touched.iter())
+        .select_columns(touched.iter())
+        * 0.5)
+        .try_inverse()
+    {
+        for (k, &i) in touched.iter().enumerate() {
+            let v = inv[(k, k)] * birge;
+            if v > 0.0 && v.is_finite() {
+                se[i] = v.sqrt();
+            }
+        }
     }
+    se
 }
 
 /// The standard errors that `fit`'s parameters owe to what the library assumes (the tyres'

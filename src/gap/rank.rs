@@ -26,6 +26,14 @@ pub struct Ranked {
     /// Each parameter at its search bound, or within its standard error of it
     /// ([`at_bound`]): then the rides bound it on one side only, and it is shown as a bound.
     pub at_bound: Vec<bool>,
+    /// Each parameter whose search stopped at an edge ([`pinned`]) with the χ²'s minimum more
+    /// than [`PINNED_SE`] standard errors beyond it: the candidate's χ² is then not its own
+    /// minimum. A value merely within its standard error of the edge, or at the edge where
+    /// the rides barely tell (a controller's gain in a condition of three rides: 0.1 ± 0.49,
+    /// its minimum 1.4 SE beyond), is a fit, shown as a bound but not held against the
+    /// candidate.
+    #[serde(skip)]
+    pub held_back: Vec<bool>,
     /// χ² of the fit to every ride, its degrees of freedom and the BIC `χ² + k ln(2N)`.
     pub chi2: f64,
     pub bic: f64,
@@ -229,6 +237,22 @@ pub(super) fn plausible(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
     p + margin >= spec.plausible.0 && p - margin <= spec.plausible.1
 }
 
+/// How close to its search's edge (a fraction of the range) a fit counts as stopped there: the
+/// search clamps to the edge, and the held-out refits' differences keep 1e-3 of the range
+/// clear of it.
+const PINNED_FRACTION: f64 = 2e-3;
+
+/// How far beyond its search's edge (in its standard errors) a parameter's minimum may lie
+/// and the edge still be consistent with it (two-sided 95 %).
+const PINNED_SE: f64 = 2.0;
+
+/// Whether a fitted value `p` is where its search stopped at an edge (within
+/// [`PINNED_FRACTION`] of the range): its minimum lies there or beyond.
+pub fn pinned(spec: &effects::ParamSpec, p: f64) -> bool {
+    let tol = PINNED_FRACTION * (spec.hi - spec.lo);
+    p - spec.lo <= tol || spec.hi - p <= tol
+}
+
 /// Whether a fitted value `p` (standard error `se`) sits at its search's bound: within its
 /// standard error of it, or within a thousandth of the range where it has none. The rides then
 /// tell one side of the value only (and the curvature at the edge is no standard error).
@@ -249,14 +273,20 @@ impl Ranked {
 
     /// Whether it ranks among the first: in a single campaign, a plausible candidate (a value
     /// no real bicycle or lab would have explains nothing, however well it fits); in a study,
-    /// one with no parameter at its search's bound — there the conditions, not a prior, decide,
-    /// and a best fit outside its plausible range is shown first and flagged.
+    /// one with no parameter where its search stopped at an edge ([`Ranked::pinned`]) — there
+    /// the conditions, not a prior, decide, and a best fit outside its plausible range is
+    /// shown first and flagged.
     pub fn standing(&self) -> bool {
         if self.in_study() {
-            !self.at_bound.contains(&true)
+            !self.pinned()
         } else {
             self.plausible
         }
+    }
+
+    /// Whether a parameter's search edge holds the fit back ([`Ranked::held_back`]).
+    pub fn pinned(&self) -> bool {
+        self.held_back.contains(&true)
     }
 
     /// Each parameter in words, with its unit: `0.092 ± 0.061 kg·m²`, or a bound for one at
@@ -357,8 +387,27 @@ pub(super) fn rank(
             .zip(f.params.iter().zip(&se))
             .map(|(spec, (&p, &se))| at_bound(spec, p, se))
             .collect();
+        // The slope of χ² inward from an edge, g: with χ² quadratic (curvature 2/se²) its
+        // minimum lies g se/2 standard errors beyond the edge.
+        let held_back: Vec<bool> = specs
+            .iter()
+            .enumerate()
+            .map(|(k, spec)| {
+                let p = f.params[k];
+                if !pinned(spec, p) || !se[k].is_finite() {
+                    return false;
+                }
+                let h = PINNED_FRACTION * (spec.hi - spec.lo);
+                let inward = if p - spec.lo <= spec.hi - p { h } else { -h };
+                let mut x = f.params.clone();
+                x[k] = p + inward;
+                let slope = (full.chi2(&effects, &x) - f.chi2) / h;
+                0.5 * slope * se[k] > PINNED_SE
+            })
+            .collect();
         Some(Ranked {
             effect: name,
+            held_back,
             plausible: !bounded.contains(&true)
                 && specs
                     .iter()
@@ -496,7 +545,7 @@ pub(super) fn rank(
     if campaign.is_study() {
         let by_chi2 = ranked
             .iter()
-            .filter(|r| !r.at_bound.contains(&true))
+            .filter(|r| !r.pinned())
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
             .map(|r| r.effects[0]);
         if let Some(best) = by_chi2.filter(|b| Some(b) != pool.first()) {
@@ -553,6 +602,19 @@ fn sort(ranked: &mut [Ranked]) {
 mod tests {
     use super::*;
 
+    /// A fit stops at its search's edge within [`PINNED_FRACTION`] of the range (the search
+    /// clamps there; the held-out refits' differences keep 1e-3 of it clear): the rear frame's
+    /// I_xz factor (0.25–2.2) at 0.2539 is there, at 0.26 (its SE aside) it is not.
+    #[test]
+    fn a_fit_at_the_search_edge_is_pinned() {
+        let spec = Effect::FrameIxz.params()[0];
+        assert!(pinned(&spec, 0.25));
+        assert!(pinned(&spec, 0.2538));
+        assert!(pinned(&spec, 2.2 - 3.9e-3));
+        assert!(!pinned(&spec, 0.26));
+        assert!(!pinned(&spec, 1.0));
+    }
+
     /// A value within its standard error of the search's edge is a bound, shown as one: the
     /// rear frame's I_xz factor (search 0.25–2.2) at 0.3 ± 0.1 is "≤ 0.4"; at 0.9 ± 0.1 it is
     /// an estimate; at the upper edge without a standard error, "≥ 2.2".
@@ -567,5 +629,8 @@ mod tests {
         assert!(text.starts_with("≤ 0.400 × measured"), "{text}");
         let text = super::super::verdict::bound_text(&spec, 2.2, f64::NAN);
         assert!(text.starts_with("≥ 2.200 × measured"), "{text}");
+        // A value the rides barely tell is bounded by the search, not past its other edge.
+        let text = super::super::verdict::bound_text(&spec, 2.2, 5.0);
+        assert!(text.starts_with("≥ 0.250 × measured"), "{text}");
     }
 }

@@ -489,20 +489,22 @@ fn named_params(r: &super::Ranked) -> String {
 }
 
 /// A parameter at its search's edge ([`super::rank::at_bound`]) as the bound the rides put on
-/// it: at the lower edge `lo`, "≤ p + SE"; at the upper, "≥ p − SE"; without a standard error,
-/// the edge alone. Never an estimate ± SE, which would read as a measurement.
+/// it: at the lower edge `lo`, "≤ p + SE"; at the upper, "≥ p − SE" (neither past the other
+/// edge); without a standard error, the edge alone. Never an estimate ± SE, which would read as a measurement.
 pub fn bound_text(spec: &super::effects::ParamSpec, p: f64, se: f64) -> String {
     let unit = spaced(spec.unit);
     let lower = p - spec.lo <= spec.hi - p;
     let edge = if lower { spec.lo } else { spec.hi };
     match (se.is_finite(), lower) {
+        // One SE from the value, but never past the search's other edge (a value the rides
+        // barely tell: frame_mass 8.0 ± 8.2 kg is "≥ 0.000", not "≥ −0.215").
         (true, true) => format!(
             "≤ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
-            p + se
+            (p + se).min(spec.hi)
         ),
         (true, false) => format!(
             "≥ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
-            p - se
+            (p - se).max(spec.lo)
         ),
         (false, true) => format!("≤ {edge:.3}{unit} (at the search's edge, no SE)"),
         (false, false) => format!("≥ {edge:.3}{unit} (at the search's edge, no SE)"),
