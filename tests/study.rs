@@ -46,7 +46,7 @@ fn diagnose(s: &Study) -> Diagnosis {
 /// study's JSON (`params_by_condition`, `heldout_rms_by_condition`, `conditions`).
 ///
 /// The values against their standard errors: each within 2 of them, as the blind
-/// study asks (over 50 studies, docs/study-calibration.md: 43 of 50 name the pair with every
+/// study asks (over 50 studies, docs/study-calibration.md: 45 of 50 name the pair with every
 /// value within 2). Measured on seeds 1–3 (the draws with the delivered gain a tenth or more
 /// from nominal, one coefficient of the motion's size per condition): the gains at +0.62,
 /// +0.55, +0.99; +1.34, +0.11, +0.13; +1.18, +0.42, +0.25 and the inertia at −1.24, +1.10,
