@@ -3,7 +3,7 @@
 //! controller gains, `sim::study`) against its sealed truth; the same rides one condition at a
 //! time; the study's JSON.
 
-use bikeproc::gap::{diagnose_campaign, diagnose_manifests, Diagnosis};
+use bikeproc::gap::{diagnose_campaign, diagnose_manifests, Diagnosis, Ranked};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::model::uncertain;
 use bikeproc::ride::study::Study;
@@ -41,6 +41,30 @@ fn diagnose(s: &Study) -> Diagnosis {
     diagnose_manifests(&s.conditions, &model, &|_, _, _| {}).unwrap()
 }
 
+/// The diagnosis's first candidate is the steer motor's pair — three gains (one per powered
+/// condition), then the inertia — each value within 2 of its standard errors of the truth.
+fn names_the_motor<'d>(seed: u64, d: &'d Diagnosis, truth: &StudyTruth) -> &'d Ranked {
+    let best = &d.ranking[0];
+    assert_eq!(
+        best.effect, "actuator_gain + steer_inertia",
+        "seed {seed}: truth {truth:?}\n{}",
+        d.verdict
+    );
+    assert_eq!(best.params.len(), 4, "{:?}", best.params);
+    let truths = [truth.delivered; 3]
+        .into_iter()
+        .chain([truth.reflected_inertia_kgm2]);
+    for ((value, se), t) in best.params.iter().zip(&best.params_se).zip(truths) {
+        let z = (value - t) / se;
+        assert!(
+            z.abs() <= 2.0,
+            "seed {seed}: {value:.4} ± {se:.4} for {t:.4} (z {z:+.2}), {:?}",
+            best.params
+        );
+    }
+    best
+}
+
 /// The joint diagnosis of the four conditions names the steer motor's two effects together —
 /// its delivered gain per controller, its inertia shared — on each of three seeds, with the
 /// study's JSON (`params_by_condition`, `heldout_rms_by_condition`, `conditions`).
@@ -60,26 +84,8 @@ fn a_blind_study_names_the_steer_motor() {
         let (_, s, truth) = study(seed, None);
         let d = diagnose(&s);
         assert!(d.significant, "seed {seed}: {}", d.verdict);
-        let best = &d.ranking[0];
-        assert_eq!(
-            best.effect, "actuator_gain + steer_inertia",
-            "seed {seed}: truth {truth:?}\n{}",
-            d.verdict
-        );
-        // Three gains (one per powered condition), then the inertia.
-        assert_eq!(best.params.len(), 4, "{:?}", best.params);
+        let best = names_the_motor(seed, &d, &truth);
         let j = best.params[3];
-        let truths = [truth.delivered; 3]
-            .into_iter()
-            .chain([truth.reflected_inertia_kgm2]);
-        for ((value, se), t) in best.params.iter().zip(&best.params_se).zip(truths) {
-            let z = (value - t) / se;
-            assert!(
-                z.abs() <= 2.0,
-                "seed {seed}: {value:.4} ± {se:.4} for {t:.4} (z {z:+.2}), {:?}",
-                best.params
-            );
-        }
         // Shared effects repeat their value in every condition; the unpowered condition has
         // no gain.
         let by = &best.params_by_condition;
@@ -123,22 +129,7 @@ fn a_gain_its_rides_barely_tell_does_not_hide_the_motor() {
         let (dir, s, truth) = study(seed, None);
         let d = diagnose(&s);
         std::fs::remove_dir_all(&dir).ok();
-        let best = &d.ranking[0];
-        assert_eq!(
-            best.effect, "actuator_gain + steer_inertia",
-            "seed {seed}: truth {truth:?}\n{}",
-            d.verdict
-        );
-        let truths = [truth.delivered; 3]
-            .into_iter()
-            .chain([truth.reflected_inertia_kgm2]);
-        for ((value, se), t) in best.params.iter().zip(&best.params_se).zip(truths) {
-            let z = (value - t) / se;
-            assert!(
-                z.abs() <= 2.0,
-                "seed {seed}: {value:.4} ± {se:.4} for {t:.4}"
-            );
-        }
+        names_the_motor(seed, &d, &truth);
     }
     let (dir, s, _) = study(7, None);
     let d = diagnose(&s);
