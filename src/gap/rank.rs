@@ -243,7 +243,7 @@ pub(super) fn plausible(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
 const PINNED_FRACTION: f64 = 2e-3;
 
 /// How far beyond its search's edge (in its standard errors) a parameter's minimum may lie
-/// and the edge still be consistent with it (two-sided 95 %).
+/// with the edge still within its 95 % interval.
 const PINNED_SE: f64 = 2.0;
 
 /// Whether a fitted value `p` is where its search stopped at an edge (within
@@ -273,19 +273,19 @@ impl Ranked {
 
     /// Whether it ranks among the first: in a single campaign, a plausible candidate (a value
     /// no real bicycle or lab would have explains nothing, however well it fits); in a study,
-    /// one with no parameter where its search stopped at an edge ([`Ranked::pinned`]) — there
+    /// one whose fit no search edge holds back ([`Ranked::held_back_by_an_edge`]) — there
     /// the conditions, not a prior, decide, and a best fit outside its plausible range is
     /// shown first and flagged.
     pub fn standing(&self) -> bool {
         if self.in_study() {
-            !self.pinned()
+            !self.held_back_by_an_edge()
         } else {
             self.plausible
         }
     }
 
     /// Whether a parameter's search edge holds the fit back ([`Ranked::held_back`]).
-    pub fn pinned(&self) -> bool {
+    pub fn held_back_by_an_edge(&self) -> bool {
         self.held_back.contains(&true)
     }
 
@@ -545,7 +545,7 @@ pub(super) fn rank(
     if campaign.is_study() {
         let by_chi2 = ranked
             .iter()
-            .filter(|r| !r.pinned())
+            .filter(|r| !r.held_back_by_an_edge())
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
             .map(|r| r.effects[0]);
         if let Some(best) = by_chi2.filter(|b| Some(b) != pool.first()) {
