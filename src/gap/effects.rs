@@ -24,6 +24,19 @@ pub struct ParamSpec {
     pub plausible: (f64, f64),
 }
 
+impl ParamSpec {
+    /// How far `p` lies from the nearer of the search's edges, and whether that is the lower
+    /// (the lower when both are as near).
+    pub fn nearest_edge(&self, p: f64) -> (f64, bool) {
+        let (below, above) = (p - self.lo, self.hi - p);
+        if below <= above {
+            (below, true)
+        } else {
+            (above, false)
+        }
+    }
+}
+
 /// An effect the Whipple model of the measured bicycle leaves out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
 #[serde(rename_all = "snake_case")]

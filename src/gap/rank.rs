@@ -250,7 +250,7 @@ const PINNED_SE: f64 = 2.0;
 /// [`PINNED_FRACTION`] of the range): its minimum lies there or beyond.
 pub fn pinned(spec: &effects::ParamSpec, p: f64) -> bool {
     let tol = PINNED_FRACTION * (spec.hi - spec.lo);
-    p - spec.lo <= tol || spec.hi - p <= tol
+    spec.nearest_edge(p).0 <= tol
 }
 
 /// Whether a fitted value `p` (standard error `se`) sits at its search's bound: within its
@@ -262,7 +262,7 @@ pub fn at_bound(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
     } else {
         1e-3 * (spec.hi - spec.lo)
     };
-    p - spec.lo <= tol || spec.hi - p <= tol
+    spec.nearest_edge(p).0 <= tol
 }
 
 impl Ranked {
@@ -398,7 +398,7 @@ pub(super) fn rank(
                     return false;
                 }
                 let h = PINNED_FRACTION * (spec.hi - spec.lo);
-                let inward = if p - spec.lo <= spec.hi - p { h } else { -h };
+                let inward = if spec.nearest_edge(p).1 { h } else { -h };
                 let mut x = f.params.clone();
                 x[k] = p + inward;
                 let slope = (full.chi2(&effects, &x) - f.chi2) / h;

@@ -493,7 +493,7 @@ fn named_params(r: &super::Ranked) -> String {
 /// edge); without a standard error, the edge alone. Never an estimate ± SE, which would read as a measurement.
 pub fn bound_text(spec: &super::effects::ParamSpec, p: f64, se: f64) -> String {
     let unit = spaced(spec.unit);
-    let lower = p - spec.lo <= spec.hi - p;
+    let (_, lower) = spec.nearest_edge(p);
     let edge = if lower { spec.lo } else { spec.hi };
     match (se.is_finite(), lower) {
         // One SE from the value, but never past the search's other edge (a value the rides
