@@ -1255,7 +1255,7 @@ impl RowFormat<'_> {
     }
 
     /// [`RowFormat::parse_row`] in one pass over the bytes for the row a sensor writes: every
-    /// field a plain number ([`plain_decimal`]'s forms, with the same arithmetic, so the same
+    /// field a plain number ([`PlainNumber`], as [`plain_decimal`] reads it, so the same
     /// doubles; the decimal comma too where the file uses it), the counter digits alone, no
     /// spaces, exactly `n_fields` fields. `None` for any other row, which `parse_row` then reads
     /// and judges. The split, trim and parse of each field apart took half of a log's reading.
@@ -1266,48 +1266,25 @@ impl RowFormat<'_> {
         let (mut corrupt, mut counter, mut i) = (false, None, 0);
         let fields = values.iter_mut().zip(self.limits).take(self.n_fields);
         for (fi, (value, &limit)) in fields.enumerate() {
-            let negative = line.get(i) == Some(&b'-');
-            i += usize::from(negative);
-            let digits_start = i;
-            let mut m: u64 = 0;
-            let mut point = None;
-            while let Some(&b) = line.get(i) {
-                let d = b.wrapping_sub(b'0');
-                if d <= 9 {
-                    // Wrapping: a field longer than 16 bytes is refused below whatever it held.
-                    m = m.wrapping_mul(10).wrapping_add(u64::from(d));
-                } else if (b == b'.' || b == comma) && point.is_none() {
-                    point = Some(i - digits_start);
-                } else {
-                    break;
-                }
-                i += 1;
-            }
-            let len = i - digits_start;
-            let last = fi + 1 == self.n_fields;
-            let ends_here = if last {
+            let number = PlainNumber::scan(line.get(i..)?, comma);
+            i += number.len;
+            let ends_here = if fi + 1 == self.n_fields {
                 i == n
             } else {
                 line.get(i) == Some(&sep)
             };
-            if !ends_here || len == 0 || len > 16 {
+            if !ends_here {
                 return None;
             }
-            let decimals = match point {
-                Some(p) if p == 0 || p + 1 == len => return None,
-                Some(p) => len - p - 1,
-                None if len > 15 => return None,
-                None => 0,
-            };
             if fi == self.counter_col {
-                if negative || point.is_some() || len > 5 || m >= COUNTER_MODULUS {
+                let digits_alone = !number.negative && number.point.is_none();
+                if !digits_alone || !(1..=5).contains(&number.digits) || number.m >= COUNTER_MODULUS
+                {
                     return None;
                 }
-                counter = Some(m);
+                counter = Some(number.m);
             } else {
-                // m < 10¹⁵ < 2⁵³: exact through i64, whose conversion is one instruction (u64's is four).
-                let v = m as i64 as f64 / POWERS_OF_TEN[decimals];
-                let v = if negative { -v } else { v };
+                let v = number.value()?;
                 if v.abs() <= limit {
                     *value = v;
                 } else {
@@ -1440,37 +1417,74 @@ const POWERS_OF_TEN: [f64; 23] = [
 /// (an exponent, more digits, no digit on a side of the point, signs, words), which the
 /// standard parser then reads. A quarter of a log's reading went to the general parser.
 fn plain_decimal(t: &[u8]) -> Option<f64> {
-    let (negative, digits) = match t.split_first() {
-        Some((b'-', rest)) => (true, rest),
-        _ => (false, t),
-    };
-    if digits.is_empty() || digits.len() > 16 {
-        // Up to 15 digits and a point: m < 10¹⁵ < 2⁵³. Longer: the general parser.
+    let number = PlainNumber::scan(t, b'.');
+    if number.len != t.len() {
         return None;
     }
-    let mut m: u64 = 0;
-    // The position of the point, when there is one.
-    let mut point = None;
-    for (i, &b) in digits.iter().enumerate() {
-        let d = b.wrapping_sub(b'0');
-        if d <= 9 {
-            m = m * 10 + u64::from(d);
-        } else if b == b'.' && point.is_none() {
-            point = Some(i);
-        } else {
-            return None;
+    number.value()
+}
+
+/// A number read from the start of some bytes as a sensor writes it: `-?` then digits with at
+/// most one point (`.`, or the file's decimal comma), up to the first other byte. Shared by
+/// [`plain_decimal`] and the one-pass row reader ([`RowFormat::parse_plain_row`]).
+struct PlainNumber {
+    negative: bool,
+    /// The digits as an integer (wrapped, and then refused, beyond 16 bytes).
+    m: u64,
+    /// Digits and point, the sign left out.
+    digits: usize,
+    /// The point's position among them.
+    point: Option<usize>,
+    /// Bytes read, the sign included.
+    len: usize,
+}
+
+impl PlainNumber {
+    fn scan(t: &[u8], decimal_comma: u8) -> PlainNumber {
+        let negative = t.first() == Some(&b'-');
+        let start = usize::from(negative);
+        let (mut m, mut point, mut i) = (0u64, None, start);
+        while let Some(&b) = t.get(i) {
+            let d = b.wrapping_sub(b'0');
+            if d <= 9 {
+                m = m.wrapping_mul(10).wrapping_add(u64::from(d));
+            } else if (b == b'.' || b == decimal_comma) && point.is_none() {
+                point = Some(i - start);
+            } else {
+                break;
+            }
+            i += 1;
+        }
+        PlainNumber {
+            negative,
+            m,
+            digits: i - start,
+            point,
+            len: i,
         }
     }
-    let decimals = match point {
-        // A digit on each side of the point.
-        Some(p) if p == 0 || p + 1 == digits.len() => return None,
-        Some(p) => digits.len() - p - 1,
-        None if digits.len() > 15 => return None,
-        None => 0,
-    };
-    // m < 10¹⁵ < 2⁵³: exact through i64, whose conversion is one instruction (u64's is four).
-    let v = m as i64 as f64 / POWERS_OF_TEN[decimals];
-    Some(if negative { -v } else { v })
+
+    /// Its decimals, `None` where it is not of the plain form: no digit, a point without a
+    /// digit on each side, or more than 15 digits (m < 10¹⁵ < 2⁵³; longer: the general parser).
+    fn decimals(&self) -> Option<usize> {
+        if self.digits == 0 || self.digits > 16 {
+            return None;
+        }
+        match self.point {
+            Some(p) if p == 0 || p + 1 == self.digits => None,
+            Some(p) => Some(self.digits - p - 1),
+            None if self.digits > 15 => None,
+            None => Some(0),
+        }
+    }
+
+    /// The double it writes, by Clinger's fast path (above).
+    fn value(&self) -> Option<f64> {
+        let decimals = self.decimals()?;
+        // m < 10¹⁵ < 2⁵³: exact through i64, whose conversion is one instruction (u64's is four).
+        let v = self.m as i64 as f64 / POWERS_OF_TEN[decimals];
+        Some(if self.negative { -v } else { v })
+    }
 }
 
 /// Removes the ±360° jumps of an angle that wraps at ±180°.

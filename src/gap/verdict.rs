@@ -490,7 +490,8 @@ fn named_params(r: &super::Ranked) -> String {
 
 /// A parameter at its search's edge ([`super::rank::at_bound`]) as the bound the rides put on
 /// it: at the lower edge `lo`, "≤ p + SE"; at the upper, "≥ p − SE" (neither past the other
-/// edge); without a standard error, the edge alone. Never an estimate ± SE, which would read as a measurement.
+/// edge); without a standard error, the edge alone. Never an estimate ± SE, which would read
+/// as a measurement.
 pub fn bound_text(spec: &super::effects::ParamSpec, p: f64, se: f64) -> String {
     let unit = spaced(spec.unit);
     let (_, lower) = spec.nearest_edge(p);
