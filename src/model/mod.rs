@@ -30,7 +30,27 @@ pub struct Canonical {
     pub c1: Matrix2<f64>,
     pub k0: Matrix2<f64>,
     pub k2: Matrix2<f64>,
+    /// The stiffness per unit forward acceleration (kg·m): a bicycle whose speed changes at v̇
+    /// has `v̇ K_a q` beside `g K₀ q`. Meijaard et al. (2007) linearize at constant speed; their
+    /// derivation (App. A) takes the yaw acceleration as `ψ̈ = (v δ̇ + c δ̈) cos λ / w` and the
+    /// front wheel's spin momentum as `−I_fyy v / r_f` along its steered axle, whose time
+    /// derivatives gain `v̇ δ cos λ / w` and `v̇ δ` terms when v changes:
+    /// `K_a,φδ = (S_F + I_Txz / w) cos λ = C₁,φδ − c K₂,φδ`,
+    /// `K_a,δδ = (I_Aλz + μ I_Tzz) cos λ / w = C₁,δδ + c K₀,δδ / (w tan λ)`, and zero in the roll
+    /// column (C₁'s other parts are ω × H and the centripetal `v ψ̇`, with no derivative of v).
+    /// These are the bicycle's own inertial terms, whatever slows it. The forces that slow it
+    /// add terms of their own, which depend on how they act and are not modelled here: braked
+    /// by 10 N along its heading at the frame's centre of mass, the simulator's linearization
+    /// (`sim::linearize`) moves the weave by what K_a gives within 0.18–0.32 of the shift (the
+    /// lab's and the benchmark bicycle, 3–6 m/s); on its coasting rides (rolling resistance at
+    /// the hubs, drag at the frame, each along its point's velocity) K_a's ω shift is 1.65 times
+    /// the simulator's, where the mode shape's change fits the rides (the ride stage's coasting
+    /// correction, [`crate::ride::dynamic`], takes that part alone).
+    pub ka: Matrix2<f64>,
     pub g: f64,
+    /// The forward acceleration (m/s²) the state matrix is taken at ([`Canonical::with_accel`]);
+    /// zero: the benchmark's constant speed.
+    pub accel_mps2: f64,
     /// A steer controller closing the loop ([`control`]; [`SteerControl::NONE`] for the
     /// Whipple model itself).
     pub control: SteerControl,
@@ -51,13 +71,15 @@ fn sq<T: Scalar>(x: T) -> T {
     x * x
 }
 
-/// The canonical matrices' entries in any arithmetic: M, C₁, K₀, K₂ row by row, and g.
+/// The canonical matrices' entries in any arithmetic: M, C₁, K₀, K₂ and K_a row by row, and g.
 #[derive(Debug, Clone, Copy)]
 pub struct CanonicalTerms<T> {
     pub m: [T; 4],
     pub c1: [T; 4],
     pub k0: [T; 4],
     pub k2: [T; 4],
+    /// The stiffness per unit forward acceleration ([`Canonical::ka`]).
+    pub ka: [T; 4],
     pub g: T,
 }
 
@@ -131,6 +153,14 @@ pub fn canonical_terms<T: Scalar>(p: &BenchmarkOf<T>) -> CanonicalTerms<T> {
             -(mu * s_t + s_f * cl),
             i_alz / p.w * cl + mu * (s_a + i_tzz / p.w * cl),
         ],
+        // The v̇ terms of d/dt(v q) in the yaw acceleration and the front wheel's spin
+        // ([`Canonical::ka`]): C₁'s φδ and δδ entries less their centripetal and ω × H parts.
+        ka: [
+            n(0.0),
+            (s_f + i_txz / p.w) * cl,
+            n(0.0),
+            (i_alz + mu * i_tzz) / p.w * cl,
+        ],
         g: p.g,
     }
 }
@@ -145,7 +175,9 @@ impl Canonical {
             c1: mat(t.c1),
             k0: mat(t.k0),
             k2: mat(t.k2),
+            ka: mat(t.ka),
             g: t.g,
+            accel_mps2: 0.0,
             control: SteerControl::NONE,
         }
     }
@@ -155,13 +187,19 @@ impl Canonical {
         Canonical { control, ..self }
     }
 
+    /// The same bicycle speeding up at `accel_mps2` (negative: slowing), its stiffness
+    /// `g K₀ + v² K₂ + v̇ K_a` ([`Canonical::ka`]).
+    pub fn with_accel(self, accel_mps2: f64) -> Canonical {
+        Canonical { accel_mps2, ..self }
+    }
+
     /// The state matrix of `x = (φ, δ, φ̇, δ̇)` at speed `v` (eq. 59 of the seed):
-    /// `[[0, I], [−M⁻¹(g K₀ + v² K₂), −M⁻¹ v C₁]]`, with a controller's steer torque
-    /// `T_δ = k(v)·x` added as `M⁻¹ (0, 1)ᵀ k(v)ᵀ` in the lower rows ([`control`]). `None` when
-    /// M is singular.
+    /// `[[0, I], [−M⁻¹(g K₀ + v² K₂ + v̇ K_a), −M⁻¹ v C₁]]` (v̇ = [`Canonical::accel_mps2`],
+    /// zero at constant speed), with a controller's steer torque `T_δ = k(v)·x` added as
+    /// `M⁻¹ (0, 1)ᵀ k(v)ᵀ` in the lower rows ([`control`]). `None` when M is singular.
     pub fn state_matrix(&self, v: f64) -> Option<Matrix4<f64>> {
         let minv = self.m.try_inverse()?;
-        let k = minv * (self.k0 * self.g + self.k2 * (v * v));
+        let k = minv * (self.k0 * self.g + self.k2 * (v * v) + self.ka * self.accel_mps2);
         let c = minv * self.c1 * v;
         let mut a = Matrix4::zeros();
         a[(0, 2)] = 1.0;
