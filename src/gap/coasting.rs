@@ -24,6 +24,10 @@
 //! built here: median +1.37 → +0.24, within 1 SE 40 → 66 %, within 2 SE 72 → 96 %; every
 //! other row and the controls as before.
 //!
+//! Each change also carries what the ride's acceleration does to the candidate's own mode
+//! shape ([`accel_shape_shift`]), as the ride stage's correction carries the measured
+//! bicycle's.
+//!
 //! The replay (an RK4 run and a modal fit, about a millisecond) is too slow for every step of
 //! a fit: it is made where the candidate's first fit puts the bicycle
 //! ([`super::fit::Campaign::at_fit`]) and held while the candidate is fitted again. The
@@ -42,9 +46,11 @@
 
 use super::conditions::ConditionModel;
 use super::effects::{linear_bike, true_speed, Effect};
+use super::linear::LinearBike;
 use super::Observation;
 use crate::ride::dynamic::{
-    replay_coasting, CoastingWindow, ReplayStart, COASTING_APPLIED, COASTING_SHAPE_APPLIED,
+    accel_shape_shift, coasting_correction, replay_coasting, CoastingWindow, ReplayStart,
+    COASTING_SHAPE_APPLIED,
 };
 use rayon::prelude::*;
 
@@ -52,8 +58,23 @@ use rayon::prelude::*;
 /// (the eigenvalue's whole, the shape's as the ride stage takes it).
 const APPLIED: [f64; 4] = [1.0, 1.0, COASTING_SHAPE_APPLIED, COASTING_SHAPE_APPLIED];
 
-/// Each coasting ride's replay on its condition's measured bicycle (`None` for a ride at
-/// constant speed, or where the replay fails): the base a candidate's replay is compared with.
+/// What a coasting ride's window does to `bike`'s weave as the ride would report it: its
+/// replay from the fit's start ([`ReplayStart::Fitted`], the part [`APPLIED`]) and the slowing
+/// bicycle's own change ([`accel_shape_shift`], on the bicycle with rigid wheels: the compliant
+/// tyres' model has no v̇ terms). `None` where the replay fails.
+fn fitted_change(bike: &LinearBike, window: &CoastingWindow) -> Option<[f64; 4]> {
+    let replay = replay_coasting(bike, window, ReplayStart::Fitted)?;
+    let rigid = LinearBike {
+        tyres: None,
+        ..*bike
+    };
+    let shift = accel_shape_shift(&rigid, window).unwrap_or([0.0; 4]);
+    Some(std::array::from_fn(|a| APPLIED[a] * replay[a] + shift[a]))
+}
+
+/// Each coasting ride's change on its condition's measured bicycle ([`fitted_change`]; `None`
+/// for a ride at constant speed, or where the replay fails): the base a candidate's is
+/// compared with.
 #[derive(Debug, Clone, Default)]
 pub struct CoastingBase {
     rides: Vec<Option<[f64; 4]>>,
@@ -72,11 +93,7 @@ impl CoastingBase {
             .enumerate()
             .map(|(i, o)| {
                 let c = &conditions[ride_condition[i]];
-                replay_coasting(
-                    &linear_bike(&c.base, &c.control, &[], &[]),
-                    &o.coasting?,
-                    ReplayStart::Fitted,
-                )
+                fitted_change(&linear_bike(&c.base, &c.control, &[], &[]), &o.coasting?)
             })
             .collect();
         CoastingBase { rides }
@@ -141,8 +158,8 @@ impl CoastingBase {
                 let mut d = [0.0; 4];
                 if damped {
                     let own = linear_bike(&cond.base, &cond.control, effects, &params);
-                    if let Some(own) = replay_coasting(&own, &window, ReplayStart::Fitted) {
-                        d = std::array::from_fn(|a| APPLIED[a] * (own[a] - base[a]));
+                    if let Some(own) = fitted_change(&own, &window) {
+                        d = std::array::from_fn(|a| own[a] - base[a]);
                     }
                 }
                 // What the ride stage took off (`coasting_bias`: its replay at the reported
@@ -156,9 +173,9 @@ impl CoastingBase {
                         speed_mps: v,
                         ..window
                     };
-                    if let Some(there) = replay_coasting(&measured, &at_speed, ReplayStart::Weave) {
+                    if let Some(there) = coasting_correction(&measured, &at_speed) {
                         for a in 0..4 {
-                            d[a] += COASTING_APPLIED[a] * there[a] - o.coasting_bias[a];
+                            d[a] += there[a] - o.coasting_bias[a];
                         }
                     }
                 }

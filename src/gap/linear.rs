@@ -290,6 +290,16 @@ impl LinearBike {
 }
 
 impl crate::ride::dynamic::LinearWeave for LinearBike {
+    /// Rigid wheels: the Whipple model's `v̇ K_a` ([`Canonical::ka`]). With compliant tyres the
+    /// state matrix stays the constant-speed one (their v̇ terms are not derived here); a
+    /// replay ([`crate::ride::dynamic::replay_coasting`]) still runs it at the changing speed.
+    fn accelerating(&self, accel_mps2: f64) -> Self {
+        LinearBike {
+            canonical: self.canonical.with_accel(accel_mps2),
+            ..*self
+        }
+    }
+
     fn state_matrix_at(&self, v: f64) -> Option<DMatrix<f64>> {
         self.state_matrix(v)
     }
