@@ -551,6 +551,12 @@ pub trait LinearWeave: Sized {
     ) -> Option<(Complex<f64>, nalgebra::DVector<Complex<f64>>)>;
     /// The states that are the roll and the steer angle and their rates.
     fn angle_states(&self) -> [usize; 4];
+    /// [`LinearWeave::weave_mode`]'s eigenvalue and its mode shape γ/θ.
+    fn weave_shape(&self, v: f64, toward: Complex<f64>) -> Option<(Complex<f64>, Complex<f64>)> {
+        let (weave, mode) = self.weave_mode(v, toward)?;
+        let [roll, steer, ..] = self.angle_states();
+        Some((weave, mode[steer] / mode[roll]))
+    }
 }
 
 impl LinearWeave for Canonical {
@@ -683,13 +689,9 @@ pub fn coasting_correction(model: &impl LinearWeave, w: &CoastingWindow) -> Opti
 /// 324 of 366 → 326 of 368; effect-free campaigns below 0.05 21 → 17 of 200 (below 0.01 3 as
 /// before). `None` when the model has no weave there.
 pub fn accel_shape_shift<M: LinearWeave>(model: &M, w: &CoastingWindow) -> Option<[f64; 4]> {
-    let shape = |m: &M| -> Option<Complex<f64>> {
-        let (_, mode) = m.weave_mode(w.speed_mps, w.measured)?;
-        let [roll, steer, ..] = m.angle_states();
-        Some(mode[steer] / mode[roll])
-    };
-    let still = shape(&model.accelerating(0.0))?;
-    let slowing = shape(&model.accelerating(w.accel_mps2))?;
+    let shape = |m: M| Some(m.weave_shape(w.speed_mps, w.measured)?.1);
+    let still = shape(model.accelerating(0.0))?;
+    let slowing = shape(model.accelerating(w.accel_mps2))?;
     let d = [
         0.0,
         0.0,
@@ -809,8 +811,7 @@ pub fn replay_coasting(
         })
     })?;
     let v_ref = speed_at(sim.t_ref_s);
-    let (frozen, mode) = model.weave_mode(v_ref, w.measured)?;
-    let ratio = mode[steer_state] / mode[roll_state];
+    let (frozen, ratio) = model.weave_shape(v_ref, w.measured)?;
     Some([
         sim.weave.re - frozen.re,
         sim.weave.im - frozen.im,
