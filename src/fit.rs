@@ -519,6 +519,13 @@ pub(crate) trait LeastSquares {
     fn residuals_and_jacobian(&self, p: &[f64], jac: &mut DMatrix<f64>, r: &mut DVector<f64>);
     /// The sum of squared residuals at `p`.
     fn cost(&self, p: &[f64]) -> f64;
+    /// [`LeastSquares::cost`] where it is at most `bound`; where it is above, any value above
+    /// `bound` (a problem may stop summing once its partial sum is: a trial that cannot lower
+    /// the cost is rejected without its whole cost). By default the whole cost.
+    fn cost_within(&self, p: &[f64], bound: f64) -> f64 {
+        let _ = bound;
+        self.cost(p)
+    }
     /// The cost at `p` with the normal equations' `JᵀJ` and `Jᵀr` written into `h` and `g`,
     /// accumulated residual by residual without storing `J`, where the problem can: then
     /// [`levenberg_marquardt`] evaluates every trial point this way, and an accepted step needs
@@ -615,7 +622,7 @@ pub(crate) fn levenberg_marquardt(
                     .normal_equations(&trial, &mut h_trial, &mut g_trial)
                     .unwrap_or(f64::NAN)
             } else {
-                problem.cost(&trial)
+                problem.cost_within(&trial, cost)
             };
             let rel_step = delta
                 .iter()

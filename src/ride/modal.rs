@@ -25,6 +25,7 @@
 
 use crate::fit::{levenberg_marquardt, Estimate, LeastSquares};
 use nalgebra::{Complex, DMatrix, DVector};
+use std::ops::ControlFlow;
 
 /// Errors of the modal fit.
 /// The most real modes a fit carries beside the weave.
@@ -206,6 +207,10 @@ struct Basis {
 /// products' rounding grows with the run (below 1e-14 relative over 32 samples).
 const BASIS_RUN: usize = 32;
 
+/// Samples between two checks of a trial's partial cost against the cost to beat
+/// ([`Problem::rss_within`]).
+const BOUND_EVERY: usize = 16;
+
 fn real_index(st: Structure, k: usize) -> usize {
     2 + if st.drift { 2 } else { 0 } + k
 }
@@ -247,6 +252,25 @@ impl Problem<'_> {
     /// `ρ(τ) = exp(a h + b (τ h + ½h²))` — one complex product per sample where `exp` and
     /// `sin_cos` took a third of a campaign's ride fits.
     fn basis(&self, p: &[f64]) -> Basis {
+        let n = self.n();
+        let mut wave = Vec::with_capacity(n);
+        let mut real = Vec::with_capacity(n);
+        let _ = self.each_basis(p, |_, w, ex| {
+            wave.push(w);
+            real.push(*ex);
+            ControlFlow::Continue(())
+        });
+        Basis { wave, real }
+    }
+
+    /// The nonlinear functions of [`Problem::basis`], handed sample by sample to `visit`
+    /// (index, the weave's `E (cos φ, sin φ)`, the real modes' exponentials) until it breaks:
+    /// one pass, nothing stored, the same values.
+    fn each_basis(
+        &self,
+        p: &[f64],
+        mut visit: impl FnMut(usize, [f64; 2], &[f64; MAX_REAL_MODES]) -> ControlFlow<()>,
+    ) -> ControlFlow<()> {
         let st = self.st;
         let n = self.n();
         let a = Complex::new(p[0], p[1]);
@@ -256,8 +280,6 @@ impl Problem<'_> {
             Complex::new(0.0, 0.0)
         };
         let rates: Vec<f64> = (0..st.real_modes).map(|k| p[real_index(st, k)]).collect();
-        let mut wave = Vec::with_capacity(n);
-        let mut real = Vec::with_capacity(n);
         let (mut z, mut rho, mut q) = (Complex::new(0.0, 0.0), a, a);
         let mut ex = [0.0; MAX_REAL_MODES];
         let mut ex_step = [0.0; MAX_REAL_MODES];
@@ -297,23 +319,38 @@ impl Problem<'_> {
                 }
                 run = 0;
             }
-            wave.push([z.re, z.im]);
-            real.push(ex);
+            visit(i, [z.re, z.im], &ex)?;
         }
-        Basis { wave, real }
+        ControlFlow::Continue(())
     }
 
     /// Per-signal residual sums of squares (unweighted, rad²).
     fn rss(&self, p: &[f64]) -> [f64; 2] {
-        let basis = self.basis(p);
+        self.rss_within(p, f64::INFINITY)
+    }
+
+    /// [`Problem::rss`], its sums cut short once the weighted cost they make exceeds `bound`
+    /// (checked every [`BOUND_EVERY`] samples): sums of squares only grow, so a cost found
+    /// above `bound` that way is above it whole, and the whole cost where it is not.
+    fn rss_within(&self, p: &[f64], bound: f64) -> [f64; 2] {
         let mut out = [0.0; 2];
-        for (i, &t) in self.t.iter().enumerate() {
-            let values = combine(p, self.st, basis.wave[i], &basis.real[i], t - self.t_ref);
+        let _ = self.each_basis(p, |i, wave, ex| {
+            let values = combine(p, self.st, wave, ex, self.t[i] - self.t_ref);
             for s in 0..2 {
                 out[s] += (values[s] - self.x[s][i]).powi(2);
             }
-        }
+            if (i + 1) % BOUND_EVERY == 0 && self.weighted(out) > bound {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
         out
+    }
+
+    /// The weighted cost of per-signal sums of squares.
+    fn weighted(&self, rss: [f64; 2]) -> f64 {
+        self.weight[0].powi(2) * rss[0] + self.weight[1].powi(2) * rss[1]
     }
 
     /// The linear parameters for fixed nonlinear ones (per signal, normal equations with
@@ -449,8 +486,11 @@ impl LeastSquares for Problem<'_> {
     }
 
     fn cost(&self, p: &[f64]) -> f64 {
-        let rss = self.rss(p);
-        self.weight[0].powi(2) * rss[0] + self.weight[1].powi(2) * rss[1]
+        self.weighted(self.rss(p))
+    }
+
+    fn cost_within(&self, p: &[f64], bound: f64) -> f64 {
+        self.weighted(self.rss_within(p, bound))
     }
 
     /// `JᵀJ` and `Jᵀr` summed over the sparse rows of [`Problem::sparse_rows`]: a row touches
@@ -1192,6 +1232,55 @@ mod tests {
             }
         }
         assert!(worst <= 1e-13 * largest, "{worst:e} of {largest:e}");
+    }
+
+    /// A trial's cost cut short ([`Problem::rss_within`]) judges it as its whole cost does:
+    /// on a noisy drifting weave, 200 parameter vectors around the truth (σ, ω and the real
+    /// rate moved by up to ±20 %, the amplitudes by up to ±50 %) against bounds from a tenth to
+    /// ten times each one's whole cost, `cost_within(p, b) ≤ b` exactly when `cost(p) ≤ b`, and
+    /// where it is, the two are the same number (bit for bit); some were cut short.
+    #[test]
+    fn a_cost_cut_short_judges_a_trial_as_the_whole_cost() {
+        let (t, roll, steer) =
+            drifting_weave(Complex::new(-0.9, 5.1), Complex::new(0.0, 0.0), 0.002, 7);
+        let st = Structure {
+            real_modes: 1,
+            drift: false,
+            trend: true,
+        };
+        let problem = Problem {
+            t: &t,
+            x: [&roll, &steer],
+            weight: [500.0, 300.0],
+            t_ref: 0.0,
+            t0: 0.0,
+            st,
+        };
+        let truth = problem
+            .project(&[-0.9, 5.1, -0.4])
+            .expect("the linear parameters at the truth");
+        use crate::sim::draw::Draw;
+        let mut rng = crate::sim::draw::seeded(3);
+        let mut cut = 0;
+        for k in 0..200 {
+            let p: Vec<f64> = truth
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| {
+                    let spread = if i < st.nonlinear() { 0.2 } else { 0.5 };
+                    v * (1.0 + spread * (2.0 * rng.range(0.0, 1.0) - 1.0))
+                })
+                .collect();
+            let whole = problem.cost(&p);
+            let bound = whole * 10f64.powf(2.0 * (k as f64 / 199.0) - 1.0);
+            let within = problem.cost_within(&p, bound);
+            assert_eq!(within <= bound, whole <= bound, "trial {k}");
+            if within <= bound {
+                assert_eq!(within.to_bits(), whole.to_bits(), "trial {k}");
+            }
+            cut += usize::from(within < whole);
+        }
+        assert!(cut > 20, "{cut} cut short");
     }
 
     /// Without noise or drift the fit returns the eigenvalue and the mode shape exactly.
