@@ -677,8 +677,9 @@ pub fn coasting_correction(model: &impl LinearWeave, w: &CoastingWindow) -> Opti
 /// (0.05–0.25 m/s²) the fitted |γ/θ| lay a mean −0.33 of its errors below the Whipple model's
 /// at constant speed (medians −0.89 to +0.03 by speed bin, most at 4–5 m/s), arg γ/θ −0.28;
 /// with this part −0.16 and −0.24, σ's and ω's +0.04 and +0.02 as before. The eigenvalue's part
-/// of the same `v̇ K_a` moved ω's mean error from +0.04 to +0.77 there: against the simulator's own linearization of those rides (rolling
-/// resistance at the hubs and drag at the frame, each along its point's velocity) K_a's ω
+/// of the same `v̇ K_a` moved ω's mean error from +0.04 to +0.77 there: against the
+/// simulator's own linearization of those rides (rolling resistance at the hubs and drag at
+/// the frame, each along its point's velocity) K_a's ω
 /// shift is 1.65 times the true one and its σ shift near nothing where the true one is −0.013
 /// 1/s. The resistances' own lateral forces take back part of what v̇ does, and how they act
 /// (at a hub, as a torque on the axle, along the velocity or the wheel's plane) is the lab's
