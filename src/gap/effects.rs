@@ -464,11 +464,6 @@ pub fn predict_weave(
     shape: bool,
 ) -> Option<(Complex<f64>, Option<Complex<f64>>)> {
     let v = true_speed(effects, params, obs);
-    let w = bike.weave_near(v, guess)?;
-    let s = if shape {
-        Some(bike.mode_shape(v, w)?)
-    } else {
-        None
-    };
+    let (w, s) = bike.weave_and_shape(v, guess, shape)?;
     Some((w / clock(effects, params), s))
 }

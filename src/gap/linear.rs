@@ -25,7 +25,7 @@
 //! no lag it is the Whipple model (tested).
 
 use crate::model::{Benchmark, Canonical};
-use nalgebra::{Complex, DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{Complex, DMatrix, DVector, Matrix3, Matrix4, Vector3};
 
 /// Linear tyres: lateral force per unit normal load per radian of slip and of camber, and the
 /// force's lag.
@@ -69,21 +69,25 @@ impl LinearBike {
     /// `None` when a mass matrix is singular or v is not positive with tyres.
     pub fn state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
         match self.tyres {
-            None => self.rigid_state_matrix(v),
+            None => Some(DMatrix::from_column_slice(
+                4,
+                4,
+                self.rigid_state_matrix(v)?.as_slice(),
+            )),
             Some(t) => self.tyre_state_matrix(v, &t),
         }
     }
 
     /// The Whipple model's state matrix (with its controller, if any) and the damper's −M⁻¹ D
     /// in the steer-rate column.
-    fn rigid_state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
+    fn rigid_state_matrix(&self, v: f64) -> Option<Matrix4<f64>> {
         let c = &self.canonical;
         let mut a = c.state_matrix(v)?;
         let minv = c.m.try_inverse()?;
         for r in 0..2 {
             a[(2 + r, 3)] -= minv[(r, 1)] * self.steer_damping_nms_per_rad;
         }
-        Some(DMatrix::from_column_slice(4, 4, a.as_slice()))
+        Some(a)
     }
 
     fn tyre_state_matrix(&self, v: f64, t: &LinearTyres) -> Option<DMatrix<f64>> {
@@ -228,34 +232,10 @@ impl LinearBike {
     }
 
     /// The right eigenvector of the state matrix at eigenvalue `lambda` and speed `v`, by
-    /// inverse iteration (three steps from a shift 1e-9 off the eigenvalue), scaled so that
-    /// its largest component is 1. `None` when the matrix or the iteration fails.
+    /// inverse iteration ([`crate::model::eigenvector_near`]), scaled so that its largest
+    /// component is 1. `None` when the matrix or the iteration fails.
     pub fn mode_vector(&self, v: f64, lambda: Complex<f64>) -> Option<DVector<Complex<f64>>> {
-        let a = self.state_matrix(v)?;
-        let n = a.nrows();
-        let shift =
-            lambda + Complex::new(1e-9 * (1.0 + lambda.norm()), 1e-9 * (1.0 + lambda.norm()));
-        let m = DMatrix::from_fn(n, n, |i, j| {
-            Complex::new(a[(i, j)], 0.0)
-                - if i == j {
-                    shift
-                } else {
-                    Complex::new(0.0, 0.0)
-                }
-        });
-        let lu = m.lu();
-        let mut x = DVector::from_element(n, Complex::new(1.0, 0.0));
-        for _ in 0..3 {
-            x = lu.solve(&x)?;
-            let big = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
-            if !(big.is_finite() && big > 0.0) {
-                return None;
-            }
-            x /= Complex::new(big, 0.0);
-        }
-        let k = (0..n).max_by(|&i, &j| x[i].norm().total_cmp(&x[j].norm()))?;
-        let pivot = x[k];
-        Some(x / pivot)
+        crate::model::eigenvector_near(&self.state_matrix(v)?, lambda)
     }
 
     /// Roll, steer and their rates: states 0–3 with rigid wheels; 1, 2, 5, 6 with tyres (ψ
@@ -271,22 +251,58 @@ impl LinearBike {
     /// Every eigenvalue of the state matrix at speed `v` (a rigid bicycle's through the fixed
     /// 4×4 decomposition, [`crate::model::eigenvalues_of`]).
     pub fn eigenvalues(&self, v: f64) -> Option<Vec<Complex<f64>>> {
-        let a = self.state_matrix(v)?;
-        if a.nrows() == 4 {
-            let fixed = nalgebra::Matrix4::from_column_slice(a.as_slice());
-            return crate::model::eigenvalues_of(&fixed).map(|e| e.to_vec());
+        match self.tyres {
+            None => crate::model::eigenvalues_of(&self.rigid_state_matrix(v)?).map(|e| e.to_vec()),
+            Some(_) => crate::model::eigenvalues_dyn(&self.state_matrix(v)?),
         }
-        crate::model::eigenvalues_dyn(&a)
     }
 
     /// The oscillatory eigenvalue (im > 0) nearest `guess` at speed `v`; `None` when there is
     /// none or the eigenvalues cannot be computed.
     pub fn weave_near(&self, v: f64, guess: Complex<f64>) -> Option<Complex<f64>> {
-        self.eigenvalues(v)?
-            .into_iter()
-            .filter(|z| z.im > 1e-9)
-            .min_by(|a, b| (a - guess).norm().total_cmp(&(b - guess).norm()))
+        nearest_oscillatory(self.eigenvalues(v)?, guess)
     }
+
+    /// [`LinearBike::weave_near`] and, with `shape`, that mode's γ/θ
+    /// ([`LinearBike::mode_shape`]), the state matrix made once (a rigid bicycle's fixed 4×4:
+    /// the same numbers, a fifth of the gap stage's predictions' time).
+    pub fn weave_and_shape(
+        &self,
+        v: f64,
+        guess: Complex<f64>,
+        shape: bool,
+    ) -> Option<(Complex<f64>, Option<Complex<f64>>)> {
+        if self.tyres.is_some() {
+            let w = self.weave_near(v, guess)?;
+            return Some((
+                w,
+                if shape {
+                    Some(self.mode_shape(v, w)?)
+                } else {
+                    None
+                },
+            ));
+        }
+        let a = self.rigid_state_matrix(v)?;
+        let w = nearest_oscillatory(crate::model::eigenvalues_of(&a)?.to_vec(), guess)?;
+        if !shape {
+            return Some((w, None));
+        }
+        let x = crate::model::eigenvector_near(&a, w)?;
+        let ratio = x[1] / x[0];
+        ratio.is_finite().then_some((w, Some(ratio)))
+    }
+}
+
+/// The oscillatory eigenvalue (im > 0) of `eigenvalues` nearest `guess`.
+fn nearest_oscillatory(
+    eigenvalues: Vec<Complex<f64>>,
+    guess: Complex<f64>,
+) -> Option<Complex<f64>> {
+    eigenvalues
+        .into_iter()
+        .filter(|z| z.im > 1e-9)
+        .min_by(|a, b| (a - guess).norm().total_cmp(&(b - guess).norm()))
 }
 
 impl crate::ride::dynamic::LinearWeave for LinearBike {

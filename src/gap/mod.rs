@@ -488,8 +488,8 @@ pub fn diagnose_study(
         let h = 1e-4;
         let unextended = &unextended[ride_condition[i]];
         let at = |v: f64| -> Option<[f64; 4]> {
-            let w = unextended.weave_near(v, guesses[i])?;
-            let s = unextended.mode_shape(v, w)?;
+            let (w, s) = unextended.weave_and_shape(v, guesses[i], true)?;
+            let s = s?;
             Some([
                 w.re,
                 w.im,

@@ -296,26 +296,54 @@ impl Canonical {
     }
 
     /// A right eigenvector of the state matrix for eigenvalue `lambda` (the mode shape), by
-    /// inverse iteration, scaled so that its largest component is 1. Its first two components
-    /// are roll and steer.
+    /// inverse iteration ([`eigenvector_near`]). Its first two components are roll and steer.
     pub fn mode_shape(&self, v: f64, lambda: Complex<f64>) -> Option<[Complex<f64>; 4]> {
-        let a = self.state_matrix(v)?.map(|x| Complex::new(x, 0.0));
-        let shift =
-            lambda + Complex::new(1e-9 * (1.0 + lambda.norm()), 1e-9 * (1.0 + lambda.norm()));
-        let lu = (a - Matrix4::<Complex<f64>>::identity() * shift).lu();
-        let mut x = nalgebra::Vector4::from_element(Complex::new(1.0, 0.0));
-        for _ in 0..3 {
-            x = lu.solve(&x)?;
-            let big = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
-            if !(big.is_finite() && big > 0.0) {
-                return None;
-            }
-            x /= Complex::new(big, 0.0);
-        }
-        let k = (0..4).max_by(|&i, &j| x[i].norm().total_cmp(&x[j].norm()))?;
-        let pivot = x[k];
-        Some([x[0] / pivot, x[1] / pivot, x[2] / pivot, x[3] / pivot])
+        let x = eigenvector_near(&self.state_matrix(v)?, lambda)?;
+        Some([x[0], x[1], x[2], x[3]])
     }
+}
+
+/// A right eigenvector of the real square matrix `a` for its eigenvalue `lambda`, by inverse
+/// iteration: three solves with `a − s I`, s a shift 1e-9·(1 + |λ|) off `lambda` in both parts,
+/// from a vector of ones, each normalized by its largest component's modulus; returned scaled
+/// so that its largest component is 1. Any size, fixed (the rigid bicycle's 4×4, no heap) or
+/// dynamic, the same arithmetic. `None` when a solve fails or the iterate is not finite.
+pub fn eigenvector_near<D: nalgebra::DimMin<D, Output = D>>(
+    a: &nalgebra::OMatrix<f64, D, D>,
+    lambda: Complex<f64>,
+) -> Option<nalgebra::OVector<Complex<f64>, D>>
+where
+    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D, D>
+        + nalgebra::allocator::Allocator<D>
+        + nalgebra::allocator::Allocator<nalgebra::U1, D>,
+{
+    let (rows, cols) = a.shape_generic();
+    let shift = lambda + Complex::new(1e-9 * (1.0 + lambda.norm()), 1e-9 * (1.0 + lambda.norm()));
+    let m = nalgebra::OMatrix::<Complex<f64>, D, D>::from_fn_generic(rows, cols, |i, j| {
+        Complex::new(a[(i, j)], 0.0)
+            - if i == j {
+                shift
+            } else {
+                Complex::new(0.0, 0.0)
+            }
+    });
+    let lu = m.lu();
+    let mut x = nalgebra::OVector::<Complex<f64>, D>::from_element_generic(
+        rows,
+        nalgebra::U1,
+        Complex::new(1.0, 0.0),
+    );
+    for _ in 0..3 {
+        x = lu.solve(&x)?;
+        let big = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
+        if !(big.is_finite() && big > 0.0) {
+            return None;
+        }
+        x /= Complex::new(big, 0.0);
+    }
+    let k = (0..x.len()).max_by(|&i, &j| x[i].norm().total_cmp(&x[j].norm()))?;
+    let pivot = x[k];
+    Some(x / pivot)
 }
 
 /// The modes of the bicycle, as named at high speed and followed down by continuity.
