@@ -19,9 +19,9 @@
 //! two converged points differ by less than 1e-6 of a standard error in every parameter; here it
 //! evaluates the model by phasor recurrence and stops when no step can gain. For the damped
 //! sinusoid it never stores the Jacobian: one pass over the samples gives the cost, JᵀJ and Jᵀr
-//! together ([`LeastSquares::normal_equations`]), a trial point is evaluated that way, and an
+//! together (`LeastSquares::normal_equations`), a trial point is evaluated that way, and an
 //! accepted step needs no second pass (three to four passes a fit on the shared signals).
-//! The passes take the samples four at a time ([`phasor_lanes`], [`NormalSums`]).
+//! The passes take the samples four at a time (`phasor_lanes`, `NormalSums`).
 //!
 //! The lab (seed §5.3.3.2) takes the FFT's peak: with 60 s at 100 Hz a bin is 0.017 Hz, 2 % at
 //! 0.8 Hz. The fit reaches the Cramér–Rao bound ([`crb_omega_variance`]) instead.
@@ -100,7 +100,7 @@ impl DampedFit {
         model(&self.params, self.trend, t - self.t_ref_s)
     }
 
-    /// The fitted curve at every time of `t` (s) ([`phasor_lanes`]: one pass, no `exp` or
+    /// The fitted curve at every time of `t` (s) (`phasor_lanes`: one pass, no `exp` or
     /// `sin_cos` per sample on a uniform grid).
     pub fn eval_many(&self, t: &[f64]) -> Vec<f64> {
         let tau: Vec<f64> = t.iter().map(|v| v - self.t_ref_s).collect();

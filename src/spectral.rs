@@ -279,11 +279,11 @@ const MAX_REFINED: usize = 64;
 /// The padded spectrum of [`Spectrum::of`] where it matters for peaks, at a fraction of its
 /// cost: the transform on the record's own length (the next power of two, [`PAD_FACTOR`]
 /// times fewer bins), then the padded bins around each coarse peak that could matter
-/// evaluated directly (Goertzel's recurrence, all [`ZOOM_BINS`] of a peak in one pass).
+/// evaluated directly (Goertzel's recurrence, all `ZOOM_BINS` of a peak in one pass).
 ///
 /// Its peaks are those of [`Spectrum::of`] (the same padded bins, the same interpolation) with
 /// one difference: the noise floor is 5× the median of the coarse bins, not of the padded ones.
-/// A padded peak is found if its coarse neighbours reach [`SCALLOP_FLOOR`] of the level asked
+/// A padded peak is found if its coarse neighbours reach `SCALLOP_FLOOR` of the level asked
 /// for, which a mode's main lobe (two coarse bins wide) always does; a rectangular window's
 /// sidelobes, one coarse bin wide, can fall between the coarse bins and be missed (they are
 /// leakage, not modes).

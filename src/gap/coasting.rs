@@ -72,7 +72,7 @@ fn fitted_change(bike: &LinearBike, window: &CoastingWindow) -> Option<[f64; 4]>
     Some(std::array::from_fn(|a| APPLIED[a] * replay[a] + shift[a]))
 }
 
-/// Each coasting ride's change on its condition's measured bicycle ([`fitted_change`]; `None`
+/// Each coasting ride's change on its condition's measured bicycle (`fitted_change`; `None`
 /// for a ride at constant speed, or where the replay fails): the base a candidate's is
 /// compared with.
 #[derive(Debug, Clone, Default)]

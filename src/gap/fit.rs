@@ -39,7 +39,7 @@ pub struct Campaign<'a> {
     pub cov: DMatrix<f64>,
     /// Its Cholesky factor, made once ([`Campaign::factor`]).
     pub factor: std::sync::OnceLock<Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>>,
-    /// Its inverse, made on first use ([`Campaign::make_inverse`]).
+    /// Its inverse, made on first use (`Campaign::make_inverse`).
     pub inverse: std::sync::OnceLock<Option<Inverse>>,
     /// The model's part of `cov` as a factor U, `cov = exp_cov + U Uᵀ` (at the measured
     /// bicycle, or at a candidate's fit: [`Campaign::at_fit`]), so that the inverse keeps the
@@ -47,7 +47,7 @@ pub struct Campaign<'a> {
     pub model_factor: DMatrix<f64>,
     /// The common parts of `exp_cov` (the coasting correction's error shared by the rides and
     /// the motion's size's, `W Wᵀ`, one column each): the rest is block-diagonal over the
-    /// rides, which [`Campaign::make_inverse`] uses.
+    /// rides, which `Campaign::make_inverse` uses.
     pub exp_common: &'a DMatrix<f64>,
     /// The values the library assumes ([`Assumed::NOMINAL`]; others to measure what the
     /// fits owe to them, [`assumed_se`]).
@@ -751,7 +751,7 @@ pub struct EffectFit {
 const SIMPLEX_TOLERANCE: f64 = 1e-4;
 
 /// Minimizes `f` over the box `lo ≤ x ≤ hi` by Nelder–Mead from `start` (clamped to the box),
-/// initial steps `step`; stops when the simplex spans less than [`SIMPLEX_TOLERANCE`] of the
+/// initial steps `step`; stops when the simplex spans less than `SIMPLEX_TOLERANCE` of the
 /// box in every direction or after `max_evals`.
 pub fn nelder_mead(
     f: &dyn Fn(&[f64]) -> f64,
@@ -914,7 +914,7 @@ pub fn refine(
 /// χ² surface's central-difference gradient and Hessian (steps of 1e-3 of each range: 3
 /// evaluations for one parameter, 9 for two), clamped to the bounds; failing that (the Hessian
 /// not positive definite, or χ² not lowered), the step with the parameters `start` left at an
-/// active bound held there ([`active_bounds`]: where the subset's minimum stays, a third of
+/// active bound held there (`active_bounds`: where the subset's minimum stays, a third of
 /// the held-out refits of the data/ campaign); Nelder–Mead from `start` (steps `step`) when
 /// neither lowers χ².
 /// Leaving one ride out moves the minimum by a fraction of its standard error, where χ² is

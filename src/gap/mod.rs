@@ -105,7 +105,7 @@ pub struct Diagnosis {
     pub targeted: Option<TargetedTest>,
     /// The campaign's test: the smallest of the χ² test's p and the single effects' (either
     /// may find the gap), calibrated on draws of the residuals with no effect present
-    /// ([`significance::NullTest`]); significant below [`SIGNIFICANCE`].
+    /// (`significance::NullTest`); significant below [`SIGNIFICANCE`].
     pub campaign_p_value: f64,
     /// The variance of θ and γ over the rides' windows that the eigenvalues account for (mean
     /// over rides and the two signals; modes' amplitudes, offsets and trends fitted, eigenvalues

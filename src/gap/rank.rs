@@ -27,7 +27,7 @@ pub struct Ranked {
     /// ([`at_bound`]): then the rides bound it on one side only, and it is shown as a bound.
     pub at_bound: Vec<bool>,
     /// Each parameter whose search stopped at an edge ([`pinned`]) with the χ²'s minimum more
-    /// than [`PINNED_SE`] standard errors beyond it: the candidate's χ² is then not its own
+    /// than `PINNED_SE` standard errors beyond it: the candidate's χ² is then not its own
     /// minimum. A value merely within its standard error of the edge, or at the edge where
     /// the rides barely tell (a controller's gain in a condition of three rides: 0.1 ± 0.49,
     /// its minimum 1.4 SE beyond), is a fit, shown as a bound but not held against the
@@ -85,7 +85,7 @@ pub struct Ranked {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub heldout_rms_rides_out: Option<f64>,
     /// A pair whose held-out prediction the rides left out cannot tell from the best single
-    /// effect's (the tie test, [`super::ties::distinguishable`]): listed after it, never named
+    /// effect's (the tie test, `super::ties::distinguishable`): listed after it, never named
     /// ahead of it.
     pub not_needed: bool,
 }
@@ -247,7 +247,7 @@ const PINNED_FRACTION: f64 = 2e-3;
 const PINNED_SE: f64 = 2.0;
 
 /// Whether a fitted value `p` is where its search stopped at an edge (within
-/// [`PINNED_FRACTION`] of the range): its minimum lies there or beyond.
+/// `PINNED_FRACTION` of the range): its minimum lies there or beyond.
 pub fn pinned(spec: &effects::ParamSpec, p: f64) -> bool {
     let tol = PINNED_FRACTION * (spec.hi - spec.lo);
     spec.nearest_edge(p).0 <= tol

@@ -1,9 +1,9 @@
 //! Whether the campaign can be concluded on, and whether its gap is significant. In: the
 //! observations, and the χ² of the unextended model and of each single effect fitted. Out: the
-//! reason a campaign is too thin ([`insufficiency`]), the targeted test (the likelihood ratio
+//! reason a campaign is too thin (`insufficiency`), the targeted test (the likelihood ratio
 //! of the single effect that lowers χ² most), the campaign's p-value (the smallest of its and
-//! the χ² test's, calibrated on draws of the residuals with no effect present: [`NullTest`])
-//! and, for a quiet campaign, what it would have seen ([`detection_limits`]).
+//! the χ² test's, calibrated on draws of the residuals with no effect present: `NullTest`)
+//! and, for a quiet campaign, what it would have seen (`detection_limits`).
 
 use super::{stats, Diagnosis, Observation, Ranked, MIN_RIDES, MIN_SPEED_SPAN_MPS};
 use nalgebra::{DMatrix, DVector};

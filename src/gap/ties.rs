@@ -1,6 +1,6 @@
 //! Ties, and the rides that would break them. In: the ranked candidates with their held-out
 //! whitened residuals, the campaign's covariance and the measured bicycle's. Out: whether the
-//! rides left out tell two candidates apart ([`distinguishable`], [`heldout_contrast`]), the
+//! rides left out tell two candidates apart (`distinguishable`, [`heldout_contrast`]), the
 //! candidates tied with the best, and the two speeds to ride next with how many rides there
 //! are expected to split them ([`NextRides`]).
 
@@ -198,10 +198,10 @@ pub(super) fn distinguishable(a: &Ranked, b: &Ranked) -> bool {
     s > TIE_CHI2 && s > TIE_SE * 2.0 * d2.sqrt()
 }
 
-/// (S, Σ|dᵢ|²) of the tie test between `a` and `b` (see [`Diagnosis::tied`]): the held-out χ²
-/// by which `a` beats `b`, and the squared separation of their held-out predictions in the
-/// rides' standard errors; the sums of [`ride_contrasts`]. S is infinite when one of the two
-/// cannot predict a ride the other can (that ride tells them apart).
+/// (S, Σ|dᵢ|²) of the tie test between `a` and `b` (see [`super::Diagnosis::tied`]): the
+/// held-out χ² by which `a` beats `b`, and the squared separation of their held-out predictions
+/// in the rides' standard errors; the sums of [`ride_contrasts`]. S is infinite when one of
+/// the two cannot predict a ride the other can (that ride tells them apart).
 pub fn heldout_contrast(a: &Ranked, b: &Ranked) -> (f64, f64) {
     ride_contrasts(a, b)
         .iter()

@@ -349,7 +349,7 @@ fn perturbed_se(
 }
 
 /// dλ/d(entry) of an eigenvalue λ of `model` at speed `v`, for the entries of
-/// [`canonical_entries`]. The state matrix is `A = [[0, I], [X, Y]]` with
+/// `canonical_entries`. The state matrix is `A = [[0, I], [X, Y]]` with
 /// `[X Y] = −M⁻¹ ([g K₀ + v² K₂, v C₁] − e_δ kᵀ)` (k the controller's gains): a right
 /// eigenvector is `(q, λ q)` and a left one `(λ p − Yᵀ p, p)`, with q and p the right and left
 /// null vectors of `P(λ) = λ² I − λ Y − X`, and `wᵀ v = pᵀ (2λ I − Y) q`. With `u = M⁻ᵀ p`, first-

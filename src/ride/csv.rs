@@ -97,7 +97,7 @@ impl Quantity {
 
 /// Column names given for quantities (`--columns roll_rate=gyro_x,time=time`); a name ending
 /// in `_deg` or `_deg_per_s` is read as degrees, any other as SI, unless a unit follows it
-/// after a colon ([`Unit`]: `roll=lean_angle:deg`, `wheel_speed=v:km_per_h`).
+/// after a colon (a unit its quantity knows: `roll=lean_angle:deg`, `wheel_speed=v:km_per_h`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Columns(pub Vec<(Quantity, String)>);
 
@@ -741,7 +741,7 @@ pub enum DecayEnd {
     /// A half-swing lasting more than [`STALL_RATIO`] times the one before it: the swinging
     /// stops (the bicycle held, leaning on the harness, drifting). Ends where that half-swing
     /// should have turned (half the previous one's length after it began) when it follows the
-    /// decay that far ([`FOLLOWS_DECAY`]), else where it begins.
+    /// decay that far (`FOLLOWS_DECAY`), else where it begins.
     Stalls,
     /// A half-swing within the bicycle's own sway (the noise floor): ends where it begins.
     NoiseFloor,

@@ -79,7 +79,7 @@ pub struct RideSignals {
 /// point's, `(v̇, v ω_z, −v ω_y)` in the bicycle's axes (x forward, y left, z up, the rear
 /// frame pitch-free), plus `e · (ω̇ × r + ω × (ω × r)) = c_e · r` with
 /// `c_e = e × ω̇ + (e · ω) ω − |ω|² e` (ω the gyro less its standstill bias and ω̇, both from
-/// [`smoothed_rate`]). [`LeverSample::MISSING`] near a gap and where the angles file lacks the
+/// `smoothed_rate`). [`LeverSample::MISSING`] near a gap and where the angles file lacks the
 /// sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LeverSample {
