@@ -264,32 +264,40 @@ impl LinearBike {
     }
 
     /// [`LinearBike::weave_near`] and, with `shape`, that mode's γ/θ
-    /// ([`LinearBike::mode_shape`]), the state matrix made once (a rigid bicycle's fixed 4×4:
-    /// the same numbers, a fifth of the gap stage's predictions' time).
+    /// ([`LinearBike::mode_shape`]), the state matrix made once (a rigid bicycle's the fixed
+    /// 4×4: the same numbers, a fifth of the gap stage's predictions' time).
     pub fn weave_and_shape(
         &self,
         v: f64,
         guess: Complex<f64>,
         shape: bool,
     ) -> Option<(Complex<f64>, Option<Complex<f64>>)> {
-        if self.tyres.is_some() {
-            let w = self.weave_near(v, guess)?;
-            return Some((
-                w,
-                if shape {
-                    Some(self.mode_shape(v, w)?)
-                } else {
-                    None
-                },
-            ));
-        }
-        let a = self.rigid_state_matrix(v)?;
-        let w = nearest_oscillatory(crate::model::eigenvalues_of(&a)?.to_vec(), guess)?;
-        if !shape {
+        use crate::model::eigenvector_near;
+        // The weave and, when asked, its eigenvector's roll and steer.
+        let (w, angles) = match self.tyres {
+            None => {
+                let a = self.rigid_state_matrix(v)?;
+                let w = nearest_oscillatory(crate::model::eigenvalues_of(&a)?.to_vec(), guess)?;
+                (
+                    w,
+                    shape.then(|| eigenvector_near(&a, w).map(|x| [x[0], x[1]])),
+                )
+            }
+            Some(_) => {
+                let a = self.state_matrix(v)?;
+                let w = nearest_oscillatory(crate::model::eigenvalues_dyn(&a)?, guess)?;
+                let [roll, steer, ..] = self.angle_states();
+                (
+                    w,
+                    shape.then(|| eigenvector_near(&a, w).map(|x| [x[roll], x[steer]])),
+                )
+            }
+        };
+        let Some(angles) = angles else {
             return Some((w, None));
-        }
-        let x = crate::model::eigenvector_near(&a, w)?;
-        let ratio = x[1] / x[0];
+        };
+        let [roll, steer] = angles?;
+        let ratio = steer / roll;
         ratio.is_finite().then_some((w, Some(ratio)))
     }
 }
