@@ -644,7 +644,8 @@ pub(crate) fn levenberg_marquardt(
             }
             lambda *= 10.0;
         }
-        if !fused {
+        // No step taken: the normal equations are still those of `p`.
+        if !fused && improved {
             problem.accepted_normal_equations(&p, &mut jac, &mut r, &mut h, &mut g);
         }
         if !improved || small_step {

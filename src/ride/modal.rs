@@ -178,20 +178,27 @@ fn model_values(p: &[f64], st: Structure, tau: f64, tau0: f64) -> [f64; 2] {
 
 /// The two signals from the nonlinear functions at one time: the weave's `E (cos φ, sin φ)`,
 /// the real modes' exponentials, and τ for the trend.
+#[inline(always)]
 fn combine(p: &[f64], st: Structure, wave: [f64; 2], exps: &[f64], tau: f64) -> [f64; 2] {
-    let signal = |s: usize| {
-        let l = st.nonlinear() + s * st.linear();
-        let mut x = p[l] * wave[0] + p[l + 1] * wave[1];
-        for (k, ex) in exps.iter().enumerate().take(st.real_modes) {
-            x += p[l + 2 + k] * ex;
-        }
-        x += p[l + 2 + st.real_modes];
-        if st.trend {
-            x += p[l + 3 + st.real_modes] * tau;
-        }
-        x
-    };
-    [signal(0), signal(1)]
+    [
+        combine_one(p, st, wave, exps, tau, 0),
+        combine_one(p, st, wave, exps, tau, 1),
+    ]
+}
+
+/// Signal `s` of [`combine`] (a function rather than a closure, so that it inlines).
+#[inline(always)]
+fn combine_one(p: &[f64], st: Structure, wave: [f64; 2], exps: &[f64], tau: f64, s: usize) -> f64 {
+    let l = st.nonlinear() + s * st.linear();
+    let mut x = p[l] * wave[0] + p[l + 1] * wave[1];
+    for (k, ex) in exps.iter().enumerate().take(st.real_modes) {
+        x += p[l + 2 + k] * ex;
+    }
+    x += p[l + 2 + st.real_modes];
+    if st.trend {
+        x += p[l + 3 + st.real_modes] * tau;
+    }
+    x
 }
 
 /// The nonlinear functions of time at every sample of a window, for one parameter vector:
@@ -233,6 +240,31 @@ const MAX_ROW: usize = 2 + 2 + MAX_REAL_MODES + MAX_LINEAR;
 /// The most linear parameters of one signal: the weave's two, the real modes', offset, trend.
 const MAX_LINEAR: usize = 2 + MAX_REAL_MODES + 2;
 
+/// `$body` with `$c` bound to the structure `$st` as a constant, one copy per structure a
+/// fit can have: the per-sample loops it inlines ([`Problem::each_basis`], [`combine`],
+/// [`Problem::sparse_rows`]) then know their widths and branches when compiled. The same
+/// operations in the same order, so the same numbers bit for bit.
+macro_rules! for_structure {
+    ($st:expr, |$c:ident| $body:expr) => {
+        for_structure!(@arms $st, $c, $body;
+            (0, false, false) (0, true, false) (1, false, false) (1, true, false)
+            (2, false, false) (2, true, false) (0, false, true) (0, true, true)
+            (1, false, true) (1, true, true) (2, false, true) (2, true, true))
+    };
+    (@arms $st:expr, $c:ident, $body:expr; $(($r:literal, $t:literal, $d:literal))*) => {
+        match $st {
+            $(Structure { real_modes: $r, trend: $t, drift: $d } => {
+                let $c = Structure { real_modes: $r, trend: $t, drift: $d };
+                $body
+            })*
+            other => {
+                let $c = other;
+                $body
+            }
+        }
+    };
+}
+
 /// The weighted least-squares problem: rows 0..n are θ, n..2n are γ, each times its weight.
 struct Problem<'a> {
     t: &'a [f64],
@@ -258,23 +290,25 @@ impl Problem<'_> {
         let n = self.n();
         let mut wave = Vec::with_capacity(n);
         let mut real = Vec::with_capacity(n);
-        let _ = self.each_basis(p, |_, w, ex| {
+        let _ = for_structure!(self.st, |st| self.each_basis(st, p, |_, w, ex| {
             wave.push(w);
             real.push(*ex);
             ControlFlow::Continue(())
-        });
+        }));
         Basis { wave, real }
     }
 
     /// The nonlinear functions of [`Problem::basis`], handed sample by sample to `visit`
     /// (index, the weave's `E (cos φ, sin φ)`, the real modes' exponentials) until it breaks:
-    /// one pass, nothing stored, the same values.
+    /// one pass, nothing stored, the same values. `st` is the problem's structure (as a
+    /// constant from [`for_structure`]).
+    #[inline(always)]
     fn each_basis(
         &self,
+        st: Structure,
         p: &[f64],
         mut visit: impl FnMut(usize, [f64; 2], &[f64; MAX_REAL_MODES]) -> ControlFlow<()>,
     ) -> ControlFlow<()> {
-        let st = self.st;
         let n = self.n();
         let a = Complex::new(p[0], p[1]);
         let b = if st.drift {
@@ -282,7 +316,11 @@ impl Problem<'_> {
         } else {
             Complex::new(0.0, 0.0)
         };
-        let rates: Vec<f64> = (0..st.real_modes).map(|k| p[real_index(st, k)]).collect();
+        let mut rates = [0.0; MAX_REAL_MODES];
+        for (k, r) in rates.iter_mut().enumerate().take(st.real_modes) {
+            *r = p[real_index(st, k)];
+        }
+        let rates = &rates[..st.real_modes];
         let (mut z, mut rho, mut q) = (Complex::new(0.0, 0.0), a, a);
         let mut ex = [0.0; MAX_REAL_MODES];
         let mut ex_step = [0.0; MAX_REAL_MODES];
@@ -337,8 +375,8 @@ impl Problem<'_> {
     /// above `bound` that way is above it whole, and the whole cost where it is not.
     fn rss_within(&self, p: &[f64], bound: f64) -> [f64; 2] {
         let mut out = [0.0; 2];
-        let _ = self.each_basis(p, |i, wave, ex| {
-            let values = combine(p, self.st, wave, ex, self.t[i] - self.t_ref);
+        let _ = for_structure!(self.st, |st| self.each_basis(st, p, |i, wave, ex| {
+            let values = combine(p, st, wave, ex, self.t[i] - self.t_ref);
             for s in 0..2 {
                 out[s] += (values[s] - self.x[s][i]).powi(2);
             }
@@ -347,7 +385,7 @@ impl Problem<'_> {
             } else {
                 ControlFlow::Continue(())
             }
-        });
+        }));
         out
     }
 
@@ -375,17 +413,19 @@ impl Problem<'_> {
         }
         let norms = norms.map(|v| v.sqrt().max(1e-300));
         for s in 0..2 {
-            let mut ata = DMatrix::<f64>::zeros(nl, nl);
+            // Summed in fixed arrays (no bounds to check), then handed to nalgebra.
+            let mut sums = [[0.0; MAX_LINEAR]; MAX_LINEAR];
             let mut atb = DVector::<f64>::zeros(nl);
             for (r, &x) in rows.iter().zip(self.x[s]) {
                 for i in 0..nl {
                     let ri = r[i] / norms[i];
                     atb[i] += ri * x;
                     for j in 0..nl {
-                        ata[(i, j)] += ri * r[j] / norms[j];
+                        sums[i][j] += ri * r[j] / norms[j];
                     }
                 }
             }
+            let ata = DMatrix::<f64>::from_fn(nl, nl, |i, j| sums[i][j]);
             let sol = ata.cholesky()?.solve(&atb);
             let l = st.nonlinear() + s * nl;
             for i in 0..nl {
@@ -413,47 +453,67 @@ impl Problem<'_> {
     /// Sample `i`'s two weighted residuals and their Jacobian rows, each row held sparse: its
     /// first `nonlinear()` entries are the columns `0..nonlinear()`, the next `linear()` its
     /// signal's linear columns (θ's, then γ's); every other column of the row is zero.
-    fn sparse_rows(&self, p: &[f64], basis: &Basis, i: usize) -> [([f64; MAX_ROW], f64); 2] {
-        let st = self.st;
+    /// `st` is the problem's structure (as a constant from [`for_structure`]).
+    #[inline(always)]
+    fn sparse_rows(
+        &self,
+        st: Structure,
+        p: &[f64],
+        basis: &Basis,
+        i: usize,
+    ) -> [([f64; MAX_ROW], f64); 2] {
+        // Called twice rather than through `[0, 1].map` (whose machinery took a third of the
+        // ride fits), and a function rather than a closure, so that it inlines.
+        [
+            self.sparse_row(st, p, basis, i, 0),
+            self.sparse_row(st, p, basis, i, 1),
+        ]
+    }
+
+    /// Signal `s`'s row of [`Problem::sparse_rows`].
+    #[inline(always)]
+    fn sparse_row(
+        &self,
+        st: Structure,
+        p: &[f64],
+        basis: &Basis,
+        i: usize,
+        s: usize,
+    ) -> ([f64; MAX_ROW], f64) {
         let t = self.t[i];
         let tau = t - self.t_ref;
         let tau0 = t - self.t0;
         let [ecos, esin] = basis.wave[i];
         let exps = &basis.real[i][..st.real_modes];
         let nn = st.nonlinear();
-        // Called twice rather than through `[0, 1].map` (whose machinery took a third of the
-        // ride fits).
-        let signal = |s: usize| {
-            let w = self.weight[s];
-            let mut row = [0.0; MAX_ROW];
-            let l = nn + s * st.linear();
-            let (a, b) = (p[l], p[l + 1]);
-            let osc = a * ecos + b * esin;
-            let dosc = -a * esin + b * ecos;
-            row[0] = w * tau * osc;
-            row[1] = w * tau * dosc;
-            if st.drift {
-                row[2] = w * 0.5 * tau * tau * osc;
-                row[3] = w * 0.5 * tau * tau * dosc;
-            }
-            row[nn] = w * ecos;
-            row[nn + 1] = w * esin;
-            let mut m = osc;
-            for (k, &ex) in exps.iter().enumerate() {
-                let c = p[l + 2 + k];
-                m += c * ex;
-                row[real_index(st, k)] = w * c * tau0 * ex;
-                row[nn + 2 + k] = w * ex;
-            }
-            m += p[l + 2 + st.real_modes];
-            row[nn + 2 + st.real_modes] = w;
-            if st.trend {
-                m += p[l + 3 + st.real_modes] * tau;
-                row[nn + 3 + st.real_modes] = w * tau;
-            }
-            (row, w * (m - self.x[s][i]))
-        };
-        [signal(0), signal(1)]
+        let w = self.weight[s];
+        let mut row = [0.0; MAX_ROW];
+        let l = nn + s * st.linear();
+        let (a, b) = (p[l], p[l + 1]);
+        let osc = a * ecos + b * esin;
+        let dosc = -a * esin + b * ecos;
+        row[0] = w * tau * osc;
+        row[1] = w * tau * dosc;
+        if st.drift {
+            row[2] = w * 0.5 * tau * tau * osc;
+            row[3] = w * 0.5 * tau * tau * dosc;
+        }
+        row[nn] = w * ecos;
+        row[nn + 1] = w * esin;
+        let mut m = osc;
+        for (k, &ex) in exps.iter().enumerate() {
+            let c = p[l + 2 + k];
+            m += c * ex;
+            row[real_index(st, k)] = w * c * tau0 * ex;
+            row[nn + 2 + k] = w * ex;
+        }
+        m += p[l + 2 + st.real_modes];
+        row[nn + 2 + st.real_modes] = w;
+        if st.trend {
+            m += p[l + 3 + st.real_modes] * tau;
+            row[nn + 3 + st.real_modes] = w * tau;
+        }
+        (row, w * (m - self.x[s][i]))
     }
 
     /// The column of the full Jacobian that entry `j` of signal `s`'s sparse row stands for.
@@ -479,7 +539,11 @@ impl LeastSquares for Problem<'_> {
         jac.fill(0.0);
         let basis = self.basis(p);
         for i in 0..n {
-            for (s, (row, res)) in self.sparse_rows(p, &basis, i).into_iter().enumerate() {
+            for (s, (row, res)) in self
+                .sparse_rows(self.st, p, &basis, i)
+                .into_iter()
+                .enumerate()
+            {
                 for (j, &v) in row[..width].iter().enumerate() {
                     jac[(i + s * n, self.column(s, j))] = v;
                 }
@@ -512,18 +576,9 @@ impl LeastSquares for Problem<'_> {
         let mut hs = [[[0.0; MAX_ROW]; MAX_ROW]; 2];
         let mut gs = [[0.0; MAX_ROW]; 2];
         let basis = self.basis(p);
-        // One instance per row width, its loops' bounds known to the compiler (a quarter
-        // faster than a width known only at run time).
-        match width {
-            5 => self.accumulate::<5>(p, &basis, r, &mut hs, &mut gs),
-            6 => self.accumulate::<6>(p, &basis, r, &mut hs, &mut gs),
-            7 => self.accumulate::<7>(p, &basis, r, &mut hs, &mut gs),
-            8 => self.accumulate::<8>(p, &basis, r, &mut hs, &mut gs),
-            9 => self.accumulate::<9>(p, &basis, r, &mut hs, &mut gs),
-            10 => self.accumulate::<10>(p, &basis, r, &mut hs, &mut gs),
-            11 => self.accumulate::<11>(p, &basis, r, &mut hs, &mut gs),
-            _ => self.accumulate::<MAX_ROW>(p, &basis, r, &mut hs, &mut gs),
-        }
+        // One instance per structure, its rows' widths and branches known to the compiler.
+        for_structure!(self.st, |st| self
+            .accumulate(st, p, &basis, r, &mut hs, &mut gs));
         h.fill(0.0);
         g.fill(0.0);
         for (s, (hs, gs)) in hs.iter().zip(&gs).enumerate() {
@@ -544,9 +599,12 @@ impl LeastSquares for Problem<'_> {
 
 impl Problem<'_> {
     /// The sums `Σ row rowᵀ` (upper triangle) and `Σ row r` over every sample's two sparse
-    /// rows of width `W` (entries beyond it are zero), the weighted residuals written to `r`.
-    fn accumulate<const W: usize>(
+    /// rows (of [`Problem::row_width`]; entries beyond it are zero), the weighted residuals
+    /// written to `r`. `st` is the problem's structure (as a constant from [`for_structure`]).
+    #[inline(always)]
+    fn accumulate(
         &self,
+        st: Structure,
         p: &[f64],
         basis: &Basis,
         r: &mut DVector<f64>,
@@ -554,12 +612,13 @@ impl Problem<'_> {
         gs: &mut [[f64; MAX_ROW]; 2],
     ) {
         let n = self.n();
+        let width = st.nonlinear() + st.linear();
         for i in 0..n {
-            for (s, (row, res)) in self.sparse_rows(p, basis, i).into_iter().enumerate() {
+            for (s, (row, res)) in self.sparse_rows(st, p, basis, i).into_iter().enumerate() {
                 r[i + s * n] = res;
-                for a in 0..W {
+                for a in 0..width {
                     gs[s][a] += row[a] * res;
-                    for b in a..W {
+                    for b in a..width {
                         hs[s][a][b] += row[a] * row[b];
                     }
                 }
