@@ -80,16 +80,36 @@ pub fn library_effect(w: Withheld) -> Option<Effect> {
 /// stiffness). Only the effect's first parameter is judged (the tyres' relaxation length is
 /// barely identified by the weave).
 pub fn size_right(effect: Effect, fitted: &[f64], truth: &[f64]) -> bool {
-    let spec = effect.params()[0];
     let (Some(&f), Some(&t)) = (fitted.first(), truth.first()) else {
         return false;
     };
-    let scale = if spec.none.is_finite() {
-        (t - spec.none).abs()
+    (f - t).abs() <= RIGHT_FRACTION * deviation(effect, t)
+}
+
+/// The part of the truth's deviation a right size may miss by ([`size_right`]).
+const RIGHT_FRACTION: f64 = 0.3;
+
+/// The first parameter's deviation from the value that means "no effect" (the truth itself
+/// where that value is infinite): what [`size_right`] takes its 30 % of.
+fn deviation(effect: Effect, truth: f64) -> f64 {
+    let none = effect.params()[0].none;
+    if none.is_finite() {
+        (truth - none).abs()
     } else {
-        t.abs()
-    };
-    (f - t).abs() <= 0.3 * scale
+        truth.abs()
+    }
+}
+
+/// The chance that an unbiased fit of the first parameter, normal with standard error `se`,
+/// lands within 30 % of the truth's deviation ([`size_right`]): P(|z| ≤ 0.3 d / SE), through
+/// χ²₁'s tail. Near the detection limit the deviation is about three of its SEs, so even
+/// such a fit is right in about two campaigns of three. `NaN` without a finite positive SE.
+pub fn size_right_chance(effect: Effect, truth: f64, se: f64) -> f64 {
+    if !(se.is_finite() && se > 0.0) {
+        return f64::NAN;
+    }
+    let x = RIGHT_FRACTION * deviation(effect, truth) / se;
+    1.0 - crate::stats::chi2_sf(x * x, 1)
 }
 
 /// Simulates a blind campaign ([`blind_campaign_plus`]: `extra_speeds_mps` rides after its
@@ -244,6 +264,115 @@ fn design_name(d: BlindDesign) -> &'static str {
     }
 }
 
+/// The campaigns of `cs` (of `effect`) whose truth deviates from "no effect" by at least
+/// `times` their detection limit.
+fn beyond_limit<'a>(cs: &[&'a CaseResult], effect: Effect, times: f64) -> Vec<&'a CaseResult> {
+    cs.iter()
+        .copied()
+        .filter(|c| {
+            c.detection_limit
+                .zip(c.truth.first())
+                .is_some_and(|(l, &t)| deviation(effect, t) >= times * l)
+        })
+        .collect()
+}
+
+/// The section that tells, beyond the detection limit, why a campaign was not right: not
+/// named (its test not significant, or another effect first), or its size off by more than an
+/// unbiased fit with the campaign's own standard error would be.
+fn missed_sizes(md: &mut String, results: &[CaseResult]) {
+    let _ = writeln!(
+        md,
+        "\n## Beyond the limit: where the right size is missed\n"
+    );
+    let _ = writeln!(
+        md,
+        "The campaigns beyond the detection limit (the table above's last columns), and why some are not right. *Within 30 %*: the withheld effect's own fit within 30 % of the truth's deviation, named or not. *An unbiased fit*: how many an unbiased fit would bring within 30 %, with the standard error each campaign's fit reports (the sum of P(|z| ≤ 0.3 × deviation / SE)): at the limit the deviation is about three of those errors, so 30 % of it is about one, and even that fit is right in two campaigns of three; what is right beyond that is the rides' information, not the diagnosis's. *Twice the limit*: the campaigns whose truth lies beyond twice it, and how many of those were right.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| design | effect | beyond the limit | named | within 30 % | an unbiased fit | right | beyond twice the limit | right there |\n|---|---|---|---|---|---|---|---|---|"
+    );
+    for design in [BlindDesign::Sync, BlindDesign::Noted] {
+        let mut total = [0usize; 6];
+        let mut total_unbiased = 0.0;
+        for w in Withheld::ALL {
+            let Some(effect) = library_effect(w) else {
+                continue;
+            };
+            let cs: Vec<&CaseResult> = results
+                .iter()
+                .filter(|c| c.design == design && c.effect == w.label())
+                .collect();
+            let beyond = beyond_limit(&cs, effect, 1.0);
+            if beyond.is_empty() {
+                continue;
+            }
+            let within = beyond
+                .iter()
+                .filter(|c| {
+                    c.true_fit
+                        .as_ref()
+                        .is_some_and(|f| size_right(effect, &f.params, &c.truth))
+                })
+                .count();
+            let unbiased: f64 = beyond
+                .iter()
+                .filter_map(|c| {
+                    let f = c.true_fit.as_ref()?;
+                    let p = size_right_chance(effect, c.truth[0], *f.params_se.first()?);
+                    p.is_finite().then_some(p)
+                })
+                .sum();
+            let twice = beyond_limit(&cs, effect, 2.0);
+            let row = [
+                beyond.len(),
+                beyond.iter().filter(|c| c.named).count(),
+                within,
+                beyond.iter().filter(|c| c.right).count(),
+                twice.len(),
+                twice.iter().filter(|c| c.right).count(),
+            ];
+            for (t, r) in total.iter_mut().zip(row) {
+                *t += r;
+            }
+            total_unbiased += unbiased;
+            let _ = writeln!(
+                md,
+                "{}",
+                missed_row(design_name(design), w.label(), row, unbiased)
+            );
+        }
+        if total[0] > 0 {
+            let _ = writeln!(
+                md,
+                "{}",
+                missed_row(design_name(design), "**all**", total, total_unbiased)
+            );
+        }
+    }
+}
+
+/// One row of [`missed_sizes`]: beyond, named, within, right, twice, right there.
+fn missed_row(design: &str, effect: &str, row: [usize; 6], unbiased: f64) -> String {
+    let [n, named, within, right, twice, right_twice] = row;
+    let share = |x: f64| {
+        if n == 0 {
+            "–".to_string()
+        } else {
+            format!("{x:.1} ({:.1} %)", 100.0 * x / n as f64)
+        }
+    };
+    format!(
+        "| {design} | {effect} | {n} | {} | {} | {} | {} | {twice} | {} |",
+        pct(named, n),
+        pct(within, n),
+        share(unbiased),
+        pct(right, n),
+        pct(right_twice, twice)
+    )
+}
+
 fn pct(a: usize, b: usize) -> String {
     if b == 0 {
         "–".into()
@@ -303,15 +432,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
             zs.sort_by(f64::total_cmp);
             let median = zs.get(zs.len() / 2).copied().unwrap_or(f64::NAN);
             let count = |f: &dyn Fn(&CaseResult) -> bool| cs.iter().filter(|c| f(c)).count();
-            let none = effect.params()[0].none;
-            let beyond: Vec<&&CaseResult> = cs
-                .iter()
-                .filter(|c| {
-                    c.detection_limit
-                        .zip(c.truth.first())
-                        .is_some_and(|(l, t)| (t - none).abs() >= l)
-                })
-                .collect();
+            let beyond = beyond_limit(&cs, effect, 1.0);
             let (limit_columns, there) = if cs.iter().any(|c| c.detection_limit.is_some()) {
                 (
                     beyond.len().to_string(),
@@ -347,6 +468,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
             );
         }
     }
+    missed_sizes(&mut md, results);
     let _ = writeln!(md, "\n## Quiet when nothing is withheld\n");
     let _ = writeln!(
         md,
@@ -459,6 +581,25 @@ mod tests {
         let back: TrueFit = serde_json::from_str(&text).unwrap();
         assert_eq!(back.params_se[0], 0.29);
         assert!(back.params_se[1].is_nan());
+    }
+
+    /// An unbiased fit's chance of the right size, against the normal distribution's closed
+    /// form: a deviation of 1 with an SE of 0.3 is right within one SE (erf(1/√2) = 0.682689),
+    /// of 0.15 within two (0.954500); a tyre's truth of 10 with an SE of 1.5, within 2 SE.
+    #[test]
+    fn an_unbiased_fits_chance_of_the_right_size_is_the_normals() {
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-6;
+        assert!(close(
+            size_right_chance(Effect::SteerDamping, 1.0, 0.3),
+            0.682689
+        ));
+        assert!(close(
+            size_right_chance(Effect::FrontIzz, 2.0, 0.15),
+            0.954500
+        ));
+        assert!(close(size_right_chance(Effect::Tyres, 10.0, 1.5), 0.954500));
+        assert!(size_right_chance(Effect::FrontIzz, 2.0, f64::NAN).is_nan());
+        assert!(size_right_chance(Effect::FrontIzz, 2.0, 0.0).is_nan());
     }
 
     /// "Within 30 % of the truth's deviation from no effect": a damper of 0.3 N·m·s/rad is
