@@ -470,11 +470,13 @@ impl<'a> Campaign<'a> {
 /// Each ride's residuals at the parameter sets already evaluated for one candidate. The
 /// held-out refits ([`refit_near`]) all start from the fit to every ride and take their
 /// differences at the same steps around it, so that one campaign's sixteen held-out fits share
-/// most of their predictions (they took a third of `bikeproc gap`'s time).
+/// most of their predictions (they took a third of `bikeproc gap`'s time). Shared by threads
+/// (the refits run in parallel): a parameter set two threads evaluate at once is computed by
+/// both, the same numbers, and kept once.
 pub struct ResidualCache<'c, 'a> {
     campaign: &'c Campaign<'a>,
     effects: &'c [Effect],
-    memo: std::cell::RefCell<Vec<Evaluated>>,
+    memo: std::sync::Mutex<Vec<std::sync::Arc<Evaluated>>>,
 }
 
 /// Each ride's residuals at one parameter set; `None` where its prediction fails.
@@ -487,7 +489,7 @@ struct Evaluated {
     /// `(S r, rᵀ S r)` with S the campaign's inverse covariance and r every ride's residual
     /// (zero where the prediction failed): made on the first leave-one-out χ² at these
     /// parameters; `None` when S is not there.
-    shared: std::cell::OnceCell<Option<(DVector<f64>, f64)>>,
+    shared: std::sync::OnceLock<Option<(DVector<f64>, f64)>>,
 }
 
 impl<'c, 'a> ResidualCache<'c, 'a> {
@@ -495,28 +497,39 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
         ResidualCache {
             campaign,
             effects,
-            memo: std::cell::RefCell::new(Vec::new()),
+            memo: std::sync::Mutex::new(Vec::new()),
         }
+    }
+
+    /// The evaluation at `params`: from the memo, or made (outside the lock) and kept.
+    fn evaluated(&self, params: &[f64]) -> std::sync::Arc<Evaluated> {
+        let find = |memo: &[std::sync::Arc<Evaluated>]| {
+            memo.iter().find(|e| e.params.as_slice() == params).cloned()
+        };
+        let lock = || self.memo.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(e) = find(&lock()) {
+            return e;
+        }
+        let per_ride = (0..self.campaign.obs.len())
+            .map(|i| self.campaign.residuals(self.effects, params, &[i]))
+            .collect();
+        let made = std::sync::Arc::new(Evaluated {
+            params: params.to_vec(),
+            per_ride,
+            shared: std::sync::OnceLock::new(),
+        });
+        let mut memo = lock();
+        // Another thread may have kept the same parameters meanwhile: the first one stays.
+        if let Some(e) = find(&memo) {
+            return e;
+        }
+        memo.push(made.clone());
+        made
     }
 
     /// χ² of `subset` (of this cache's campaign) at `params`, as [`Subset::chi2`].
     pub fn chi2(&self, subset: &Subset<'_, '_>, params: &[f64]) -> f64 {
-        let mut memo = self.memo.borrow_mut();
-        let k = match memo.iter().position(|e| e.params.as_slice() == params) {
-            Some(k) => k,
-            None => {
-                let per_ride = (0..self.campaign.obs.len())
-                    .map(|i| self.campaign.residuals(self.effects, params, &[i]))
-                    .collect();
-                memo.push(Evaluated {
-                    params: params.to_vec(),
-                    per_ride,
-                    shared: std::cell::OnceCell::new(),
-                });
-                memo.len() - 1
-            }
-        };
-        let e = &memo[k];
+        let e = self.evaluated(params);
         if subset.rides.iter().any(|&i| e.per_ride[i].is_none()) {
             return f64::INFINITY;
         }

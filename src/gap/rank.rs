@@ -102,20 +102,22 @@ fn heldout(
     effects: &[Effect],
     full_fit: &[f64],
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    use rayon::prelude::*;
     let n = campaign.obs.len();
-    let mut per_ride = Vec::with_capacity(n);
-    let mut fits = Vec::with_capacity(n);
     let cache = ResidualCache::new(campaign, effects);
     let step = steps(campaign, effects);
-    for i in 0..n {
+    let refit = |i: usize| {
         let params = match campaign.leave_one_out(i) {
             Some(s) => refit_near(&s, &cache, full_fit, &step, &[]).params,
             None => full_fit.to_vec(),
         };
-        per_ride.push(whitened(campaign, effects, &params, i));
-        fits.push(params);
-    }
-    (per_ride, fits)
+        (whitened(campaign, effects, &params, i), params)
+    };
+    // The first refit alone: it evaluates the steps around the full fit that every other one
+    // starts from (the cache's shared part); the others in parallel, in the rides' order.
+    let mut out: Vec<(Vec<f64>, Vec<f64>)> = (0..n.min(1)).map(refit).collect();
+    out.par_extend((1..n).into_par_iter().map(refit));
+    out.into_iter().unzip()
 }
 
 /// The initial steps of a refit: a twentieth of each element's range.
@@ -141,25 +143,33 @@ fn heldout_conditions(
     effects: &[Effect],
     full_fit: &[f64],
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    use rayon::prelude::*;
     let n = campaign.obs.len();
     let layout = campaign.layout(effects);
     let mut per_ride = vec![Vec::new(); n];
     let mut fits = vec![full_fit.to_vec(); n];
     let cache = ResidualCache::new(campaign, effects);
     let step = steps(campaign, effects);
-    for c in 0..campaign.conditions.len() {
+    let refit = |c: usize| {
         let others: Vec<usize> = (0..n)
             .filter(|&i| campaign.ride_condition[i] != c)
             .collect();
         let own = layout.own(c);
-        let params = match campaign.subset(others) {
+        match campaign.subset(others) {
             Some(s) if !layout.is_empty() => {
                 let near = refit_near(&s, &cache, full_fit, &step, &own);
                 refine(&s, effects, &near.params, &step, &own).params
             }
             _ => full_fit.to_vec(),
-        };
-        let predicting = layout.predicting(&params, c);
+        }
+    };
+    // The conditions' refits in parallel (each its own subset and held parameters).
+    let refits: Vec<Vec<f64>> = (0..campaign.conditions.len())
+        .into_par_iter()
+        .map(refit)
+        .collect();
+    for (c, params) in refits.iter().enumerate() {
+        let predicting = layout.predicting(params, c);
         for i in campaign.rides_of(c) {
             per_ride[i] = whitened(campaign, effects, &predicting, i);
             fits[i] = predicting.clone();
