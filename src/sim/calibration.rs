@@ -264,6 +264,22 @@ fn design_name(d: BlindDesign) -> &'static str {
     }
 }
 
+/// Each library effect that `results` hold campaigns of in `design`, in the library's order,
+/// with those campaigns.
+fn library_rows(
+    results: &[CaseResult],
+    design: BlindDesign,
+) -> impl Iterator<Item = (Withheld, Effect, Vec<&CaseResult>)> {
+    Withheld::ALL.into_iter().filter_map(move |w| {
+        let effect = library_effect(w)?;
+        let cs: Vec<&CaseResult> = results
+            .iter()
+            .filter(|c| c.design == design && c.effect == w.label())
+            .collect();
+        (!cs.is_empty()).then_some((w, effect, cs))
+    })
+}
+
 /// The campaigns of `cs` (of `effect`) whose truth deviates from "no effect" by at least
 /// `times` their detection limit.
 fn beyond_limit<'a>(cs: &[&'a CaseResult], effect: Effect, times: f64) -> Vec<&'a CaseResult> {
@@ -296,14 +312,7 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
     for design in [BlindDesign::Sync, BlindDesign::Noted] {
         let mut total = [0usize; 6];
         let mut total_unbiased = 0.0;
-        for w in Withheld::ALL {
-            let Some(effect) = library_effect(w) else {
-                continue;
-            };
-            let cs: Vec<&CaseResult> = results
-                .iter()
-                .filter(|c| c.design == design && c.effect == w.label())
-                .collect();
+        for (w, effect, cs) in library_rows(results, design) {
             let beyond = beyond_limit(&cs, effect, 1.0);
             if beyond.is_empty() {
                 continue;
@@ -403,17 +412,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
     );
     let designs = [BlindDesign::Sync, BlindDesign::Noted];
     for design in designs {
-        for w in Withheld::ALL {
-            let Some(effect) = library_effect(w) else {
-                continue;
-            };
-            let cs: Vec<&CaseResult> = results
-                .iter()
-                .filter(|c| c.design == design && c.effect == w.label())
-                .collect();
-            if cs.is_empty() {
-                continue;
-            }
+        for (w, effect, cs) in library_rows(results, design) {
             let (mut n1, mut n2, mut nc, mut bound) = (0, 0, 0, 0);
             let mut zs = Vec::new();
             for c in &cs {
