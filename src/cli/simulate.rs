@@ -221,14 +221,24 @@ fn study_calibration(
     for (k, &(seed, kind)) in cases.iter().enumerate() {
         match run_study(&lab, &text, seed, kind) {
             Ok(r) => {
+                let pair = match r.motor_fit.as_ref().map(|f| f.0.as_slice()) {
+                    Some([gains @ .., inertia]) => format!(
+                        "the pair's gains {} × nominal, inertia {inertia:.4} kg·m²",
+                        gains
+                            .iter()
+                            .map(|g| format!("{g:.3}"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                    _ => "no fit of the pair".to_string(),
+                };
                 note!(
-                    "[{}/{}] {} seed {seed}: p {:.2e}, best {}, pair {:?}",
+                    "[{}/{}] {} seed {seed}: p {:.2e}, best {}; {pair}",
                     k + 1,
                     cases.len(),
                     kind.label(),
                     r.campaign_p_value,
                     r.best,
-                    r.motor_fit.as_ref().map(|f| &f.0)
                 );
                 results.push(r);
             }
