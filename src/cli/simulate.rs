@@ -296,11 +296,11 @@ fn gap_calibration(
         match calibration::run_case(&lab, &text, *case) {
             Ok(r) => {
                 note!(
-                    "[{}/{}] {} {:?} seed {}: p {:.2e}, best {}, named {}, right {}",
+                    "[{}/{}] {} {} seed {}: p {:.2e}, best {}, named {}, right {}",
                     k + 1,
                     cases.len(),
                     r.effect,
-                    r.design,
+                    r.design.label(),
                     r.seed,
                     r.campaign_p_value,
                     r.best,
@@ -310,9 +310,9 @@ fn gap_calibration(
                 results.push(r);
             }
             Err(e) => failures.push(format!(
-                "{} {:?} seed {}: {e}",
+                "{} {} seed {}: {e}",
                 case.withheld.label(),
-                case.design,
+                case.design.label(),
                 case.seed
             )),
         }

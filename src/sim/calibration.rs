@@ -257,13 +257,6 @@ pub fn cases(campaigns: u64, controls: u64) -> Vec<Case> {
     out
 }
 
-fn design_name(d: BlindDesign) -> &'static str {
-    match d {
-        BlindDesign::Sync => "sync",
-        BlindDesign::Noted => "noted",
-    }
-}
-
 /// Each library effect that `results` hold campaigns of in `design`, in the library's order,
 /// with those campaigns.
 fn library_rows(
@@ -349,14 +342,14 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
             let _ = writeln!(
                 md,
                 "{}",
-                missed_row(design_name(design), w.label(), row, unbiased)
+                missed_row(design.label(), w.label(), row, unbiased)
             );
         }
         if total[0] > 0 {
             let _ = writeln!(
                 md,
                 "{}",
-                missed_row(design_name(design), "**all**", total, total_unbiased)
+                missed_row(design.label(), "**all**", total, total_unbiased)
             );
         }
     }
@@ -449,7 +442,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
             let _ = writeln!(
                 md,
                 "| {} | {} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {:+.2} | {} | {} | {} |",
-                design_name(design),
+                design.label(),
                 w.label(),
                 effect.params()[0].unit,
                 cs.len(),
@@ -486,7 +479,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
         let _ = writeln!(
             md,
             "**{}**: {} campaigns, {} below 0.01, {} below 0.05.\n",
-            design_name(design),
+            design.label(),
             ps.len(),
             pct(below, ps.len()),
             pct(ps.iter().filter(|&&p| p < 0.05).count(), ps.len())
@@ -543,7 +536,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
             let _ = writeln!(
                 md,
                 "| {} | {} | {} | {} | {} | {} |",
-                design_name(design),
+                design.label(),
                 w.label(),
                 cs.len(),
                 sig,

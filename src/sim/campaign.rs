@@ -729,6 +729,16 @@ pub enum BlindDesign {
     Noted,
 }
 
+impl BlindDesign {
+    /// The design's name as `--design` takes it: `sync` or `noted`.
+    pub fn label(self) -> &'static str {
+        match self {
+            BlindDesign::Sync => "sync",
+            BlindDesign::Noted => "noted",
+        }
+    }
+}
+
 impl Withheld {
     pub const ALL: [Withheld; 14] = [
         Withheld::None,
