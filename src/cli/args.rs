@@ -554,7 +554,7 @@ pub enum SimCommand {
         effect: String,
         /// `sync`: 12 rides, the reed switch on every other; `noted`: 14 coasting rides, the
         /// speedometer's reading at the release rounded to 0.1 m/s, no reed switch.
-        #[arg(long, default_value = "sync", value_parser = ["sync", "noted"])]
+        #[arg(long, default_value = "sync", value_parser = blind_designs())]
         design: String,
         /// `suite`: the effect at a size the campaign sees (the test suite's); `broad`: the
         /// sizes a lab meets, down to the detection limit, on a true bicycle off from the
@@ -890,6 +890,15 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
 pub fn withheld_effects() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(
         bikeproc::sim::campaign::Withheld::ALL.map(|w| w.label()),
+    )
+}
+
+/// The blind campaigns' designs by name, for clap (the names [`BlindDesign::label`] gives).
+///
+/// [`BlindDesign::label`]: bikeproc::sim::campaign::BlindDesign::label
+pub fn blind_designs() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        bikeproc::sim::campaign::BlindDesign::ALL.map(|d| d.label()),
     )
 }
 

@@ -27,11 +27,8 @@ pub fn simulate(s: SimCommand) -> Result<()> {
         } => {
             let withheld = campaign::Withheld::from_label(&effect)
                 .ok_or_else(|| anyhow::anyhow!("unknown effect `{effect}`"))?;
-            let design = if design == "noted" {
-                campaign::BlindDesign::Noted
-            } else {
-                campaign::BlindDesign::Sync
-            };
+            let design = campaign::BlindDesign::from_label(&design)
+                .ok_or_else(|| anyhow::anyhow!("unknown design `{design}`"))?;
             let lab = LabBike::load(&bike)?;
             let draws = if draws == "broad" {
                 campaign::Draws::Broad

@@ -115,7 +115,10 @@ fn heldout(
     };
     // The first refit alone: it evaluates the steps around the full fit that every other one
     // starts from (the cache's shared part); the others in parallel, in the rides' order.
-    let mut out: Vec<(Vec<f64>, Vec<f64>)> = (0..n.min(1)).map(refit).collect();
+    let mut out = Vec::with_capacity(n);
+    if n > 0 {
+        out.push(refit(0));
+    }
     out.par_extend((1..n).into_par_iter().map(refit));
     out.into_iter().unzip()
 }

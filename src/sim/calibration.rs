@@ -238,7 +238,7 @@ pub fn compare(d: &Diagnosis, case: Case, truth: Vec<f64>) -> CaseResult {
 /// the control. Seeds start at 1001 (the test suite's are 1–5).
 pub fn cases(campaigns: u64, controls: u64) -> Vec<Case> {
     let mut out = Vec::new();
-    for design in [BlindDesign::Sync, BlindDesign::Noted] {
+    for design in BlindDesign::ALL {
         for w in Withheld::ALL {
             let n = if w == Withheld::None {
                 controls
@@ -302,7 +302,7 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
         md,
         "| design | effect | beyond the limit | named | within 30 % | an unbiased fit | right | beyond twice the limit | right there |\n|---|---|---|---|---|---|---|---|---|"
     );
-    for design in [BlindDesign::Sync, BlindDesign::Noted] {
+    for design in BlindDesign::ALL {
         let mut total = [0usize; 6];
         let mut total_unbiased = 0.0;
         for (w, effect, cs) in library_rows(results, design) {
@@ -403,7 +403,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
         md,
         "| design | effect | campaigns | significant | named | right | tied | coverage 1 SE | coverage 2 SE | at bound | median z | beyond the limit | significant there | right there |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
-    let designs = [BlindDesign::Sync, BlindDesign::Noted];
+    let designs = BlindDesign::ALL;
     for design in designs {
         for (w, effect, cs) in library_rows(results, design) {
             let (mut n1, mut n2, mut nc, mut bound) = (0, 0, 0, 0);

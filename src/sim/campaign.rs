@@ -730,12 +730,19 @@ pub enum BlindDesign {
 }
 
 impl BlindDesign {
+    pub const ALL: [BlindDesign; 2] = [BlindDesign::Sync, BlindDesign::Noted];
+
     /// The design's name as `--design` takes it: `sync` or `noted`.
     pub fn label(self) -> &'static str {
         match self {
             BlindDesign::Sync => "sync",
             BlindDesign::Noted => "noted",
         }
+    }
+
+    /// The design named `label` ([`BlindDesign::label`]).
+    pub fn from_label(label: &str) -> Option<BlindDesign> {
+        BlindDesign::ALL.into_iter().find(|d| d.label() == label)
     }
 }
 
