@@ -13,8 +13,9 @@
 //!   likelihood ratio of the single effect that lowers it most, the smallest p calibrated on
 //!   draws of the residuals with no effect present (the effects' correlations counted);
 //! - **which**: every effect of [`effects`] fitted to the campaign by generalized least squares
-//!   on the eigenvalues and mode shapes, ranked by leave-one-ride-out prediction (each ride
-//!   predicted by the effect fitted to the others), pairs of the best effects when no single
+//!   on the eigenvalues and mode shapes, ranked by the BIC of that fit (in a study, by
+//!   predicting each condition from the others), tested by leave-one-ride-out prediction (each
+//!   ride predicted by the effect fitted to the others), pairs of the best effects when no single
 //!   one closes the gap, effects the held-out test cannot tell apart reported as tied with the
 //!   two rides to make next; an explanation only when the rides left out are predicted within
 //!   [`EXPLAINED_HELDOUT_RMS`] and the fit passes the χ² test, "not explained" otherwise;

@@ -420,9 +420,14 @@ impl Diagnosis {
                 stats::format_p(self.campaign_p_value)
             );
         }
+        let order = if self.ranking.first().is_some_and(|r| r.in_study()) {
+            "the held-out RMS normalized residual of the conditions left out"
+        } else {
+            "the BIC of the fit to every ride (χ² + k ln 2N)"
+        };
         let _ = writeln!(
             out,
-            "Which: candidates fitted on {} by held-out RMS normalized residual (in standard errors;\n  pairs of effects are listed only where they beat the best single one on the rides left out,\n  and named ahead of it only where the tie test tells them apart; otherwise after it)",
+            "Which: candidates fitted on {}, plausible first, then by {order};\n  pairs of effects are listed only where they beat the best single one on the rides left out,\n  and named ahead of it only where the tie test tells them apart; otherwise after it",
             decided_on(self.parts_per_ride)
         );
         let _ = writeln!(
@@ -443,13 +448,14 @@ impl Diagnosis {
         );
         let _ = writeln!(
             out,
-            "  {:<we$}  {:<wp$} {:>8} {:>8} {:>9}",
-            "effect", "parameters", "before", "after", "plausible"
+            "  {:<we$}  {:<wp$} {:>8} {:>8} {:>8} {:>9}",
+            "effect", "parameters", "BIC", "before", "after", "plausible"
         );
         for (r, (effect, params)) in self.ranking.iter().zip(&rows) {
             let _ = writeln!(
                 out,
-                "  {effect:<we$}  {params:<wp$} {:>8.2} {:>8.2} {:>9}",
+                "  {effect:<we$}  {params:<wp$} {:>8.1} {:>8.2} {:>8.2} {:>9}",
+                r.bic,
                 r.heldout_rms_before,
                 r.heldout_rms_after,
                 if r.plausible { "yes" } else { "no" }

@@ -30,7 +30,9 @@ pub(super) fn gap_report(
          counted, so a trail and a frame's inertia that move the weave alike count once). **Which**: every candidate effect (a linear extension of the model\n\
          with physical parameters and bounds) fitted to all rides by generalized least squares on the\n\
          eigenvalue *and* the mode shape, then each ride predicted by the effect refitted without it (leave one\n\
-         ride out); plausible values first, then by the held-out RMS normalized residual; pairs when no single\n\
+         ride out); plausible values first, then by the BIC of the fit to every ride (the likelihood the fit\n\
+         maximizes: the held-out RMS weighs each ride alone and misses a pattern across rides that the model's\n\
+         correlated error makes telling); pairs when no single\n\
          effect brings the held-out residual within 2, named ahead of the best single only when the tie test tells\n\
          them apart (otherwise listed after it, not needed); a parameter within its standard error of its search's\n\
          edge shown as a bound; ties when, ride by ride, the best is not better by 2\n\
