@@ -489,6 +489,12 @@ pub(super) fn rank(
     };
     let mut ranked = over(&singles);
     sort(&mut ranked);
+    // The singles as the rides left out order them (a study's own order): whether one closes
+    // the gap, which are paired and what a pair must beat are questions of prediction. (Pairs
+    // built from the BIC's order instead paired data/rides.toml's tyres with every effect:
+    // `bikeproc gap` 0.73 → 1.12 s, the same best pair.)
+    let mut held = ranked.clone();
+    sort_by(&mut held, |r| r.heldout_rms_after);
     let dof = parts.saturating_sub(1).max(1);
     let passes = |b: &Ranked| {
         b.heldout_rms_after <= CLOSED_RMS
@@ -499,7 +505,7 @@ pub(super) fn rank(
     // suite more than it gained: 1,700 broad campaigns named the withheld effect in 4–8 %
     // fewer of the steer damping, tyres and wheel-spin campaigns.) Pairs of the best singles,
     // admitted against the best single (`admit`).
-    let single_passes = ranked.first().is_none_or(passes);
+    let single_passes = held.first().is_none_or(passes);
     if single_passes && !campaign.is_study() {
         return Ok(ranked);
     }
@@ -514,7 +520,7 @@ pub(super) fn rank(
     // motor delivered within 5 % of nominal named the rotor with frame_ixx, wheel_spin or
     // trail.
     if single_passes {
-        if let Some(best) = ranked.first().map(|r| r.effects[0]) {
+        if let Some(best) = held.first().map(|r| r.effects[0]) {
             let pairs: Vec<Vec<Effect>> = library
                 .iter()
                 .filter(|e| e.per_condition() != best.per_condition())
@@ -524,16 +530,11 @@ pub(super) fn rank(
                     p
                 })
                 .collect();
-            let b = ranked[0].clone();
-            admit(&pairs, &b, &mut ranked);
+            admit(&pairs, &held[0], &mut ranked);
         }
         return Ok(ranked);
     }
-    let pool: Vec<Effect> = ranked
-        .iter()
-        .take(PAIR_POOL)
-        .map(|r| r.effects[0])
-        .collect();
+    let pool: Vec<Effect> = held.iter().take(PAIR_POOL).map(|r| r.effects[0]).collect();
     // The best single with every other effect, and the next best among themselves.
     let mut pairs: Vec<Vec<Effect>> = Vec::new();
     let mut add = |a: Effect, b: Effect| {
@@ -572,8 +573,8 @@ pub(super) fn rank(
             add(pool[a], pool[b]);
         }
     }
-    if let Some(b) = ranked.first().cloned() {
-        admit(&pairs, &b, &mut ranked);
+    if let Some(b) = held.first() {
+        admit(&pairs, b, &mut ranked);
     }
     // In a study, when no single effect or pair passes either: the best pair with each other
     // effect, under the same rule against the best pair.
@@ -603,11 +604,16 @@ pub(super) fn rank(
 /// within each group, in a campaign by the BIC of the fit to every ride, in a study by the
 /// held-out RMS of its conditions left out ([`order_key`]).
 fn sort(ranked: &mut [Ranked]) {
+    sort_by(ranked, order_key);
+}
+
+/// Good standing first, pairs not needed after the rest, each group by `key`, then by name.
+fn sort_by(ranked: &mut [Ranked], key: impl Fn(&Ranked) -> f64) {
     ranked.sort_by(|a, b| {
         b.standing()
             .cmp(&a.standing())
             .then(a.not_needed.cmp(&b.not_needed))
-            .then_with(|| order_key(a).total_cmp(&order_key(b)))
+            .then_with(|| key(a).total_cmp(&key(b)))
             .then_with(|| a.effect.cmp(&b.effect))
     });
 }
