@@ -205,11 +205,18 @@ pub const SHAPE_PHASE_FLOOR_RAD: f64 = 0.0;
 pub struct GapOptions {
     /// Fit and rank on the mode shape as well as the eigenvalue.
     pub shape: bool,
+    /// The rides from which a ride left out is refitted by a Newton step taken unchecked
+    /// ([`fit::refit_newton`]; [`fit::TRUSTED_NEWTON_RIDES`] by default, `usize::MAX` to check
+    /// every step).
+    pub trusted_newton_rides: usize,
 }
 
 impl Default for GapOptions {
     fn default() -> Self {
-        GapOptions { shape: true }
+        GapOptions {
+            shape: true,
+            trusted_newton_rides: fit::TRUSTED_NEWTON_RIDES,
+        }
     }
 }
 
@@ -601,6 +608,7 @@ pub fn diagnose_study(
         models: &condition_inputs,
         coasting: &coasting,
         coasting_shift: None,
+        trusted_newton_rides: options.trusted_newton_rides,
     };
     d.parts_per_ride = parts.most();
     d.dof = total;

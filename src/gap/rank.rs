@@ -6,7 +6,9 @@
 
 use super::conditions::{Layout, Slot};
 use super::effects::{self, Effect};
-use super::fit::{assumed_se, fit_effects, param_se, refine, refit_near, Campaign, ResidualCache};
+use super::fit::{
+    assumed_se, fit_effects, param_se, refine, refit_near, refit_newton, Campaign, ResidualCache,
+};
 use super::{
     linear, GapError, Observation, CLOSED_RMS, PAIR_GAIN_CHI2, PAIR_POOL, PLAUSIBLE_SE,
     SIGNIFICANCE,
@@ -108,6 +110,9 @@ fn heldout(
     let step = steps(campaign, effects);
     let refit = |i: usize| {
         let params = match campaign.leave_one_out(i) {
+            Some(s) if n >= campaign.trusted_newton_rides => {
+                refit_newton(&s, &cache, full_fit, &step, &[]).params
+            }
             Some(s) => refit_near(&s, &cache, full_fit, &step, &[]).params,
             None => full_fit.to_vec(),
         };
