@@ -618,10 +618,9 @@ pub fn diagnose_study(
         .ok_or(GapError::Covariance)?;
     d.chi2 = full.chi2(&[], &[]);
     d.p_value = stats::chi2_sf(d.chi2, d.dof);
-    d.chi2_without_parameter_error = exp_cov
-        .clone()
-        .cholesky()
-        .and_then(|c| c.l().solve_lower_triangular(&r0))
+    d.chi2_without_parameter_error = campaign
+        .experiment_whitening()
+        .and_then(|w| w.whiten(&r0))
         .map_or(f64::NAN, |w| w.norm_squared());
     d.p_value_without_parameter_error = stats::chi2_sf(d.chi2_without_parameter_error, d.dof);
     if is_study {

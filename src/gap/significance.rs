@@ -32,7 +32,7 @@ pub const NULL_DRAWS: usize = 10_000;
 const NULL_SEED: u64 = 0x006a_705f_6e75_6c6c;
 
 /// One single effect's part of the targeted test, linearized at "no effect": the residuals
-/// whitened by the campaign's covariance (`u = L⁻¹ r`, `Σ = L Lᵀ`) move along `columns` (one
+/// whitened by the campaign's covariance (`u = M r`, `M Σ Mᵀ = I`: [`super::fit::Campaign::whitening`]) move along `columns` (one
 /// per fitted parameter) as the effect grows from nothing, so its fit lowers χ² by the squared
 /// length of `u`'s projection on them (Gauss–Markov), and by nothing where the fit is held at
 /// "no effect" by a bound (a mass cannot be negative).
@@ -97,10 +97,10 @@ impl NullTest {
     ) -> Option<NullTest> {
         let all: Vec<usize> = (0..campaign.obs.len()).collect();
         let r0 = campaign.residuals(&[], &[], &all)?;
-        let chol = campaign.cov.clone().cholesky()?;
+        let whitening = campaign.whitening()?;
         let directions: Vec<Direction> = effects
             .iter()
-            .filter_map(|&e| direction(campaign, &chol, &r0, &all, e))
+            .filter_map(|&e| direction(campaign, &whitening, &r0, &all, e))
             .collect();
         let (campaign_p, targeted_p) = null_draws(&directions, r0.len());
         Some(NullTest {
@@ -169,7 +169,7 @@ fn null_draws(directions: &[Direction], n: usize) -> (Vec<f64>, Vec<f64>) {
 /// fails there or does not move the residuals.
 fn direction(
     campaign: &super::fit::Campaign<'_>,
-    chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    whitening: &super::fit::Whitening,
     r0: &DVector<f64>,
     all: &[usize],
     e: super::effects::Effect,
@@ -221,7 +221,7 @@ fn direction(
     }
     let whitened: Vec<DVector<f64>> = columns
         .iter()
-        .map(|c| chol.l().solve_lower_triangular(c))
+        .map(|c| whitening.whiten(c))
         .collect::<Option<_>>()?;
     let w = DMatrix::from_columns(&whitened);
     if !w.iter().all(|x| x.is_finite()) || w.norm() == 0.0 {
