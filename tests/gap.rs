@@ -636,7 +636,7 @@ fn a_mass_seen_across_rides_is_named_first_at_its_size() {
 }
 
 /// Issue 33: a campaign of many rides refits each ride left out by a Newton step taken
-/// unchecked (`gap::fit::refit_newton`), which spares every ride's prediction at a parameter
+/// unchecked (`gap::fit::refit_near`), which spares every ride's prediction at a parameter
 /// set no other refit shares. On the 16 rides of `data/rides.toml` taken eight times (the
 /// copies 0.02 m/s apart, as the divan benchmark `gap_diagnosis_by_rides` builds them), the
 /// diagnosis is the checked refits' (`trusted_newton_rides: usize::MAX`): the same ranking,

@@ -66,8 +66,8 @@ pub struct Campaign<'a> {
     /// effects and what its coasting replay adds to each ride's prediction under them, held
     /// while it is fitted again; `None` elsewhere.
     pub coasting_shift: Option<(Vec<Effect>, Vec<[f64; 4]>)>,
-    /// From this many rides a ride left out is refitted by [`refit_newton`]
-    /// ([`super::GapOptions::trusted_newton_rides`]).
+    /// From this many rides a ride left out is refitted by an unchecked Newton step
+    /// ([`refit_near`], [`super::GapOptions::trusted_newton_rides`]).
     pub trusted_newton_rides: usize,
 }
 
@@ -1036,6 +1036,10 @@ pub fn refine(
     }
 }
 
+/// The rides from which a ride left out is refitted by an unchecked Newton step
+/// ([`refit_near`]).
+pub const TRUSTED_NEWTON_RIDES: usize = 64;
+
 /// The minimum of `subset`'s χ² near `start` (a fit to more rides): one Newton step on the
 /// χ² surface's central-difference gradient and Hessian (steps of 1e-3 of each range: 3
 /// evaluations for one parameter, 9 for two), clamped to the bounds; failing that (the Hessian
@@ -1047,44 +1051,19 @@ pub fn refine(
 /// quadratic to within the step's own error.
 /// The elements of `held` stay at their start (a condition's own parameters when its rides
 /// are left out).
-pub fn refit_near(
-    subset: &Subset<'_, '_>,
-    cache: &ResidualCache<'_, '_>,
-    start: &[f64],
-    step: &[f64],
-    held: &[usize],
-) -> EffectFit {
-    refit_near_checked(subset, cache, start, step, held, true)
-}
-
-/// The rides from which a held-out refit ([`refit_newton`]) takes its Newton step without
-/// evaluating χ² there.
-pub const TRUSTED_NEWTON_RIDES: usize = 64;
-
-/// [`refit_near`] for a ride left out of a campaign of [`TRUSTED_NEWTON_RIDES`] or more: its
-/// Newton step taken without the χ² at its end, which is every ride's prediction at a
+///
+/// Unchecked (`check` false: a ride left out of a campaign of [`TRUSTED_NEWTON_RIDES`] or more),
+/// the Newton step is taken without the χ² at its end, which is every ride's prediction at a
 /// parameter set no other refit shares (n eigenproblems a refit, n² a candidate: at 512 rides
 /// 45 % of the diagnosis). One ride of so many moves the minimum by a small fraction of its
-/// standard error, where χ² is quadratic and the check passes. The step holds a bound that
-/// is active (the fit at the box's edge, χ² falling outward) at it, where the checked refit
-/// tries the free step clamped to the box first (held-out Σz² up to 32 % apart from the
-/// checked refits' when the clamped free step is taken unchecked). On the 128-ride campaign
-/// of `tests/gap.rs` (`a_large_campaigns_refits_trust_the_newton_step`) the ranking and ties
-/// are the checked refits', 21 of 23 candidates' held-out Σz² to the last digit, the others
-/// within 6.2e-5 of themselves. With no step (the Hessian not positive definite) the checked
-/// refit runs.
-pub fn refit_newton(
-    subset: &Subset<'_, '_>,
-    cache: &ResidualCache<'_, '_>,
-    start: &[f64],
-    step: &[f64],
-    held: &[usize],
-) -> EffectFit {
-    refit_near_checked(subset, cache, start, step, held, false)
-}
-
-/// [`refit_near`], the Newton step's end checked against its start's χ² when `check`.
-fn refit_near_checked(
+/// standard error, where χ² is quadratic and the check passes. That step holds a bound that
+/// is active at it, where the checked refit tries the free step clamped to the box first
+/// (held-out Σz² up to 32 % apart from the checked refits' when the clamped free step is
+/// taken unchecked). On the 128-ride campaign of `tests/gap.rs`
+/// (`a_large_campaigns_refits_trust_the_newton_step`) the ranking and ties are the checked
+/// refits', 21 of 23 candidates' held-out Σz² to the last digit, the others within 6.2e-5 of
+/// themselves. With no step (the Hessian not positive definite) the checked refit runs.
+pub fn refit_near(
     subset: &Subset<'_, '_>,
     cache: &ResidualCache<'_, '_>,
     start: &[f64],
@@ -1301,7 +1280,7 @@ pub fn assumed_se(campaign: &Campaign<'_>, effects: &[Effect], fit: &EffectFit) 
         };
         let subset = shifted.subset((0..campaign.obs.len()).collect())?;
         let cache = ResidualCache::new(&shifted, effects);
-        let f = refit_near(&subset, &cache, &fit.params, &step, &[]);
+        let f = refit_near(&subset, &cache, &fit.params, &step, &[], true);
         f.chi2.is_finite().then_some(f.params)
     };
     match (refit(1.0), refit(-1.0)) {
@@ -1355,14 +1334,12 @@ mod tests {
         }
     }
 
-    /// The structured inverse against the sum inverted whole: ten rides of 4 and 2 parts, each
-    /// ride's block a seeded SPD matrix, and 7 common columns, as the model's measured inputs
-    /// and the experiment's shared parts add to a campaign's covariance; its products and
-    /// blocks within 1e-10 of the dense inverse's.
-    #[test]
-    fn a_low_rank_inverse_is_the_sum_inverted() {
+    /// Ten rides of 4 and 2 parts, each ride's block a seeded SPD matrix (B: the blocks and
+    /// the block-diagonal whole), and 7 common columns V, as the model's measured inputs and
+    /// the experiment's shared parts add to a campaign's covariance.
+    fn seeded_structure(seed: u64) -> (Parts, Vec<DMatrix<f64>>, DMatrix<f64>, DMatrix<f64>) {
         use rand::{RngExt, SeedableRng};
-        let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(34);
+        let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(seed);
         let parts = Parts::new((0..10).map(|i| if i % 3 == 0 { 2 } else { 4 }).collect());
         let n = parts.total();
         let mut whole = DMatrix::zeros(n, n);
@@ -1378,9 +1355,20 @@ mod tests {
             })
             .collect();
         let v = DMatrix::from_fn(n, 7, |_, _| rng.random::<f64>() - 0.5);
+        (parts, blocks, whole, v)
+    }
+
+    /// The structured inverse against the sum inverted whole ([`seeded_structure`]): its
+    /// products and blocks within 1e-10 of the dense inverse's.
+    #[test]
+    fn a_low_rank_inverse_is_the_sum_inverted() {
+        use rand::{RngExt, SeedableRng};
+        let (parts, blocks, mut whole, v) = seeded_structure(34);
+        let n = parts.total();
         whole += &v * v.transpose();
         let dense = whole.cholesky().unwrap().inverse();
         let ours = LowRankInverse::new(blocks, &parts, &v).unwrap();
+        let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(35);
         let r = DVector::from_fn(n, |_, _| rng.random::<f64>() - 0.5);
         let err = (ours.mul(&parts, &r) - &dense * &r).amax();
         assert!(err < 1e-10 * (&dense * &r).amax(), "product off by {err}");
@@ -1392,30 +1380,16 @@ mod tests {
         }
     }
 
-    /// The structured whitening against the dense inverse: |M x|² = xᵀ Σ⁻¹ x and M Σ Mᵀ = I, on
-    /// a seeded Σ = B + V Vᵀ of ten rides (two or four parts) and seven common columns, one
-    /// of them nearly null (its λ below the series' switch).
+    /// The structured whitening against the dense inverse: |M x|² = xᵀ Σ⁻¹ x and M Σ Mᵀ = I on
+    /// [`seeded_structure`], one common column nearly null (its λ below the series' switch).
     #[test]
     fn a_low_rank_whitening_whitens() {
         use rand::{RngExt, SeedableRng};
-        let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(41);
-        let parts = Parts::new((0..10).map(|i| if i % 3 == 0 { 2 } else { 4 }).collect());
+        let (parts, blocks, mut whole, mut v) = seeded_structure(41);
         let n = parts.total();
-        let mut whole = DMatrix::zeros(n, n);
-        let blocks: Vec<DMatrix<f64>> = (0..10)
-            .map(|i| {
-                let p = parts.of(i);
-                let g = DMatrix::from_fn(p, p, |_, _| rng.random::<f64>() - 0.5);
-                let b = &g * g.transpose() + DMatrix::identity(p, p) * 0.2;
-                whole
-                    .view_mut((parts.start(i), parts.start(i)), (p, p))
-                    .copy_from(&b);
-                b
-            })
-            .collect();
-        let mut v = DMatrix::from_fn(n, 7, |_, _| rng.random::<f64>() - 0.5);
         v.column_mut(6).scale_mut(1e-8);
         whole += &v * v.transpose();
+        let mut rng = rand_xoshiro::Xoshiro256StarStar::seed_from_u64(42);
         let w = LowRankWhitening::new(&blocks, &parts, &v).unwrap();
         let m = DMatrix::from_columns(
             &(0..n)

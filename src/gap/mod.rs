@@ -206,7 +206,7 @@ pub struct GapOptions {
     /// Fit and rank on the mode shape as well as the eigenvalue.
     pub shape: bool,
     /// The rides from which a ride left out is refitted by a Newton step taken unchecked
-    /// ([`fit::refit_newton`]; [`fit::TRUSTED_NEWTON_RIDES`] by default, `usize::MAX` to check
+    /// ([`fit::refit_near`]; [`fit::TRUSTED_NEWTON_RIDES`] by default, `usize::MAX` to check
     /// every step).
     pub trusted_newton_rides: usize,
 }

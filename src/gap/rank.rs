@@ -6,9 +6,7 @@
 
 use super::conditions::{Layout, Slot};
 use super::effects::{self, Effect};
-use super::fit::{
-    assumed_se, fit_effects, param_se, refine, refit_near, refit_newton, Campaign, ResidualCache,
-};
+use super::fit::{assumed_se, fit_effects, param_se, refine, refit_near, Campaign, ResidualCache};
 use super::{
     linear, GapError, Observation, CLOSED_RMS, PAIR_GAIN_CHI2, PAIR_POOL, PLAUSIBLE_SE,
     SIGNIFICANCE,
@@ -110,10 +108,10 @@ fn heldout(
     let step = steps(campaign, effects);
     let refit = |i: usize| {
         let params = match campaign.leave_one_out(i) {
-            Some(s) if n >= campaign.trusted_newton_rides => {
-                refit_newton(&s, &cache, full_fit, &step, &[]).params
+            Some(s) => {
+                let check = n < campaign.trusted_newton_rides;
+                refit_near(&s, &cache, full_fit, &step, &[], check).params
             }
-            Some(s) => refit_near(&s, &cache, full_fit, &step, &[]).params,
             None => full_fit.to_vec(),
         };
         (whitened(campaign, effects, &params, i), params)
@@ -165,7 +163,7 @@ fn heldout_conditions(
         let own = layout.own(c);
         match campaign.subset(others) {
             Some(s) if !layout.is_empty() => {
-                let near = refit_near(&s, &cache, full_fit, &step, &own);
+                let near = refit_near(&s, &cache, full_fit, &step, &own, true);
                 refine(&s, effects, &near.params, &step, &own).params
             }
             _ => full_fit.to_vec(),
