@@ -133,11 +133,24 @@ impl ManifestError {
     /// An error in the manifest `path` whose text is `text`, at the line of the first
     /// occurrence of `needle` (none when it does not occur).
     pub fn at(path: &Path, text: &str, needle: &str, message: String) -> ManifestError {
+        ManifestError::at_nth(path, text, needle, 0, message)
+    }
+
+    /// [`ManifestError::at`] the line of the occurrence `nth` (from 0) of `needle`: the second
+    /// listing of a name given twice, where the first is not the error.
+    pub fn at_nth(
+        path: &Path,
+        text: &str,
+        needle: &str,
+        nth: usize,
+        message: String,
+    ) -> ManifestError {
         ManifestError {
             path: path.to_path_buf(),
             line: text
-                .find(needle)
-                .map(|i| 1 + text[..i].matches('\n').count()),
+                .match_indices(needle)
+                .nth(nth)
+                .map(|(i, _)| 1 + text[..i].matches('\n').count()),
             message,
         }
     }

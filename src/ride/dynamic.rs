@@ -1166,7 +1166,7 @@ impl RideManifest {
         }
         // A ride twice (its log, and for a CSV its window) would count its evidence twice.
         let mut seen: Vec<(std::path::PathBuf, Option<[u64; 2]>)> = Vec::new();
-        for r in &m.rides {
+        for (k, r) in m.rides.iter().enumerate() {
             let file = m.dir.join(&r.log);
             let key = (
                 std::fs::canonicalize(&file).unwrap_or(file),
@@ -1174,8 +1174,14 @@ impl RideManifest {
             );
             if seen.contains(&key) {
                 let name = r.log.display().to_string();
-                return Err(err(
+                // The line of this listing, not the first one's: the rides before it that
+                // wrote the same name.
+                let nth = m.rides[..k].iter().filter(|o| o.log == r.log).count();
+                return Err(ManifestError::at_nth(
+                    path,
+                    &text,
                     &name,
+                    nth,
                     format!(
                         "{name} is listed twice{}: each ride once (its evidence would count \
                          twice)",
