@@ -228,37 +228,24 @@ fn a_ride_listed_twice_is_refused() {
          [[ride]]\nlog = \"./ride_01.log\"\nnoted_speed_mps = 3.5\n",
     )
     .unwrap();
-    for command in ["gap", "dynamic"] {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-            .arg(command)
-            .arg(dir.join("rides.toml"))
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{command}: {err}");
-        assert!(
-            err.contains("rides.toml:13: ./ride_01.log is listed twice"),
-            "{command}: {err}"
-        );
-    }
-    // The same name twice: the error is at the second listing (line 13), not the first (5).
+    // The same name twice (second case): the error is at the second listing (line 13), not
+    // the first (5).
     let text = std::fs::read_to_string(dir.join("rides.toml")).unwrap();
-    std::fs::write(
-        dir.join("rides.toml"),
-        text.replace("./ride_01.log", "ride_01.log"),
-    )
-    .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
-        .arg("gap")
-        .arg(dir.join("rides.toml"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("rides.toml:13: ride_01.log is listed twice"),
-        "{err}"
-    );
+    let same_name = text.replace("./ride_01.log", "ride_01.log");
+    for (manifest, name) in [(&text, "./ride_01.log"), (&same_name, "ride_01.log")] {
+        std::fs::write(dir.join("rides.toml"), manifest).unwrap();
+        for command in ["gap", "dynamic"] {
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_bikeproc"))
+                .arg(command)
+                .arg(dir.join("rides.toml"))
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{command}: {err}");
+            let want = format!("rides.toml:13: {name} is listed twice");
+            assert!(err.contains(&want), "{command}: {err}");
+        }
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
