@@ -414,8 +414,11 @@ impl<'a> Campaign<'a> {
                 return Some(Whitening::LowRank(w, self.parts.clone()));
             }
         }
-        let cov = if model { &self.cov } else { self.exp_cov };
-        Some(Whitening::Dense(cov.clone().cholesky()?))
+        Some(Whitening::Dense(if model {
+            self.factor()?.clone()
+        } else {
+            self.exp_cov.clone().cholesky()?
+        }))
     }
 
     /// The standard deviations (in the residual vector's order) of a candidate's

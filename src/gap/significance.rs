@@ -32,10 +32,11 @@ pub const NULL_DRAWS: usize = 10_000;
 const NULL_SEED: u64 = 0x006a_705f_6e75_6c6c;
 
 /// One single effect's part of the targeted test, linearized at "no effect": the residuals
-/// whitened by the campaign's covariance (`u = M r`, `M Σ Mᵀ = I`: [`super::fit::Campaign::whitening`]) move along `columns` (one
-/// per fitted parameter) as the effect grows from nothing, so its fit lowers χ² by the squared
-/// length of `u`'s projection on them (Gauss–Markov), and by nothing where the fit is held at
-/// "no effect" by a bound (a mass cannot be negative).
+/// whitened by the campaign's covariance (`u = M r` with `M Σ Mᵀ = I`,
+/// [`super::fit::Campaign::whitening`]) move along `columns` (one per fitted parameter) as the
+/// effect grows from nothing, so its fit lowers χ² by the squared length of `u`'s projection
+/// on them (Gauss–Markov), and by nothing where the fit is held at "no effect" by a bound (a
+/// mass cannot be negative).
 struct Direction {
     /// An orthonormal basis of the whitened columns.
     basis: DMatrix<f64>,
