@@ -6,13 +6,15 @@
 //! format, TOML, or the lab's parametrization ([`lab`]). Out: the canonical matrices
 //! `M q̈ + v C₁ q̇ + (g K₀ + v² K₂) q = f`, `q = (φ roll, δ steer)` (their Appendix A), the state
 //! matrix, eigenvalues named by mode (weave, capsize, castor), the characteristic speeds, and
-//! their standard errors propagated from the parameters'.
+//! their standard errors propagated from the parameters'. [`nonlinear`]: the same bicycle's
+//! equations without linearization, for the ride stage's replay of a hard kick.
 
 pub mod compare;
 pub mod control;
 pub mod design;
 pub mod eigen;
 pub mod lab;
+pub mod nonlinear;
 pub mod params;
 pub mod report;
 pub mod sensitivity;
