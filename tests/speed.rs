@@ -4,7 +4,9 @@
 //! coasting 0.05–0.2 m/s², kick 1–1.5 s after the release, sensors a few degrees off).
 
 use bikeproc::inertia::bike::LabBike;
-use bikeproc::model::{lab::lab_to_benchmark, uncertain, Benchmark};
+use bikeproc::model::nonlinear::NonlinearBicycle;
+use bikeproc::model::{lab::lab_to_benchmark, uncertain, Benchmark, Canonical};
+use bikeproc::ride::amplitude::amplitude_shift;
 use bikeproc::ride::dynamic::{dynamic_test, DynamicOptions, DynamicTest};
 use bikeproc::ride::speed::NotedReading;
 use bikeproc::sim::campaign::{coasting_ride, noted_reading, truth_bike};
@@ -454,4 +456,66 @@ fn a_large_motions_mode_shape_carries_its_size_in_its_errors() {
             assert!(m.abs() < 2.0, "G {gain}, {v0} m/s: part {k} mean z {m:.2}");
         }
     }
+}
+
+/// The speed a reed switch or a speedometer reads of a window: a line through the truth's
+/// rolling speed over `[from_s, to_s]` (whose swing at twice the weave's frequency it
+/// averages), at `at_s`.
+fn window_speed(t: &RideTruth, from_s: f64, to_s: f64, at_s: f64) -> f64 {
+    let (a, b) = (
+        (from_s * t.rate_hz).round() as usize,
+        (to_s * t.rate_hz).round() as usize,
+    );
+    let pts: Vec<(f64, f64)> = (a..b.min(t.speed_mps.len()))
+        .map(|i| (i as f64 / t.rate_hz, t.speed_mps[i]))
+        .collect();
+    let n = pts.len() as f64;
+    let (tm, vm) = (
+        pts.iter().map(|p| p.0).sum::<f64>() / n,
+        pts.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let slope = pts.iter().map(|p| (p.0 - tm) * (p.1 - vm)).sum::<f64>()
+        / pts.iter().map(|p| (p.0 - tm).powi(2)).sum::<f64>();
+    vm + slope * (at_s - tm)
+}
+
+/// Issue 29: a hard kick's weave is the small motion's once replayed on the measured
+/// bicycle's nonlinear equations (`ride::amplitude`, a diagnostic the ride stage does not
+/// apply). Ten knife-edge rides at 4 m/s kicked at 30 N (twice the lab's push; 0.09 rad of
+/// lean) of the lab's true bicycle: their fitted ω lay a mean +0.0273 ± 0.0009 1/s above the
+/// simulator's own linearization at the window's speed; less the replay's shift, +0.0029 ±
+/// 0.0009 (the measured bicycle's nonlinearity is not quite the true one's). At least four
+/// fifths of the shift must go.
+#[test]
+fn a_hard_kicks_weave_is_the_small_motions_once_replayed() {
+    let (model, bike) = bikes();
+    let nominal = model.nominal();
+    let (replayed, linear) = (
+        NonlinearBicycle::new(&nominal),
+        Canonical::from_benchmark(&nominal),
+    );
+    let rides = parallel(10, |i| {
+        let mut spec = RideSpec::lab(4.0, Effects::default());
+        spec.sync = true;
+        spec.kick.peak_force_n = 30.0;
+        let (r, t) = analyse(&bike, &model, &spec, |_| None, 500 + i as u64);
+        let r = r.unwrap();
+        let v = window_speed(&t, r.fit.start_s, r.fit.end_s, r.fit.t_ref_s);
+        let truth = t.weave_at(v).unwrap();
+        let shift = amplitude_shift(&replayed, &linear, &r.fit, r.speed.speed_mps).unwrap();
+        (r.fit.weave.im - truth.im, shift[1])
+    });
+    let raw: Vec<f64> = rides.iter().map(|r| r.0).collect();
+    let corrected: Vec<f64> = rides.iter().map(|r| r.0 - r.1).collect();
+    let (m, sd) = mean_sd(&corrected);
+    let (m_raw, sd_raw) = mean_sd(&raw);
+    let (sem, sem_raw) = (sd / 10f64.sqrt(), sd_raw / 10f64.sqrt());
+    println!(
+        "ω less the truth: {m_raw:+.4} ± {sem_raw:.4} 1/s as fitted, {m:+.4} ± {sem:.4} less the replay's shift"
+    );
+    assert!(
+        m_raw > 5.0 * sem_raw,
+        "the hard kick's shift is there: {m_raw:+.4} ± {sem_raw:.4}"
+    );
+    assert!(m.abs() < 0.2 * m_raw, "corrected: {m:+.4} ± {sem:.4} 1/s");
 }

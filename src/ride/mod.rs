@@ -3,6 +3,8 @@
 //!
 //! - [`read`]: the log pair → roll θ and steer γ on the 100 Hz grid, the kick and the catch,
 //!   the speed from the reed switch.
+//! - [`amplitude`]: a ride's fit → what the kick's size does to it, from the measured
+//!   bicycle's nonlinear equations.
 //! - [`dynamic`]: one ride or a campaign: window, speed, fit, the model beside it.
 //! - [`speed`]: the speed where the eigenvalue applies, from the noted reading carried by
 //!   the measured slowing, the reed switch, and the rolling kinematics, compared.
@@ -12,6 +14,7 @@
 //! - [`modal`]: θ and γ over the free motion → the modes they share (weave σ ± iω, real
 //!   modes), standard errors, mode shape.
 
+pub mod amplitude;
 pub mod csv;
 pub mod dynamic;
 pub mod modal;
