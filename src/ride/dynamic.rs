@@ -172,7 +172,9 @@ pub fn dynamic_test(
     options: &DynamicOptions,
 ) -> Result<DynamicTest, RideError> {
     let nominal = model.nominal();
-    let signals = read_ride(path, nominal.lambda, 1.5)?;
+    let mut signals = read_ride(path, nominal.lambda, 1.5)?;
+    let bike = crate::model::nonlinear::NonlinearBicycle::new(&nominal);
+    super::speed::remove_pitch_gravity(&mut signals, |roll, steer| bike.pitch(roll, steer));
     let fit = fit_window(path, &signals, &options.modal)?;
     check_sensor_roles(path, &signals, &fit)?;
     let geometry = Geometry {
