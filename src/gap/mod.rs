@@ -196,8 +196,11 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// offset, not a scale), stays with the true bicycle the measured one (−0.10, −0.19), and
 /// rides on σ: with every ride's σ given 30 times its error it is −0.03 and −0.04 kg, with ω
 /// so treated −0.18 and −0.46. The carried speed's false slowing from the frame's pitch
-/// ([`crate::ride::speed::remove_pitch_gravity`], 0.003 m/s) moved it by 0.005 kg only. Its
-/// cause is not yet found.
+/// ([`crate::ride::speed::remove_pitch_gravity`], 0.003 m/s) moved it by 0.005 kg only; a
+/// part common to a condition's rides along each ride's replayed shift (1 and 3 times it, the
+/// truth's nonlinearity free to differ from the measured bicycle's) by 0.001 and 0.006 kg;
+/// every window held to its full length whatever the kick, by 0.001 kg. Its cause is not yet
+/// found.
 pub const NONLINEAR_COMMON_FACTOR: f64 = 4.0;
 /// The best candidate is told from another when the rides left out favour it by more than this
 /// in Σz² …

@@ -139,10 +139,10 @@ fn replay(
 
 /// What the motion's size does to the fit `fit` of a ride at `speed_mps` on the bicycle
 /// `bike` (its linear model `linear`): `[σ, ω, |γ/θ|, arg γ/θ]` of the replay at the ride's
-/// size less the replay at [`SMALL`] of it, each fitted as the ride was, less what the linear
-/// model's weave and shape change between the two replays' speeds (the larger motion's
-/// lateral energy goes into speed as it decays). `None` when a replay or its fit fails, or
-/// the model has no weave there.
+/// size less the replay at `SMALL` (a ten-thousandth) of it, each fitted as the ride was,
+/// less what the linear model's weave and shape change between the two replays' speeds (the
+/// larger motion's lateral energy goes into speed as it decays). `None` when a replay or its
+/// fit fails, or the model has no weave there.
 pub fn amplitude_shift(
     bike: &NonlinearBicycle,
     linear: &Canonical,
