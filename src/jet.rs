@@ -148,6 +148,39 @@ impl Scalar for Jet {
     }
 }
 
+/// Three-vectors of any [`Scalar`] as arrays: the arithmetic of a rigid-body chain's
+/// kinematics, the simulator's and the analysis' nonlinear bicycle alike.
+pub mod v3 {
+    use super::Scalar;
+
+    /// A three-vector.
+    pub type V3<S> = [S; 3];
+
+    pub fn add<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
+        [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+    }
+
+    pub fn sub<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
+        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    }
+
+    pub fn scale<S: Scalar>(a: V3<S>, k: S) -> V3<S> {
+        [a[0] * k, a[1] * k, a[2] * k]
+    }
+
+    pub fn cross<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+
+    pub fn dot<S: Scalar>(a: V3<S>, b: V3<S>) -> S {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,11 +20,11 @@
 //! generalized force and c the convective (velocity-product) terms. Every Jacobian and
 //! convective term comes from [`Jet`]s evaluated along a coordinate or the motion.
 
+use crate::jet::v3::{add, cross, dot, scale, sub, V3};
 use crate::jet::{Jet, Scalar};
 use crate::model::Benchmark;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-type V3<S> = [S; 3];
 /// A rotation as rows: `world = R · body`.
 type Rot<S> = [[S; 3]; 3];
 
@@ -40,25 +40,6 @@ const FRONT_SPIN: usize = 7;
 const INDEPENDENT: [usize; 3] = [ROLL, STEER, REAR_SPIN];
 const DEPENDENT: [usize; 5] = [YAW, PITCH, 4, 5, FRONT_SPIN];
 
-fn add<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn scale<S: Scalar>(a: V3<S>, k: S) -> V3<S> {
-    [a[0] * k, a[1] * k, a[2] * k]
-}
-fn cross<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn dot<S: Scalar>(a: V3<S>, b: V3<S>) -> S {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
 fn konst<S: Scalar>(a: [f64; 3]) -> V3<S> {
     a.map(S::c)
 }

@@ -30,7 +30,7 @@
 //! 6 of 200 and 100 coasting rides' ω errors came out a mean +0.34 of their SE with a spread
 //! of 0.79 (the drag-free replay of a slowing ride is not that ride).
 
-use super::modal::{fit_modes, ModalFit, ModalOptions, Start, Structure};
+use super::modal::{refit_as, ModalFit, Start};
 use crate::model::nonlinear::NonlinearBicycle;
 use crate::model::Canonical;
 use nalgebra::Complex;
@@ -98,31 +98,11 @@ fn replay(
             .collect()
     };
     let (roll, steer) = (back(&motion.roll_rad, 1.0), back(&motion.steer_rad, -1.0));
-    let fit_as = |structure: Structure| {
-        fit_modes(
-            &t,
-            &roll,
-            &steer,
-            &ModalOptions {
-                resamples: 0,
-                seed: 1,
-                only: Some(structure),
-                start: Some(Start {
-                    weave: [fit.weave.re, fit.weave.im],
-                    real_rates: std::array::from_fn(|k| {
-                        fit.real_modes.get(k).map_or(-1.0, |r| r.value)
-                    }),
-                }),
-            },
-        )
-        .ok()
+    let start = Start {
+        weave: [fit.weave.re, fit.weave.im],
+        real_rates: std::array::from_fn(|k| fit.real_modes.get(k).map_or(-1.0, |r| r.value)),
     };
-    let replayed = fit_as(fit.structure).or_else(|| {
-        fit_as(Structure {
-            real_modes: 0,
-            ..fit.structure
-        })
-    })?;
+    let replayed = refit_as(&t, &roll, &steer, fit.structure, Some(start))?;
     // The speed where the fit applies: a line through the replay's speed over the window (the
     // rolling speed swings at twice the weave's frequency, by a part of the motion's size
     // squared, and a speedometer's or a reed switch's fit of a window averages the swing).

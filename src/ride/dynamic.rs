@@ -10,7 +10,8 @@
 //! a sensor that did not move, the two sensors swapped.
 
 use super::modal::{
-    fit_modes, Eigenvalue, ModalError, ModalFit, ModalOptions, Start, Structure, MAX_REAL_MODES,
+    fit_modes, refit_as, Eigenvalue, ModalError, ModalFit, ModalOptions, Start, Structure,
+    MAX_REAL_MODES,
 };
 use super::read::{read_ride, RideError, RideSignals};
 pub use super::speed::SpeedSource;
@@ -790,29 +791,11 @@ pub fn replay_coasting(
     // The ride's structure first; the model's weave alone excites no real mode, so where the
     // ride's real modes make that fit fail (a fifth of coasting rides at 4–4.5 m/s, whose σ
     // then went uncorrected and came out 2–4 standard errors high), the weave alone.
-    let fit_as = |structure: Structure| {
-        fit_modes(
-            &ts,
-            &roll,
-            &steer,
-            &ModalOptions {
-                resamples: 0,
-                seed: 1,
-                only: Some(structure),
-                start: (from == ReplayStart::Fitted).then_some(Start {
-                    weave: [start_weave.re, start_weave.im],
-                    real_rates: w.real_rates,
-                }),
-            },
-        )
-        .ok()
-    };
-    let sim = fit_as(w.structure).or_else(|| {
-        fit_as(Structure {
-            real_modes: 0,
-            ..w.structure
-        })
-    })?;
+    let start = (from == ReplayStart::Fitted).then_some(Start {
+        weave: [start_weave.re, start_weave.im],
+        real_rates: w.real_rates,
+    });
+    let sim = refit_as(&ts, &roll, &steer, w.structure, start)?;
     let v_ref = speed_at(sim.t_ref_s);
     let (frozen, ratio) = model.weave_shape(v_ref, w.measured)?;
     Some([

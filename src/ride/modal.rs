@@ -727,6 +727,33 @@ pub struct Start {
     pub real_rates: [f64; MAX_REAL_MODES],
 }
 
+/// A replay fitted as the ride was: the structure `st` only, from `start`, without resampling;
+/// where the replayed motion makes that fit fail (a model's weave alone excites no real mode),
+/// the same without real modes. `None` when both fail.
+pub fn refit_as(
+    t_s: &[f64],
+    roll_rad: &[f64],
+    steer_rad: &[f64],
+    st: Structure,
+    start: Option<Start>,
+) -> Option<ModalFit> {
+    let fit = |structure: Structure| {
+        let options = ModalOptions {
+            resamples: 0,
+            seed: 1,
+            only: Some(structure),
+            start,
+        };
+        fit_modes(t_s, roll_rad, steer_rad, &options).ok()
+    };
+    fit(st).or_else(|| {
+        fit(Structure {
+            real_modes: 0,
+            ..st
+        })
+    })
+}
+
 impl Default for ModalOptions {
     fn default() -> Self {
         ModalOptions {

@@ -17,23 +17,14 @@
 //! This is the simulator's own physics: it shares no equations with the analysis model
 //! ([`crate::model`]); the tests compare the two.
 
+pub use crate::jet::v3::V3;
+use crate::jet::v3::{add, scale, sub};
 use crate::jet::{Jet, Scalar};
 use crate::model::Benchmark;
 use nalgebra::{SMatrix, SVector};
 
-pub type V3<S> = [S; 3];
 /// A rotation as its three columns: the body's axes in ground coordinates.
 pub type Frame<S> = [V3<S>; 3];
-
-fn add<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn scale<S: Scalar>(a: V3<S>, k: S) -> V3<S> {
-    [a[0] * k, a[1] * k, a[2] * k]
-}
 
 /// `parent · R_axis(angle)`: the frame turned about its own axis `axis` (0 = x, 1 = y, 2 = z).
 fn turn<S: Scalar>(parent: &Frame<S>, axis: usize, angle: S) -> Frame<S> {
