@@ -19,7 +19,7 @@
 //! Measured on knife-edge rides of the lab's bicycle at 4 m/s (12 at the lab's 12–18 N, the
 //! fitted ω against the simulator's linearization at the window's speed): +0.0071 ± 0.0016 1/s
 //! before, +0.0010 ± 0.0016 after; at 5 and 6 m/s the shift is within the rides' scatter
-//! (+0.0010 → −0.0024 ± 0.0035, +0.0042 → +0.0025 ± 0.013); kicked at 30 N, +0.0273 → +0.0029
+//! (+0.0010 → −0.0024 ± 0.0035, +0.0042 → +0.0025 ± 0.013); kicked at 30 N, +0.0275 → +0.0030
 //! ± 0.0009 (tests/speed.rs).
 //!
 //! Why the ride stage does not take it off: applied to every uncontrolled ride (with 0.3 of
@@ -30,6 +30,7 @@
 //! 6 of 200 and 100 coasting rides' ω errors came out a mean +0.34 of their SE with a spread
 //! of 0.79 (the drag-free replay of a slowing ride is not that ride).
 
+use super::dynamic::LinearWeave;
 use super::modal::{refit_as, ModalFit, Start};
 use crate::model::nonlinear::NonlinearBicycle;
 use crate::model::Canonical;
@@ -106,11 +107,8 @@ fn replay(
     // The speed where the fit applies: a line through the replay's speed over the window (the
     // rolling speed swings at twice the weave's frequency, by a part of the motion's size
     // squared, and a speedometer's or a reed switch's fit of a window averages the swing).
-    let speed_mps = line_at(
-        &motion.t_s,
-        &motion.speed_mps,
-        replayed.t_ref_s - fit.start_s,
-    )?;
+    let (intercept, slope) = crate::spectral::linear_trend(&motion.t_s, &motion.speed_mps);
+    let speed_mps = intercept + slope * (replayed.t_ref_s - fit.start_s);
     Some(Replayed {
         fit: replayed,
         speed_mps,
@@ -134,9 +132,7 @@ pub fn amplitude_shift(
     let small = replay(bike, fit, x, speed_mps, SMALL)?;
     let measured = Complex::new(fit.weave.re, fit.weave.im);
     let model = |v: f64| -> Option<[f64; 4]> {
-        let weave = super::dynamic::weave_near(linear, v, measured)?;
-        let mode = linear.mode_shape(v, weave)?;
-        let ratio = mode[1] / mode[0];
+        let (weave, ratio) = linear.weave_shape(v, measured)?;
         Some([weave.re, weave.im, ratio.norm(), ratio.arg()])
     };
     let (at_large, at_small) = (model(large.speed_mps)?, model(small.speed_mps)?);
@@ -158,14 +154,4 @@ pub fn amplitude_shift(
         }
     });
     shift.iter().all(|d| d.is_finite()).then_some(shift)
-}
-
-/// The least-squares line through `(t, y)`, evaluated at `at`. `None` with fewer than two
-/// distinct times.
-fn line_at(t: &[f64], y: &[f64], at: f64) -> Option<f64> {
-    let n = t.len() as f64;
-    let (tm, ym) = (t.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxx: f64 = t.iter().map(|t| (t - tm).powi(2)).sum();
-    let sxy: f64 = t.iter().zip(y).map(|(t, y)| (t - tm) * (y - ym)).sum();
-    (sxx > 0.0).then(|| ym + sxy / sxx * (at - tm))
 }

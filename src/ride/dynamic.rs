@@ -589,7 +589,7 @@ impl LinearWeave for Canonical {
 
 /// The model's oscillatory eigenvalue (ω > 0) at `v` nearest `toward` (the measured weave):
 /// the branch the ride's weave belongs to. `None` when the model has none there.
-pub(crate) fn weave_near(model: &Canonical, v: f64, toward: Complex<f64>) -> Option<Complex<f64>> {
+fn weave_near(model: &Canonical, v: f64, toward: Complex<f64>) -> Option<Complex<f64>> {
     model
         .eigenvalues(v)?
         .into_iter()
