@@ -553,3 +553,37 @@ fn the_carried_speed_holds_no_gravity_from_the_frames_pitch() {
     println!("carried speed less the truth's: {m:+.4} ± {sem:.4} m/s; its SE {se_mean:.4} m/s");
     assert!(m.abs() < 0.2 * se_mean, "{m:+.4} ± {sem:.4} m/s");
 }
+
+/// Issue 29: a faint weave's window runs on into the quiet (`ride::dynamic::fit_window`). A
+/// kick of half the lab's (7.5 N) at 6 m/s leaves the weave under the gyros' noise 1.5 s
+/// later, where the catch is found; the window from 0.8 s after the kick was then too short
+/// and the ride went to the early window, in the castor's tail, with σ a mean 0.80 of its
+/// standard error low over these 40 rides (8 of 40 refused at 6.5 m/s). Now the window runs
+/// on past a catch the weave had sunk into the noise before: σ's mean normalized error +0.25
+/// (a calibrated fit's mean over 40 rides has a spread of 0.16; the bar is 2.5 of it).
+#[test]
+fn a_faint_weaves_window_runs_on_into_the_quiet() {
+    let (model, bike) = bikes();
+    let rides = parallel(40, |i| {
+        let mut spec = RideSpec::lab(6.0, Effects::default());
+        spec.sync = true;
+        spec.kick.peak_force_n = 7.5;
+        let (r, t) = analyse(&bike, &model, &spec, Some, 9000 + i as u64);
+        let r = r.ok()?;
+        let v = window_speed(&t, r.fit.start_s, r.fit.end_s, r.fit.t_ref_s);
+        let truth = t.weave_at(v)?;
+        let early = r.fit.start_s - r.kick_s < 0.5;
+        Some(((r.fit.weave.re - truth.re) / r.fit.weave.re_se, early))
+    });
+    let done: Vec<(f64, bool)> = rides.into_iter().flatten().collect();
+    let z: Vec<f64> = done.iter().map(|r| r.0).collect();
+    let early = done.iter().filter(|r| r.1).count();
+    let (m, sd) = mean_sd(&z);
+    println!(
+        "{} of 40 rides, {early} early windows; σ's normalized error {m:+.2} (sd {sd:.2})",
+        z.len()
+    );
+    assert_eq!(z.len(), 40, "every ride analysed");
+    assert_eq!(early, 0, "no window in the castor's tail");
+    assert!(m.abs() < 0.4, "σ's mean normalized error {m:+.2}");
+}
