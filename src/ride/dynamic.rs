@@ -282,7 +282,8 @@ pub fn dynamic_test(
 }
 
 /// The free motion's window and its modal fit: from just after the kick to the catch, the
-/// first roll beyond [`MAX_ROLL_RAD`], or where the weave's envelope sinks below three times
+/// first roll beyond [`MAX_ROLL_RAD`], or where the fitted curve's envelope (the weave's with
+/// the offsets, trends and real modes beside it: [`lost_in_noise`]) sinks below three times
 /// the residual noise in both signals, whichever comes first. A weave that grows (below the
 /// weave speed), or a window too short after the castor's tail, gets the window
 /// [`early_window`] makes instead.
@@ -374,9 +375,10 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     Ok(fit)
 }
 
-/// Where the weave of `fit` sinks into the noise (s): where its envelope, from the fitted
-/// curve's extremes at the reference time, falls below three times the residual noise in
-/// both signals.
+/// Where the fit `fit` sinks into the noise (s): where the envelope of its whole curve (the
+/// weave's, taken from the curve's extremes over a quarter period at the reference time, so
+/// with the offsets, trends and real modes at that time), decaying at the weave's σ, falls
+/// below three times the residual noise in both signals.
 fn lost_in_noise(fit: &ModalFit) -> f64 {
     let at_ref = fit.eval(fit.t_ref_s);
     let quarter = std::f64::consts::FRAC_PI_2 / fit.weave.im;
