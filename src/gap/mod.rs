@@ -204,8 +204,8 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// −0.15 kg. The coasting correction's common part
 /// ([`crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION`]) at 2.0 instead of 0.7 left the
 /// noted mass's median z at −0.30 (−0.33), right in 34 of 44 beyond the limit either way.
-/// Per ride, the rides' own biases sum small against the campaign's: over 16 effect-free sync campaigns (192 rides, the true bicycle the measured
-/// one, the replay's prediction beside) σ's mean normalized error, its speed's error
+/// Per ride, over 16 effect-free sync campaigns (192 rides, the true bicycle the measured
+/// one, the replay's prediction beside), σ's mean normalized error, its speed's error
 /// included, was −0.29, −0.11 and −0.03 for the kick ×0.5, 1, 2 (prediction −0.00, −0.01,
 /// +0.03), ω's −0.03, +0.09 and +0.32 (prediction +0.02, +0.09, +0.39): the replay follows
 /// ω, and σ's deficit falls with the kick as the mass's grows. Coasting rides released at
