@@ -717,6 +717,10 @@ pub struct ModalOptions {
     /// Where to start instead of the searches (the periodogram's frequency and a grid of σ
     /// and of the real rates): for a replay of a model, whose eigenvalues are known.
     pub start: Option<Start>,
+    /// The information criterion chooses among structures with at least this many real modes
+    /// (a window that starts in the castor's tail carries it, whether or not the noise lets
+    /// the criterion see it).
+    pub min_real_modes: usize,
 }
 
 /// A fit's starting point ([`ModalOptions::start`]): the weave's `[σ, ω]` and the real modes'
@@ -743,6 +747,7 @@ pub fn refit_as(
             seed: 1,
             only: Some(structure),
             start,
+            min_real_modes: 0,
         };
         fit_modes(t_s, roll_rad, steer_rad, &options).ok()
     };
@@ -761,6 +766,7 @@ impl Default for ModalOptions {
             seed: 1,
             only: None,
             start: None,
+            min_real_modes: 0,
         }
     }
 }
@@ -839,7 +845,7 @@ pub fn fit_modes(
             real_modes: st.real_modes.min(MAX_REAL_MODES),
             ..st
         }],
-        None => (0..=2)
+        None => (options.min_real_modes.min(MAX_REAL_MODES)..=MAX_REAL_MODES)
             .flat_map(|real_modes| {
                 [false, true].map(|trend| Structure {
                     real_modes,
