@@ -554,6 +554,15 @@ fn the_carried_speed_holds_no_gravity_from_the_frames_pitch() {
     assert!(m.abs() < 0.2 * se_mean, "{m:+.4} ± {sem:.4} m/s");
 }
 
+/// A knife-edge ride of the lab's bicycle at `speed_mps` with a reed switch, kicked at
+/// `force_n`.
+fn kicked_with_sync(speed_mps: f64, force_n: f64) -> RideSpec {
+    let mut spec = RideSpec::lab(speed_mps, Effects::default());
+    spec.sync = true;
+    spec.kick.peak_force_n = force_n;
+    spec
+}
+
 /// Issue 29: a faint weave's window runs on into the quiet (`ride::dynamic::fit_window`). A
 /// kick of half the lab's (7.5 N) at 6 m/s leaves the weave under the gyros' noise 1.5 s
 /// later, where the catch is found; the window from 0.8 s after the kick was then too short
@@ -565,9 +574,7 @@ fn the_carried_speed_holds_no_gravity_from_the_frames_pitch() {
 fn a_faint_weaves_window_runs_on_into_the_quiet() {
     let (model, bike) = bikes();
     let rides = parallel(40, |i| {
-        let mut spec = RideSpec::lab(6.0, Effects::default());
-        spec.sync = true;
-        spec.kick.peak_force_n = 7.5;
+        let spec = kicked_with_sync(6.0, 7.5);
         let (r, t) = analyse(&bike, &model, &spec, Some, 9000 + i as u64);
         let r = r.ok()?;
         let v = window_speed(&t, r.fit.start_s, r.fit.end_s, r.fit.t_ref_s);
@@ -597,9 +604,7 @@ fn a_faint_weaves_window_runs_on_into_the_quiet() {
 fn a_weave_a_hand_stops_is_not_run_on() {
     let (model, bike) = bikes();
     let rides = parallel(30, |i| {
-        let mut spec = RideSpec::lab(5.5, Effects::default());
-        spec.sync = true;
-        spec.kick.peak_force_n = 15.0;
+        let mut spec = kicked_with_sync(5.5, 15.0);
         spec.coast_s = spec.kick.after_release_s + 1.6;
         let (r, _) = analyse(&bike, &model, &spec, Some, 9500 + i as u64);
         r.ok().map(|r| r.fit.end_s <= r.kick_s + 1.6)
