@@ -495,9 +495,7 @@ fn a_hard_kicks_weave_is_the_small_motions_once_replayed() {
         Canonical::from_benchmark(&nominal),
     );
     let rides = parallel(10, |i| {
-        let mut spec = RideSpec::lab(4.0, Effects::default());
-        spec.sync = true;
-        spec.kick.peak_force_n = 30.0;
+        let spec = kicked_with_sync(4.0, 30.0);
         let (r, t) = analyse(&bike, &model, &spec, |_| None, 500 + i as u64);
         let r = r.unwrap();
         let v = window_speed(&t, r.fit.start_s, r.fit.end_s, r.fit.t_ref_s);

@@ -295,11 +295,10 @@ pub fn dynamic_test(
 /// (held or rolling upright, the samples after it are constant within the noise), as a fit of
 /// the motion before the catch alone says (one that ran on would bend to a held bicycle's
 /// samples: `a_weave_a_hand_stops_is_not_run_on`); where it had not, a hand stopped a motion
-/// still seen, and the window ends there. Ended at
-/// the quiet instead, the window was short (and below 1 s, moved to the early one, in the
-/// castor's tail): 40 rides at 6 m/s kicked at 7.5 N had σ a mean 0.80 of its standard error
-/// low, now 0.25 high (`tests/speed.rs`); at 5 m/s 0.41 low, now 0.16 low; at 6.5 m/s 8 of
-/// 40 rides refused, now 2.
+/// still seen, and the window ends there. Ended at the quiet instead, the window was short
+/// (and below 1 s, moved to the early one, in the castor's tail): 40 rides at 6 m/s kicked at
+/// 7.5 N had σ a mean 0.80 of its standard error low, now 0.25 high (`tests/speed.rs`); at
+/// 5 m/s 0.41 low, now 0.16 low; at 6.5 m/s 8 of 40 rides refused, now 2.
 fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<ModalFit, RideError> {
     let rate = s.sample_rate_hz;
     let start = s.kick_s + AFTER_KICK_S;
@@ -322,11 +321,10 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
         };
         let died = fit_span(s, &check, s.kick_s + EARLY_AFTER_KICK_S, s.catch_s - 0.05)
             .is_ok_and(|f| weave_in_noise_at(&f, s.catch_s));
-        if died {
-            run_on = fit_span(s, options, start, longest)
-                .ok()
-                .filter(|f| f.weave.re < 0.0);
-        }
+        run_on = died
+            .then(|| fit_span(s, options, start, longest).ok())
+            .flatten()
+            .filter(|f| f.weave.re < 0.0);
         if run_on.is_some() {
             (end, limit) = (longest, beyond);
         }
@@ -388,10 +386,14 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     Ok(fit)
 }
 
+/// A weave is lost in the noise where its envelope is within this many times the fit's
+/// residual noise ([`lost_in_noise`], [`weave_in_noise_at`]).
+const IN_NOISE: f64 = 3.0;
+
 /// Where the fit `fit` sinks into the noise (s): where the envelope of its whole curve (the
 /// weave's, taken from the curve's extremes over a quarter period at the reference time, so
 /// with the offsets, trends and real modes at that time), decaying at the weave's σ, falls
-/// below three times the residual noise in both signals.
+/// below [`IN_NOISE`] times the residual noise in both signals.
 fn lost_in_noise(fit: &ModalFit) -> f64 {
     let at_ref = fit.eval(fit.t_ref_s);
     let quarter = std::f64::consts::FRAC_PI_2 / fit.weave.im;
@@ -402,18 +404,18 @@ fn lost_in_noise(fit: &ModalFit) -> f64 {
     });
     (0..2)
         .map(|c| {
-            let ratio = amplitude[c] / (3.0 * fit.residual_rms_rad[c]).max(1e-12);
+            let ratio = amplitude[c] / (IN_NOISE * fit.residual_rms_rad[c]).max(1e-12);
             fit.t_ref_s + ratio.max(1.0).ln() / -fit.weave.re
         })
         .fold(f64::NEG_INFINITY, f64::max)
 }
 
-/// Whether the weave of `fit` alone (not its offsets, trends or real modes) is within three
-/// times the residual noise at `t` (s) in both signals.
+/// Whether the weave of `fit` alone (not its offsets, trends or real modes) is within
+/// [`IN_NOISE`] times the residual noise at `t` (s) in both signals.
 fn weave_in_noise_at(fit: &ModalFit, t: f64) -> bool {
     let roll = fit.weave_roll_phasor(t).norm();
     let steer = roll * fit.shape.ratio.value;
-    roll < 3.0 * fit.residual_rms_rad[0] && steer < 3.0 * fit.residual_rms_rad[1]
+    roll < IN_NOISE * fit.residual_rms_rad[0] && steer < IN_NOISE * fit.residual_rms_rad[1]
 }
 
 /// The window of a weave that grows or is slow: from [`EARLY_AFTER_KICK_S`] after the kick
@@ -453,10 +455,10 @@ fn early_window(s: &RideSignals, options: &ModalOptions) -> Result<ModalFit, Str
         min_real_modes: 1,
         ..*options
     };
-    let first = fit_span(s, &with_castor, start, end)
+    let (fit, used) = fit_span(s, &with_castor, start, end)
         .map(|f| (f, &with_castor))
         .or_else(|_| fit_span(s, options, start, end).map(|f| (f, options)))?;
-    let (fit, end) = two_cycles(s, first.1, first.0, end, limit);
+    let (fit, end) = two_cycles(s, used, fit, end, limit);
     if (end - start) * fit.weave.im / std::f64::consts::TAU < EARLY_MIN_CYCLES {
         return Err(short(end, Some(fit.weave.im)));
     }
