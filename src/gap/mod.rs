@@ -230,8 +230,9 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// −0.136 and −0.235, −0.125 and −0.237 with the rides' nonlinear errors and their common
 /// part doubled and quadrupled; −0.128 and −0.154 with the mass's candidate replaying its own
 /// bicycle on each coasting window as the damped ones do (right beyond the limit 32 of 44,
-/// not 34); with 2,000 iterations for the modal fits, the slow rides' residuals as with 200.
-/// What leaves the phase 0.2–0.4 of its errors low on the slowest rides is not yet known.
+/// not 34); with 2,000 iterations for the modal fits, the slow rides' residuals as with 200,
+/// and with the sensors mounted true instead of 2–5° off (140 noted rides) as before. What
+/// leaves the phase 0.2–0.4 of its errors low on the slowest rides is not yet known.
 pub const NONLINEAR_COMMON_FACTOR: f64 = 4.0;
 /// The best candidate is told from another when the rides left out favour it by more than this
 /// in Σz² …
