@@ -220,26 +220,27 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// the fits' noise alone), and what is left of its direction lies in a few parts of the rides
 /// at 3.4–4.4 m/s. Sync, −0.096 kg in all: the phase of γ/θ −0.064 (its residuals there −0.39
 /// and −0.26 of their errors), σ −0.033 (−0.65); noted, −0.196: |γ/θ| −0.116, the phase
-/// −0.105, σ −0.065, ω +0.090. The same campaigns fitted +0.006 and +0.075 kg with the
-/// model's covariance shrunk (its inputs' errors × 0.02); −0.059 and −0.081 without the
-/// shape (its errors × 30), the noted design's power mostly gone; −0.072 and −0.169 with each
+/// −0.105, σ −0.065, ω +0.090. Those campaigns fitted +0.006 and +0.075 kg with the
+/// model's covariance shrunk (its inputs' errors × 0.02), and −0.072 and −0.169 with each
 /// ride's amplitude shift taken off in all four parts ([`crate::ride::amplitude`]: ω's +1.2
-/// of its errors at 3.8 m/s goes, and σ's, the phase's −0.2 stays); −0.108 and −0.183 with
-/// floors of 1 % and 5 mrad on the shape's errors, −0.089 and −0.140 with 2 % and 10 mrad
-/// (beyond the detection limit 46 and 40 of 50 instead of 50 and 44, as many right);
-/// −0.136 and −0.235, −0.125 and −0.237 with the rides' nonlinear errors and their common
-/// part doubled and quadrupled; −0.128 and −0.154 with the mass's candidate replaying its own
-/// bicycle on each coasting window as the damped ones do (right beyond the limit 32 of 44,
-/// not 34); with 2,000 iterations for the modal fits, the slow rides' residuals as with 200,
-/// and with the sensors mounted true instead of 2–5° off (140 noted rides) as before. On
-/// 40 sync rides released at 3.8–4.4 m/s, the same windows fitted on the simulator's true
-/// angles had the phase 0.0006 rad low (sd 0.0002: the motion's size, which the amplitude
-/// replay takes), the rides' fits 0.0016 ± 0.0013 low against errors of 0.008: what the
-/// covariance carries is a few tenths of the slow rides' errors, near what 50 campaigns can
-/// resolve. A common error of the fits, 0.3 of each ride's errors in each part and linear in
-/// the speed, left the mass at −0.130 and −0.174 kg, with 37 of 50 noted campaigns beyond
-/// the detection limit (44) and 31 right there (34): the model's covariance leaves the mass
-/// too little of its own to give any of it up.
+/// of its errors at 3.8 m/s goes, and σ's; the phase's −0.2 stays). With the true bicycle
+/// drawn as the suite draws it (−0.129 and −0.222 kg as they stand, noted right beyond the
+/// limit 34 of 44): −0.059 and −0.081 without the shape (its errors × 30), the noted
+/// design's power mostly gone (8 campaigns beyond the limit); −0.108 and −0.183 with floors
+/// of 1 % and 5 mrad on the shape's errors, −0.089 and −0.140 with 2 % and 10 mrad (noted
+/// beyond the limit 43 and 40, right there 34 both); −0.136 and −0.235, −0.125 and −0.237
+/// with the rides' nonlinear errors and their common part doubled and quadrupled; −0.128 and
+/// −0.154 with the mass's candidate replaying its own bicycle on each coasting window as the
+/// damped ones do (right there 32); −0.130 and −0.174 with a common error of the fits, 0.3
+/// of each ride's errors in each part and linear in the speed (37 beyond the limit, 31 right
+/// there). The modal fits with 2,000 iterations instead of 200, and sensors mounted true
+/// instead of 2–5° off (140 noted rides), left the slow rides' residuals as they were. On 40
+/// sync rides released at 3.8–4.4 m/s the same windows fitted on the simulator's true angles
+/// had the phase 0.0006 rad low (sd 0.0002: the motion's size, which the amplitude replay
+/// takes), the rides' fits 0.0016 ± 0.0013 low against errors of 0.008. What the covariance
+/// carries is a few tenths of the slow rides' errors, near what 50 campaigns resolve, and
+/// the model's covariance leaves the mass too little of its own to give any of it up: every
+/// change above that lowers the bias costs as much power.
 pub const NONLINEAR_COMMON_FACTOR: f64 = 4.0;
 /// The best candidate is told from another when the rides left out favour it by more than this
 /// in Σz² …
