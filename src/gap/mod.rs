@@ -240,7 +240,7 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// takes), the rides' fits 0.0016 ± 0.0013 low against errors of 0.008. What the covariance
 /// carries is a few tenths of the slow rides' errors, near what 50 campaigns resolve, and
 /// the model's covariance leaves the mass too little of its own to give any of it up: every
-/// change above that lowers the bias costs as much power.
+/// change above that lowers the bias costs power, or (the amplitude shift) false alarms.
 pub const NONLINEAR_COMMON_FACTOR: f64 = 4.0;
 /// The best candidate is told from another when the rides left out favour it by more than this
 /// in Σz² …
