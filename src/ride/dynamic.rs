@@ -303,7 +303,10 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     let rate = s.sample_rate_hz;
     let start = s.kick_s + AFTER_KICK_S;
     let last_sample_s = s.index.last().map_or(0.0, |&i| i as f64 / rate);
-    let mut end = s.catch_s - 0.05;
+    // The last sample before the catch, and whether a window ends there.
+    let before_catch = s.catch_s - 0.05;
+    let ends_at_catch = |end: f64| (before_catch - end).abs() < 1e-9;
+    let mut end = before_catch;
     let mut limit = end;
     end = end.min(start + MAX_WINDOW_S);
     let roll_limit = first_roll_beyond(s, start, MAX_ROLL_RAD).map_or(f64::INFINITY, |t| t - 0.05);
@@ -311,7 +314,7 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     let mut run_on = None;
     let beyond = last_sample_s.min(roll_limit);
     let longest = beyond.min(start + MAX_WINDOW_S);
-    if (s.catch_s - 0.05 - end).abs() < 1e-9 && longest > end + 0.1 {
+    if ends_at_catch(end) && longest > end + 0.1 {
         // Whether the weave had died by the catch, from the motion before it alone (from just
         // after the kick, as the early window takes it: a fit that ran on past a hand's catch
         // would bend to the held samples).
@@ -319,7 +322,7 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
             resamples: 0,
             ..*options
         };
-        let died = fit_span(s, &check, s.kick_s + EARLY_AFTER_KICK_S, s.catch_s - 0.05)
+        let died = fit_span(s, &check, s.kick_s + EARLY_AFTER_KICK_S, before_catch)
             .is_ok_and(|f| weave_in_noise_at(&f, s.catch_s));
         run_on = died
             .then(|| fit_span(s, options, start, longest).ok())
@@ -332,7 +335,7 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     let ending = |end: f64| -> String {
         if last_sample_s - end < 0.5 {
             format!("the log ends (at {last_sample_s:.2} s)")
-        } else if (s.catch_s - 0.05 - end).abs() < 1e-9 {
+        } else if ends_at_catch(end) {
             format!("the motion stops (caught at {:.2} s)", s.catch_s)
         } else {
             format!("the roll passes {MAX_ROLL_RAD} rad")
