@@ -554,7 +554,8 @@ pub enum SimCommand {
         #[arg(long, value_parser = withheld_effects())]
         effect: String,
         /// `sync`: 12 rides, the reed switch on every other; `noted`: 14 coasting rides, the
-        /// speedometer's reading at the release rounded to 0.1 m/s, no reed switch.
+        /// speedometer's reading at the release rounded to 0.1 m/s, no reed switch; `varied`:
+        /// as `noted`, 12–16 rides from 2.9–3.6 up to 5.8–6.5 m/s, each campaign its own plan.
         #[arg(long, default_value = "sync", value_parser = blind_designs())]
         design: String,
         /// `suite`: the effect at a size the campaign sees (the test suite's); `broad`: the
@@ -620,12 +621,12 @@ pub enum SimCommand {
         out: PathBuf,
     },
     /// The gap diagnosis calibrated: blind campaigns of every effect at the broad sizes a lab
-    /// meets, both designs, diagnosed and compared with their truth; writes the tallies
+    /// meets, every design, diagnosed and compared with their truth; writes the tallies
     /// (named, right, tied, the standard errors' coverage, the controls' p-value histogram) as
     /// Markdown. About 1 s a campaign on 2 cores.
     #[command(
         name = "gap-calibration",
-        after_help = "Example (docs/gap-calibration.md, about 30 min on 2 cores):\n  bikeproc simulate gap-calibration --campaigns 50 --controls 200 --out docs/gap-calibration.md"
+        after_help = "Example (docs/gap-calibration.md, about 35 min on 2 cores):\n  bikeproc simulate gap-calibration --campaigns 50 --controls 200 --out docs/gap-calibration.md"
     )]
     GapCalibration {
         /// Campaigns per effect and design.

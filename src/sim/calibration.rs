@@ -11,6 +11,7 @@
 
 use super::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Draws, Withheld};
 use crate::gap::effects::Effect;
+use crate::gap::significance::DETECTION_POWER;
 use crate::gap::Diagnosis;
 use crate::inertia::bike::LabBike;
 use std::fmt::Write as _;
@@ -110,6 +111,34 @@ pub fn size_right_chance(effect: Effect, truth: f64, se: f64) -> f64 {
     }
     let x = RIGHT_FRACTION * deviation(effect, truth) / se;
     1.0 - crate::stats::chi2_sf(x * x, 1)
+}
+
+/// The chance that an ideal diagnosis is right on a campaign whose truth lies beyond its
+/// detection limit `limit`: its fit unbiased and normal with the standard error `se` it
+/// reports, its test significant where that fit's deviation from "no effect", in the truth's
+/// direction, passes the size the limit implies, and the fit within 30 % of the truth
+/// ([`size_right`]). The limit is the size seen with [`DETECTION_POWER`] (80 %), `(z + z_β)
+/// σ₀` ([`crate::gap::significance`]); with the fit's SE for σ₀ the test passes beyond
+/// `limit − z_β SE`, so the chance is P(max(0.7 d, limit − z_β SE) ≤ f ≤ 1.3 d) for the fit f
+/// ~ N(d, SE²), d the truth's deviation: both events on one fit, not a product. At the limit
+/// (d about 3.4 SEs) about 0.65, at twice it about 0.96. `NaN` without a finite positive SE
+/// and limit.
+pub fn ideal_right_chance(effect: Effect, truth: f64, se: f64, limit: f64) -> f64 {
+    use statrs::distribution::{ContinuousCDF, Normal};
+    let Ok(normal) = Normal::new(0.0, 1.0) else {
+        return f64::NAN;
+    };
+    if !(se.is_finite() && se > 0.0 && limit.is_finite() && limit > 0.0) {
+        return f64::NAN;
+    }
+    let d = deviation(effect, truth);
+    let passes = limit - normal.inverse_cdf(DETECTION_POWER) * se;
+    let lo = ((1.0 - RIGHT_FRACTION) * d).max(passes);
+    let hi = (1.0 + RIGHT_FRACTION) * d;
+    if lo >= hi {
+        return 0.0;
+    }
+    normal.cdf((hi - d) / se) - normal.cdf((lo - d) / se)
 }
 
 /// Simulates a blind campaign ([`blind_campaign_plus`]: `extra_speeds_mps` rides after its
@@ -296,15 +325,15 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
     );
     let _ = writeln!(
         md,
-        "The campaigns beyond the detection limit (the table above's last columns), and why some are not right. *Within 30 %*: the withheld effect's own fit within 30 % of the truth's deviation, named or not. *An unbiased fit*: how many an unbiased fit would bring within 30 %, with the standard error each campaign's fit reports (the sum of P(|z| ≤ 0.3 × deviation / SE)): at the limit the deviation is about three of those errors, so 30 % of it is about one, and even that fit is right in two campaigns of three; what is right beyond that is the rides' information, not the diagnosis's. *Twice the limit*: the campaigns whose truth lies beyond twice it, and how many of those were right.\n"
+        "The campaigns beyond the detection limit (the table above's last columns), and why some are not right. *Within 30 %*: the withheld effect's own fit within 30 % of the truth's deviation, named or not. *An unbiased fit*: how many an unbiased fit would bring within 30 %, with the standard error each campaign's fit reports (the sum of P(|z| ≤ 0.3 × deviation / SE)): at the limit the deviation is about three of those errors, so 30 % of it is about one, and even that fit is right in two campaigns of three; what is right beyond that is the rides' information, not the diagnosis's. *An ideal diagnosis*: how many a diagnosis with that unbiased fit and a test of exactly the limit's power would name at the right size (the sum of P(max(0.7 d, limit − 0.84 SE) ≤ fit ≤ 1.3 d), d the truth's deviation: the test passes where the fit clears the size its limit implies), the yardstick for *right*: at the limit even it is right in about two campaigns of three, at twice the limit in 96 of 100. *Twice the limit*: the campaigns whose truth lies beyond twice it, and how many of those were right.\n"
     );
     let _ = writeln!(
         md,
-        "| design | effect | beyond the limit | named | within 30 % | an unbiased fit | right | beyond twice the limit | right there |\n|---|---|---|---|---|---|---|---|---|"
+        "| design | effect | beyond the limit | named | within 30 % | an unbiased fit | an ideal diagnosis | right | beyond twice the limit | right there |\n|---|---|---|---|---|---|---|---|---|---|"
     );
     for design in BlindDesign::ALL {
         let mut total = [0usize; 6];
-        let mut total_unbiased = 0.0;
+        let (mut total_unbiased, mut total_ideal) = (0.0, 0.0);
         for (w, effect, cs) in library_rows(results, design) {
             let beyond = beyond_limit(&cs, effect, 1.0);
             if beyond.is_empty() {
@@ -326,6 +355,19 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
                     p.is_finite().then_some(p)
                 })
                 .sum();
+            let ideal: f64 = beyond
+                .iter()
+                .filter_map(|c| {
+                    let f = c.true_fit.as_ref()?;
+                    let p = ideal_right_chance(
+                        effect,
+                        c.truth[0],
+                        *f.params_se.first()?,
+                        c.detection_limit?,
+                    );
+                    p.is_finite().then_some(p)
+                })
+                .sum();
             let twice = beyond_limit(&cs, effect, 2.0);
             let row = [
                 beyond.len(),
@@ -339,24 +381,31 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
                 *t += r;
             }
             total_unbiased += unbiased;
+            total_ideal += ideal;
             let _ = writeln!(
                 md,
                 "{}",
-                missed_row(design.label(), w.label(), row, unbiased)
+                missed_row(design.label(), w.label(), row, [unbiased, ideal])
             );
         }
         if total[0] > 0 {
             let _ = writeln!(
                 md,
                 "{}",
-                missed_row(design.label(), "**all**", total, total_unbiased)
+                missed_row(
+                    design.label(),
+                    "**all**",
+                    total,
+                    [total_unbiased, total_ideal]
+                )
             );
         }
     }
 }
 
-/// One row of [`missed_sizes`]: beyond, named, within, right, twice, right there.
-fn missed_row(design: &str, effect: &str, row: [usize; 6], unbiased: f64) -> String {
+/// One row of [`missed_sizes`]: beyond, named, within, right, twice, right there; the expected
+/// counts of an unbiased fit and of an ideal diagnosis.
+fn missed_row(design: &str, effect: &str, row: [usize; 6], expected: [f64; 2]) -> String {
     let [n, named, within, right, twice, right_twice] = row;
     let share = |x: f64| {
         if n == 0 {
@@ -366,10 +415,11 @@ fn missed_row(design: &str, effect: &str, row: [usize; 6], unbiased: f64) -> Str
         }
     };
     format!(
-        "| {design} | {effect} | {n} | {} | {} | {} | {} | {twice} | {} |",
+        "| {design} | {effect} | {n} | {} | {} | {} | {} | {} | {twice} | {} |",
         pct(named, n),
         pct(within, n),
-        share(unbiased),
+        share(expected[0]),
+        share(expected[1]),
         pct(right, n),
         pct(right_twice, twice)
     )
@@ -391,7 +441,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
     let _ = writeln!(md, "# The gap diagnosis, calibrated on blind campaigns\n");
     let _ = writeln!(
         md,
-        "Made by `{command}` ({} campaigns; regenerate with the same command: every campaign is seeded, the file is byte-identical). Each campaign is simulated from physics with one effect withheld at a size drawn from the broad ranges of `sim::campaign::Draws::Broad` (down to the detection limit, both ways where a measurement can be off both ways) on a true bicycle off from the measured one by a draw of its measurement errors (each effect its own draws, so that the rows below are independent), analysed from its logs and manifest alone as `bikeproc gap` does, and only then compared with its sealed truth. Designs: `sync`, 12 rides at 3.8–6.55 m/s with the reed switch on every other; `noted`, 14 coasting rides (0.05–0.2 m/s²) with the speedometer's reading at the release rounded to 0.1 m/s, sensors mounted 2–5° off, the kick 1–1.5 s after the release. Both with a receiver that stamps packets late in bursts.\n",
+        "Made by `{command}` ({} campaigns; regenerate with the same command: every campaign is seeded, the file is byte-identical). Each campaign is simulated from physics with one effect withheld at a size drawn from the broad ranges of `sim::campaign::Draws::Broad` (down to the detection limit, both ways where a measurement can be off both ways) on a true bicycle off from the measured one by a draw of its measurement errors (each effect its own draws, so that the rows below are independent), analysed from its logs and manifest alone as `bikeproc gap` does, and only then compared with its sealed truth. Designs: `sync`, 12 rides at 3.8–6.55 m/s with the reed switch on every other; `noted`, 14 coasting rides (0.05–0.2 m/s²) with the speedometer's reading at the release rounded to 0.1 m/s, sensors mounted 2–5° off, the kick 1–1.5 s after the release; `varied`, as `noted` on a plan each campaign draws, 12–16 rides released evenly from 2.9–3.6 up to 5.8–6.5 m/s (the slowest near or below the weave speed, 3.1 m/s). All with a receiver that stamps packets late in bursts.\n",
         results.len() + failures.len()
     );
     let _ = writeln!(md, "## Named, and at the right size\n");
@@ -592,6 +642,23 @@ mod tests {
         assert!(close(size_right_chance(Effect::Tyres, 10.0, 1.5), 0.954500));
         assert!(size_right_chance(Effect::FrontIzz, 2.0, f64::NAN).is_nan());
         assert!(size_right_chance(Effect::FrontIzz, 2.0, 0.0).is_nan());
+    }
+
+    /// An ideal diagnosis's chance against the normal's closed form: a damper of 1 N·m·s/rad
+    /// fitted with an SE of 0.3 and a limit of (2.576 + 0.8416) × 0.3 = 1.0253 passes beyond
+    /// 0.7728, so P(0.7728 ≤ f ≤ 1.3) = Φ(1) − Φ(−0.7573) = 0.841345 − 0.224425; far beyond the
+    /// limit it is the unbiased fit's chance; below the passing size, nothing.
+    #[test]
+    fn an_ideal_diagnosis_chance_is_the_normals() {
+        let close = |a: f64, b: f64| (a - b).abs() < 2e-5;
+        let p = ideal_right_chance(Effect::SteerDamping, 1.0, 0.3, (2.576 + 0.841621) * 0.3);
+        assert!(close(p, 0.841345 - 0.224425), "{p}");
+        assert!(close(
+            ideal_right_chance(Effect::FrontIzz, 2.0, 0.15, 0.3),
+            size_right_chance(Effect::FrontIzz, 2.0, 0.15)
+        ));
+        assert_eq!(ideal_right_chance(Effect::FrontIzz, 1.1, 0.01, 1.0), 0.0);
+        assert!(ideal_right_chance(Effect::FrontIzz, 2.0, 0.15, f64::NAN).is_nan());
     }
 
     /// "Within 30 % of the truth's deviation from no effect": a damper of 0.3 N·m·s/rad is

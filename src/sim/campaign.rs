@@ -727,16 +727,22 @@ pub enum BlindDesign {
     /// noted at the release rounded to 0.1 m/s ([`noted_reading`]), coasting 0.05–0.2 m/s²,
     /// the kick 1–1.5 s after the release.
     Noted,
+    /// As [`BlindDesign::Noted`], on a plan each campaign draws as labs plan theirs: 12–16
+    /// rides released evenly from 2.9–3.6 up to 5.8–6.5 m/s, the slowest near or below the
+    /// weave speed (the lab's bicycle's, 3.1 m/s: a growing weave, a short window, a ride
+    /// that may be refused).
+    Varied,
 }
 
 impl BlindDesign {
-    pub const ALL: [BlindDesign; 2] = [BlindDesign::Sync, BlindDesign::Noted];
+    pub const ALL: [BlindDesign; 3] = [BlindDesign::Sync, BlindDesign::Noted, BlindDesign::Varied];
 
     /// The design's name as `--design` takes it: `sync` or `noted`.
     pub fn label(self) -> &'static str {
         match self {
             BlindDesign::Sync => "sync",
             BlindDesign::Noted => "noted",
+            BlindDesign::Varied => "varied",
         }
     }
 
@@ -819,7 +825,9 @@ pub struct BlindTruth {
 /// manifest (`rides.toml`, naming `bike_file`), the logs, and the sealed `truth.json`.
 ///
 /// With [`BlindDesign::Noted`], 14 rides released at 3.8–6.5 m/s as [`coasting_ride`] makes
-/// them, no `Sync`, the readings noted as [`noted_reading`] makes them.
+/// them, no `Sync`, the readings noted as [`noted_reading`] makes them; with
+/// [`BlindDesign::Varied`], the same on a plan of the campaign's own (12–16 rides from 2.9–3.6
+/// up to 5.8–6.5 m/s).
 pub fn blind_campaign(
     measured: &crate::inertia::bike::LabBike,
     bike_file: &str,
@@ -1004,28 +1012,35 @@ pub fn blind_campaign_plus(
             // The simulated speedometer of this design reads the release speed exactly (to the
             // written 0.01 m/s), and nothing slows the coast.
             BlindDesign::Sync => "speedometer_resolution_mps = 0.01\nspeedometer_se_fraction = 0.0\n",
-            BlindDesign::Noted => "",
+            BlindDesign::Noted | BlindDesign::Varied => "",
         }
     );
-    let rides = match design {
-        BlindDesign::Sync => 12,
-        BlindDesign::Noted => 14,
+    // The plan: how many rides, and ride k's release speed (m/s).
+    let (rides, varied) = match design {
+        BlindDesign::Sync => (12, None),
+        BlindDesign::Noted => (14, None),
+        BlindDesign::Varied => {
+            let rides = (12 + (5.0 * rng.range(0.0, 1.0)) as usize).min(16);
+            (rides, Some((rng.range(2.9, 3.6), rng.range(5.8, 6.5))))
+        }
+    };
+    let planned = |k: usize| match (design, varied) {
+        (_, Some((first, last))) => first + (last - first) * k as f64 / (rides - 1) as f64,
+        (BlindDesign::Sync, _) => 3.8 + 0.25 * k as f64,
+        _ => 3.8 + 2.7 * k as f64 / 13.0,
     };
     for k in 0..rides + extra_speeds_mps.len() {
         let extra = k.checked_sub(rides).map(|e| extra_speeds_mps[e]);
         let spec = match design {
             BlindDesign::Sync => {
-                let mut spec =
-                    RideSpec::lab(extra.unwrap_or(3.8 + 0.25 * k as f64), effects.clone());
+                let mut spec = RideSpec::lab(extra.unwrap_or(planned(k)), effects.clone());
                 spec.sync = k % 2 == 1;
                 spec.kick.peak_force_n = rng.range(12.0, 18.0);
                 spec
             }
-            BlindDesign::Noted => coasting_ride(
-                &mut rng,
-                extra.unwrap_or(3.8 + 2.7 * k as f64 / 13.0),
-                effects.clone(),
-            ),
+            BlindDesign::Noted | BlindDesign::Varied => {
+                coasting_ride(&mut rng, extra.unwrap_or(planned(k)), effects.clone())
+            }
         };
         // A Bluetooth receiver that gets packets late now and then.
         let mut spec = spec;
@@ -1036,7 +1051,7 @@ pub fn blind_campaign_plus(
         files.push((format!("{name}_cal.log").into(), ride.cal_log));
         let noted = match design {
             BlindDesign::Sync => format!("{:.2}", ride.truth.noted_speed_mps),
-            BlindDesign::Noted => {
+            BlindDesign::Noted | BlindDesign::Varied => {
                 format!("{:.1}", noted_reading(&mut rng, ride.truth.noted_speed_mps))
             }
         };
