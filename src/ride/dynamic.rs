@@ -206,6 +206,7 @@ pub fn dynamic_test(
     let canonical = Canonical::from_benchmark(&nominal).with_control(model.control);
     let window = CoastingWindow::of(&fit, signals.sample_rate_hz, speed.speed_mps, accel);
     let coasting_bias = coasting_correction(&canonical, &window).unwrap_or([0.0; 4]);
+    let through_speed = correction_through_speed(&canonical, &window, speed.speed_se_mps);
     if fit.drift.is_none() {
         // The drift's fit failed: its error is taken from the model's slope dλ/dv times the
         // speed's change over half the window (what a constant fit can be off by at most).
@@ -249,22 +250,26 @@ pub fn dynamic_test(
     fit.weave.re_se = fit
         .weave
         .re_se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[0]);
+        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[0])
+        .hypot(through_speed[0]);
     fit.weave.im_se = fit
         .weave
         .im_se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[1]);
+        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[1])
+        .hypot(through_speed[1]);
     let shape = &mut fit.shape;
     shape.ratio.value -= coasting_bias[2];
     shape.phase_rad.value -= coasting_bias[3];
     shape.ratio.se = shape
         .ratio
         .se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[2]);
+        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[2])
+        .hypot(through_speed[2]);
     shape.phase_rad.se = shape
         .phase_rad
         .se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[3]);
+        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[3])
+        .hypot(through_speed[3]);
     let model = model_weave(path, model, &speed, &fit.weave)?;
     Ok(DynamicTest {
         path: path.to_path_buf(),
@@ -507,6 +512,45 @@ fn fit_span(s: &RideSignals, options: &ModalOptions, a: f64, b: f64) -> Result<M
             "no weave: roll and steer between {a:.2} and {b:.2} s show no oscillation that fits"
         ),
     })
+}
+
+/// What the speed's own error `speed_se_mps` makes of a coasting ride's correction
+/// ([`coasting_correction`], made at the reported speed): its change between the speed ± that
+/// error, halved, `[re, im, |γ/θ|, arg]`; zeros where either fails. Near the weave speed the
+/// correction is erratic in the speed (a replay's fit of a motion neither growing nor dying),
+/// and a correction taken at a speed off by its error is off by this; the ride's error carries
+/// it beside the correction's own ([`COASTING_BIAS_SE_FRACTION`]). Measured on 149 knife-edge
+/// coasting rides released at 2.9–4.2 m/s (tests/speed.rs; normalized errors against the
+/// Whipple model of the true bicycle at the true speed): at 3.0–3.2 m/s arg γ/θ lay −1.95 ±
+/// 1.55 of its errors with it, −2.44 ± 1.94 without (the replay's phase there +0.027 rad
+/// where the fit's own error is near none, a bias this does not remove), |γ/θ| +0.11 ± 1.07
+/// (−0.18 ± 2.26); at 3.4–3.8 m/s each part within 0.1 of before. On 60 effect-free
+/// campaigns of the `varied` design (12–16 rides from 2.9–3.6 m/s up;
+/// [`crate::sim::campaign::BlindDesign::Varied`]) the campaign's p fell below 0.05 in 4 (9
+/// without), below 0.01 in 1 (3).
+pub fn correction_through_speed(
+    model: &impl LinearWeave,
+    window: &CoastingWindow,
+    speed_se_mps: f64,
+) -> [f64; 4] {
+    let at = |dv: f64| {
+        let mut w = *window;
+        w.speed_mps += dv;
+        coasting_correction(model, &w)
+    };
+    match (at(speed_se_mps), at(-speed_se_mps)) {
+        (Some(a), Some(b)) if speed_se_mps.is_finite() && speed_se_mps > 0.0 => {
+            std::array::from_fn(|k| {
+                let d = 0.5 * (a[k] - b[k]).abs();
+                if d.is_finite() {
+                    d
+                } else {
+                    0.0
+                }
+            })
+        }
+        _ => [0.0; 4],
+    }
 }
 
 /// A motion of size m differs from the small motion the linear model describes by about κ m in
