@@ -244,32 +244,22 @@ pub fn dynamic_test(
     w.im_se = w.im_se.hypot(im_nl);
     fit.shape.ratio.se = fit.shape.ratio.se.hypot(ratio_nl);
     fit.shape.phase_rad.se = fit.shape.phase_rad.se.hypot(phase_nl);
-    fit.weave.re -= coasting_bias[0];
-    fit.weave.im -= coasting_bias[1];
-    // The correction's own error (see COASTING_BIAS_APPLIED).
-    fit.weave.re_se = fit
-        .weave
-        .re_se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[0])
-        .hypot(through_speed[0]);
-    fit.weave.im_se = fit
-        .weave
-        .im_se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[1])
-        .hypot(through_speed[1]);
-    let shape = &mut fit.shape;
-    shape.ratio.value -= coasting_bias[2];
-    shape.phase_rad.value -= coasting_bias[3];
-    shape.ratio.se = shape
-        .ratio
-        .se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[2])
-        .hypot(through_speed[2]);
-    shape.phase_rad.se = shape
-        .phase_rad
-        .se
-        .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[3])
-        .hypot(through_speed[3]);
+    // The correction taken off, its own error (see COASTING_BIAS_APPLIED) and the speed's
+    // through it added to each part's.
+    let w = &mut fit.weave;
+    let sh = &mut fit.shape;
+    let parts = [
+        (&mut w.re, &mut w.re_se),
+        (&mut w.im, &mut w.im_se),
+        (&mut sh.ratio.value, &mut sh.ratio.se),
+        (&mut sh.phase_rad.value, &mut sh.phase_rad.se),
+    ];
+    for (k, (value, se)) in parts.into_iter().enumerate() {
+        *value -= coasting_bias[k];
+        *se = se
+            .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[k])
+            .hypot(through_speed[k]);
+    }
     let model = model_weave(path, model, &speed, &fit.weave)?;
     Ok(DynamicTest {
         path: path.to_path_buf(),
@@ -538,17 +528,18 @@ pub fn correction_through_speed(
         w.speed_mps += dv;
         coasting_correction(model, &w)
     };
+    if !(speed_se_mps.is_finite() && speed_se_mps > 0.0) {
+        return [0.0; 4];
+    }
     match (at(speed_se_mps), at(-speed_se_mps)) {
-        (Some(a), Some(b)) if speed_se_mps.is_finite() && speed_se_mps > 0.0 => {
-            std::array::from_fn(|k| {
-                let d = 0.5 * (a[k] - b[k]).abs();
-                if d.is_finite() {
-                    d
-                } else {
-                    0.0
-                }
-            })
-        }
+        (Some(a), Some(b)) => std::array::from_fn(|k| {
+            let d = 0.5 * (a[k] - b[k]).abs();
+            if d.is_finite() {
+                d
+            } else {
+                0.0
+            }
+        }),
         _ => [0.0; 4],
     }
 }

@@ -737,7 +737,7 @@ pub enum BlindDesign {
 impl BlindDesign {
     pub const ALL: [BlindDesign; 3] = [BlindDesign::Sync, BlindDesign::Noted, BlindDesign::Varied];
 
-    /// The design's name as `--design` takes it: `sync` or `noted`.
+    /// The design's name as `--design` takes it: `sync`, `noted` or `varied`.
     pub fn label(self) -> &'static str {
         match self {
             BlindDesign::Sync => "sync",
