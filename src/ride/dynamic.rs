@@ -622,13 +622,29 @@ pub const COASTING_BIAS_APPLIED: f64 = 0.5;
 /// own (`bikeproc dynamic`). Across a campaign the part not known is one and the same (the
 /// tyres and the damping the rides share decide its sign), so the gap stage treats it as one
 /// error common to every coasting ride, [`COASTING_BIAS_COMMON_FRACTION`] of each ride's
-/// correction.
+/// correction, beside [`COASTING_BIAS_OWN_FRACTION`] of it kept as the ride's own.
 pub const COASTING_BIAS_SE_FRACTION: f64 = 0.5;
 /// The common part of the correction's error across one campaign's rides, as a fraction of
 /// each ride's correction: the residual the half-correction leaves lay at +0.85 of it on
 /// knife-edge wheels and −0.6 with the realistic tyres and damping (the means above, over 100
 /// rides each), so 0.7 holds either within 1.2 of its standard deviations.
 pub const COASTING_BIAS_COMMON_FRACTION: f64 = 0.7;
+/// The part of the correction's error each ride keeps as its own beside the common one, as a
+/// fraction of its correction: near the weave speed the correction is erratic in the speed and
+/// the bicycle (on a ride at 3.2 m/s, the measured bicycle's inputs moved one standard error
+/// each moved its |γ/θ| by up to 0.56 of the ride's error), so that a large correction there
+/// is not one error shared with the other rides. Made common in full (none kept), the slow
+/// rides' phases were tied at correlations of 0.9 between rides, and a true bicycle a draw of
+/// its measured errors away (whose corrections are other) broke the tie: 5 of 200
+/// effect-free varied campaigns fell below p 0.01, their χ² test alone 6 (its p-values
+/// U-shaped), one at χ² 86 on 52 degrees of freedom where the campaign's experimental
+/// covariance made at the true bicycle gave 62. With 0.3 kept, 1 of 200 (13 below 0.05, the
+/// p-values flat by tenths, the χ² test alone's leaning high: 45 above 0.9); with 0.5 (the
+/// ride's whole error kept beside the common part), 2 (10), the χ² test alone conservative
+/// (61 above 0.9). Propagating the inputs' errors through
+/// the correction instead (its Jacobian by secants, beside the model's) raised the false
+/// alarms to 10 of 200 and the gap's time on data/rides.toml from 0.7 to 1.7 s.
+pub const COASTING_BIAS_OWN_FRACTION: f64 = 0.3;
 
 /// How much of [`replay_coasting`]'s mode-shape part is taken off the fitted shape. The fit holds
 /// the shape constant over a window in which the slowing bicycle's shape changes; the replay
