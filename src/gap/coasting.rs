@@ -5,7 +5,7 @@
 //! candidate adds to its prediction so that it is compared with the fit as the ride stage
 //! corrected it ([`CoastingBase::shifts`]). Also in: each ride's correction as the ride stage
 //! took it; out: what that correction's error adds to the campaign's experimental covariance
-//! ([`correction_cov`]).
+//! (`correction_cov`).
 //!
 //! The ride stage corrects a coasting ride's fit by a replay of the measured, undamped bicycle
 //! ([`crate::ride::dynamic::COASTING_BIAS_APPLIED`]). A damped bicycle's bias is another. On 80
