@@ -183,10 +183,14 @@ fn assert_calibrated(z: &[Z], failed: &[String]) {
 /// Against what: the simulator's own linearization carries the coast's resistances (drag and
 /// rolling resistance lower the weave by 0.006–0.017 1/s in σ and 0.011–0.021 rad/s in ω at
 /// 3.9–5 m/s on two of these rides), the Whipple model that the gap stage predicts with does
-/// not. The ride stage's half correction of the coasting bias
-/// (`ride::dynamic::COASTING_BIAS_APPLIED`) leaves σ and ω +0.35 and +0.48 of their errors
-/// above the first and +0.04 and +0.02 from the second (means over these 100 rides): the
-/// gap stage compares with the second, so its mean error must stay within ±0.2 there. The
+/// not. The ride stage takes a quarter of the replayed coasting bias off
+/// (`ride::dynamic::COASTING_BIAS_APPLIED`), the middle of these knife-edge wheels' bias and
+/// the opposite one of tyres and damping (the next test): it leaves σ and ω +0.49 and +0.72
+/// of their errors above the first and +0.17 and +0.24 above the second (means over these 100
+/// rides). The gap stage compares with the second: each end of the correction lies about 0.24
+/// of the errors from its middle, and a mean of 100 normalized errors has a standard error of
+/// 0.1, so the mean must stay within ±0.35 there (the next test holds the other end to the
+/// same). The
 /// mode shape against the second's: |γ/θ| −0.16 and arg γ/θ −0.24 of their errors with the
 /// slowing bicycle's own shape change taken off (`ride::dynamic::accel_shape_shift`), −0.31
 /// and −0.28 without it: |γ/θ| within ±0.25 (which that shift decides), arg within ±0.3.
@@ -202,7 +206,7 @@ fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
         "against the Whipple model: σ z mean {re:.3}, ω z mean {im:.3}, |γ/θ| {ratio:.3}, \
          arg {phase:.3}"
     );
-    assert!(re.abs() < 0.2 && im.abs() < 0.2, "σ {re}, ω {im}");
+    assert!(re.abs() < 0.35 && im.abs() < 0.35, "σ {re}, ω {im}");
     assert!(
         ratio.abs() < 0.25 && phase.abs() < 0.3,
         "|γ/θ| {ratio}, arg {phase}"
@@ -211,7 +215,9 @@ fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
 
 /// The same with the realistic effects (steer damping, compliant tyres, the sensors' masses;
 /// the speedometer true): tyres slip, so the kinematic speed is only a check, but the noted
-/// reading carried and the eigenvalue's errors hold.
+/// reading carried and the eigenvalue's errors hold. The coasting correction's other end: σ's
+/// and ω's mean normalized errors against the simulator's own linearization +0.10 and −0.24
+/// (within ±0.35, as the knife-edge rides').
 #[test]
 fn speed_and_eigenvalue_errors_hold_with_tyres_and_damping() {
     let effects = Effects {
@@ -220,6 +226,9 @@ fn speed_and_eigenvalue_errors_hold_with_tyres_and_damping() {
     };
     let (z, failed) = coasting_rides(100, 50_000, effects, (3.7, 6.3));
     assert_calibrated(&z, &failed);
+    let (re, _) = mean_sd(&column(&z, |z| z.re));
+    let (im, _) = mean_sd(&column(&z, |z| z.im));
+    assert!(re.abs() < 0.35 && im.abs() < 0.35, "σ {re}, ω {im}");
 }
 
 /// Prints how many rides were fitted and refused and the σ and ω normalized errors' means

@@ -204,27 +204,35 @@ pub(super) fn correction_cov(
     parts: &super::fit::Parts,
 ) -> nalgebra::DMatrix<f64> {
     use crate::ride::dynamic::{
-        COASTING_BIAS_COMMON_FRACTION as COMMON, COASTING_BIAS_OWN_FRACTION as OWN,
-        COASTING_BIAS_SE_FRACTION as HELD,
+        COASTING_BIAS_OWN_FRACTION as OWN, COASTING_BIAS_SE_FRACTION as HELD,
     };
-    let total = parts.total();
-    let mut cov = nalgebra::DMatrix::zeros(total, total);
+    let common = correction_common(corrections, parts);
+    let mut cov = &common * common.transpose();
     for (i, bi) in corrections.iter().enumerate() {
-        for (j, bj) in corrections.iter().enumerate() {
-            for a in 0..parts.of(i) {
-                for b in 0..parts.of(j) {
-                    let own = if i == j && a == b {
-                        (OWN * OWN - HELD.powi(2)) * bi[a].powi(2)
-                    } else {
-                        0.0
-                    };
-                    cov[(parts.start(i) + a, parts.start(j) + b)] =
-                        COMMON * COMMON * bi[a] * bj[b] + own;
-                }
-            }
+        for (a, b) in bi.iter().enumerate().take(parts.of(i)) {
+            cov[(parts.start(i) + a, parts.start(i) + a)] += (OWN * OWN - HELD.powi(2)) * b * b;
         }
     }
     cov
+}
+
+/// The common part of [`correction_cov`] as one column, `C b` over every ride's parts
+/// (`C` = [`COASTING_BIAS_COMMON_FRACTION`]): the covariance holds its outer product, and the
+/// low-rank inverse of the campaign's takes it as one of its common directions.
+///
+/// [`COASTING_BIAS_COMMON_FRACTION`]: crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION
+pub(super) fn correction_common(
+    corrections: &[[f64; 4]],
+    parts: &super::fit::Parts,
+) -> nalgebra::DVector<f64> {
+    use crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION as COMMON;
+    let mut w = nalgebra::DVector::zeros(parts.total());
+    for (i, bi) in corrections.iter().enumerate() {
+        for (a, b) in bi.iter().enumerate().take(parts.of(i)) {
+            w[parts.start(i) + a] = COMMON * b;
+        }
+    }
+    w
 }
 
 #[cfg(test)]

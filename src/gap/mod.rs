@@ -622,13 +622,8 @@ pub fn diagnose_study(
     }
     // Those common parts, W Wᵀ (the rest of exp_cov is block-diagonal over the rides).
     let exp_common = {
-        use crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION as C;
         let mut w = DMatrix::zeros(total, 1 + nonlinear.len());
-        for (i, o) in rides.iter().enumerate() {
-            for a in 0..parts.of(i) {
-                w[(parts.start(i) + a, 0)] = C * o.coasting_bias[a];
-            }
-        }
+        w.set_column(0, &coasting::correction_common(&corrections, &parts));
         for (k, n) in nonlinear.iter().enumerate() {
             w.set_column(k + 1, n);
         }
