@@ -190,8 +190,7 @@ fn assert_calibrated(z: &[Z], failed: &[String]) {
 /// rides). The gap stage compares with the second: each end of the correction lies about 0.24
 /// of the errors from its middle, and a mean of 100 normalized errors has a standard error of
 /// 0.1, so the mean must stay within ±0.35 there (the next test holds the other end to the
-/// same). The
-/// mode shape against the second's: |γ/θ| −0.16 and arg γ/θ −0.24 of their errors with the
+/// same). The mode shape against the second's: |γ/θ| −0.16 and arg γ/θ −0.24 of their errors with the
 /// slowing bicycle's own shape change taken off (`ride::dynamic::accel_shape_shift`), −0.31
 /// and −0.28 without it: |γ/θ| within ±0.25 (which that shift decides), arg within ±0.3.
 #[test]

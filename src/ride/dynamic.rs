@@ -594,8 +594,7 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
         .map(|(t, _)| t)
 }
 
-/// How much of [`replay_coasting`] is taken off the fitted eigenvalue, and (the same) the
-/// standard error left for it. The measured bicycle's rigid-wheeled model gives the bias; on
+/// How much of [`replay_coasting`] is taken off the fitted eigenvalue. The measured bicycle's rigid-wheeled model gives the bias; on
 /// simulated coasting rides the true bias was that (knife-edge wheels) or of the opposite sign
 /// (compliant tyres, steer damping: their mode shape changes differently with speed), and which
 /// the lab's bicycle is the ride stage cannot know. A quarter is taken off, the middle of the
@@ -616,8 +615,8 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
 /// 0.01 3 of 200 as before (below 0.05 17 → 16), varied 1 → 2 of 200 (13 below 0.05 as
 /// before); over the whole of docs/gap-calibration.md, noted right beyond the limit 324/364 →
 /// 328/366 (the mass 33/44 → 36/44), varied 322/350 → 323/352, sync as before. Nothing taken
-/// off went further (the mass −0.04 kg, 135/167) but left the
-/// knife-edge rides' ω +0.46 of its errors high and 4 of 200 noted controls below 0.01.
+/// off went further (the mass −0.04 kg, 135/167) but left the knife-edge rides' ω +0.46 of its
+/// errors high and 4 of 200 noted controls below 0.01.
 ///
 /// These fractions are the replay's from the model's weave alone. Started where the fit
 /// says the motion began instead (`ReplayStart::Fitted`, as the gap stage replays a damped
@@ -652,9 +651,9 @@ pub const COASTING_BIAS_COMMON_FRACTION: f64 = 0.7;
 /// covariance made at the true bicycle gave 62. With 0.3 kept, 1 of 200 (13 below 0.05, the
 /// p-values flat by tenths, the χ² test alone's leaning high: 45 above 0.9); with 0.5 (the
 /// ride's whole error kept beside the common part), 2 (10), the χ² test alone conservative
-/// (61 above 0.9). Propagating the inputs' errors through
-/// the correction instead (its Jacobian by secants, beside the model's) raised the false
-/// alarms to 10 of 200 and the gap's time on data/rides.toml from 0.7 to 1.7 s.
+/// (61 above 0.9). Propagating the inputs' errors through the correction instead (its Jacobian
+/// by secants, beside the model's) raised the false alarms to 10 of 200 and the gap's time on
+/// data/rides.toml from 0.7 to 1.7 s.
 pub const COASTING_BIAS_OWN_FRACTION: f64 = 0.3;
 
 /// How much of [`replay_coasting`]'s mode-shape part is taken off the fitted shape. The fit holds
