@@ -74,9 +74,25 @@ struct Z {
     /// stage predicts; the simulator's own linearization carries the resistances too).
     re_whipple: f64,
     im_whipple: f64,
+    /// The same with the error the gap stage gives the ride in a campaign: its own and the
+    /// coasting correction's common part ([`campaign_se`]).
+    re_campaign: f64,
+    im_campaign: f64,
     /// |γ/θ| and arg γ/θ against the same model's mode shape.
     ratio_whipple: f64,
     phase_whipple: f64,
+}
+
+/// A coasting ride's standard error in part `part` (0 σ, 1 ω) as the gap stage counts it in a
+/// campaign (`gap::coasting::correction_cov`'s diagonal): the ride's own `se_ride`, whose
+/// share `COASTING_RIDE_SE_FRACTION` of the correction's error scale `scale` is replaced by
+/// the common part and the ride's own part beside it.
+fn campaign_se(se_ride: f64, scale: f64, part: usize) -> f64 {
+    use bikeproc::ride::dynamic::{
+        COASTING_BIAS_COMMON_FRACTION as C, COASTING_BIAS_OWN_FRACTION as O,
+        COASTING_RIDE_SE_FRACTION as H,
+    };
+    (se_ride.powi(2) + (C * C + O * O - H[part] * H[part]) * scale * scale).sqrt()
 }
 
 fn coasting_rides(
@@ -114,10 +130,10 @@ fn coasting_rides(
         if std::env::var("BIKEPROC_DEBUG").is_ok() {
             let f = &r.fit;
             println!(
-                "v {v_true:.2} a {:.3} win {:.2}-{:.2} tref {:.2} re {:.3}±{:.3} (truth {:.3}, bias {:.3}, drift {:.3}) im {:.3}±{:.3} (truth {:.3}, bias {:.3}) real {:?}",
+                "v {v_true:.2} a {:.3} win {:.2}-{:.2} tref {:.2} re {:.3}±{:.3} (truth {:.3}, coasting scale {:.3}, drift {:.3}) im {:.3}±{:.3} (truth {:.3}, coasting scale {:.3}) real {:?}",
                 r.speed.sources.window_accel_mps2, f.start_s - r.kick_s, f.end_s - r.kick_s, f.t_ref_s - r.kick_s,
-                f.weave.re, f.weave.re_se, w.re, r.coasting_bias[0], f.weave.re_se_drift,
-                f.weave.im, f.weave.im_se, w.im, r.coasting_bias[1],
+                f.weave.re, f.weave.re_se, w.re, r.coasting_error_scale[0], f.weave.re_se_drift,
+                f.weave.im, f.weave.im_se, w.im, r.coasting_error_scale[1],
                 f.real_modes.iter().map(|m| m.value).collect::<Vec<_>>()
             );
         }
@@ -129,6 +145,8 @@ fn coasting_rides(
             im: (f.im - w.im) / f.im_se,
             re_whipple: (f.re - whipple.re) / f.re_se,
             im_whipple: (f.im - whipple.im) / f.im_se,
+            re_campaign: (f.re - whipple.re) / campaign_se(f.re_se, r.coasting_error_scale[0], 0),
+            im_campaign: (f.im - whipple.im) / campaign_se(f.im_se, r.coasting_error_scale[1], 1),
             ratio_whipple: (r.fit.shape.ratio.value - whipple_shape.norm()) / r.fit.shape.ratio.se,
             phase_whipple: (r.fit.shape.phase_rad.value - whipple_shape.arg())
                 / r.fit.shape.phase_rad.se,
@@ -183,29 +201,32 @@ fn assert_calibrated(z: &[Z], failed: &[String]) {
 /// Against what: the simulator's own linearization carries the coast's resistances (drag and
 /// rolling resistance lower the weave by 0.006–0.017 1/s in σ and 0.011–0.021 rad/s in ω at
 /// 3.9–5 m/s on two of these rides), the Whipple model that the gap stage predicts with does
-/// not. The ride stage takes a quarter of the replayed coasting bias off
-/// (`ride::dynamic::COASTING_BIAS_APPLIED`), the middle of these knife-edge wheels' bias and
-/// the opposite one of tyres and damping (the next test): it leaves σ and ω +0.49 and +0.72
-/// of their errors above the first and +0.17 and +0.24 above the second (means over these 100
-/// rides). The gap stage compares with the second: each end of the correction lies about 0.24
-/// of the errors from its middle, and a mean of 100 normalized errors has a standard error of
-/// 0.1, so the mean must stay within ±0.35 there (the next test holds the other end to the
-/// same). The mode shape against the second's: |γ/θ| −0.16 and arg γ/θ −0.24 of their errors with the
-/// slowing bicycle's own shape change taken off (`ride::dynamic::accel_shape_shift`), −0.31
-/// and −0.28 without it: |γ/θ| within ±0.25 (which that shift decides), arg within ±0.3.
+/// not. The ride stage takes none of the replayed coasting bias off the eigenvalue and carries
+/// a quarter of it as an error (`ride::dynamic::COASTING_BIAS_ERROR_SCALE`): the bias is the
+/// opposite way with tyres and damping (the next test), which a real bicycle has. These
+/// knife-edge wheels are the far end: σ and ω +0.28 and +0.43 of their errors above the
+/// Whipple model (means over these 100 rides; +0.29 and +0.44 with the error the gap stage
+/// gives a ride in a campaign, whose coasting part is small at these speeds). The mean must
+/// stay within ±0.6 of the errors: a bias shared by a 16-ride campaign adds about 16 × 0.6² ≈
+/// 6 to its χ² on 50–60 degrees of freedom, about half of χ²'s own spread (√(2·55) ≈ 10.5).
+/// The mode shape against the same model's: |γ/θ| −0.16 and arg γ/θ −0.23 of their errors
+/// with the slowing bicycle's own shape change taken off (`ride::dynamic::accel_shape_shift`),
+/// −0.31 and −0.28 without it: |γ/θ| within ±0.25 (which that shift decides), arg within ±0.3.
 #[test]
 fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
     let (z, failed) = coasting_rides(100, 40_000, Effects::default(), (3.7, 6.3));
     assert_calibrated(&z, &failed);
     let (re, _) = mean_sd(&column(&z, |z| z.re_whipple));
     let (im, _) = mean_sd(&column(&z, |z| z.im_whipple));
+    let (re_c, _) = mean_sd(&column(&z, |z| z.re_campaign));
+    let (im_c, _) = mean_sd(&column(&z, |z| z.im_campaign));
     let (ratio, _) = mean_sd(&column(&z, |z| z.ratio_whipple));
     let (phase, _) = mean_sd(&column(&z, |z| z.phase_whipple));
     println!(
-        "against the Whipple model: σ z mean {re:.3}, ω z mean {im:.3}, |γ/θ| {ratio:.3}, \
-         arg {phase:.3}"
+        "against the Whipple model: σ z mean {re:.3}, ω z mean {im:.3} (in a campaign {re_c:.3}, \
+         {im_c:.3}), |γ/θ| {ratio:.3}, arg {phase:.3}"
     );
-    assert!(re.abs() < 0.35 && im.abs() < 0.35, "σ {re}, ω {im}");
+    assert!(re_c.abs() < 0.6 && im_c.abs() < 0.6, "σ {re_c}, ω {im_c}");
     assert!(
         ratio.abs() < 0.25 && phase.abs() < 0.3,
         "|γ/θ| {ratio}, arg {phase}"
@@ -214,9 +235,10 @@ fn speed_and_eigenvalue_errors_hold_on_coasting_rides() {
 
 /// The same with the realistic effects (steer damping, compliant tyres, the sensors' masses;
 /// the speedometer true): tyres slip, so the kinematic speed is only a check, but the noted
-/// reading carried and the eigenvalue's errors hold. The coasting correction's other end: σ's
-/// and ω's mean normalized errors against the simulator's own linearization +0.10 and −0.24
-/// (within ±0.35, as the knife-edge rides').
+/// reading carried and the eigenvalue's errors hold. The coasting correction's other end, the
+/// one a real bicycle is at: σ's and ω's mean normalized errors against the simulator's own
+/// linearization +0.21 and −0.07, within ±0.35 (each end of a quarter taken off lay about 0.24
+/// of the errors from the middle; a mean of 100 normalized errors has a standard error of 0.1).
 #[test]
 fn speed_and_eigenvalue_errors_hold_with_tyres_and_damping() {
     let effects = Effects {

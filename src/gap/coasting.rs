@@ -3,12 +3,13 @@
 //! [`crate::ride::dynamic::CoastingWindow`]), each condition's measured bicycle, and a damped
 //! candidate or one that moves the rides' speeds, at its first fit. Out: per ride, what the
 //! candidate adds to its prediction so that it is compared with the fit as the ride stage
-//! corrected it ([`CoastingBase::shifts`]). Also in: each ride's correction as the ride stage
-//! took it; out: what that correction's error adds to the campaign's experimental covariance
-//! (`correction_cov`).
+//! corrected it ([`CoastingBase::shifts`]). Also in: the size of each ride's correction's
+//! error as the ride stage counted it; out: what that error adds to the campaign's
+//! experimental covariance (`correction_cov`).
 //!
-//! The ride stage corrects a coasting ride's fit by a replay of the measured, undamped bicycle
-//! ([`crate::ride::dynamic::COASTING_BIAS_APPLIED`]). A damped bicycle's bias is another. On 80
+//! The ride stage corrects a coasting ride's mode shape by a replay of the measured, undamped
+//! bicycle and carries the replay's eigenvalue as an error
+//! ([`crate::ride::dynamic::COASTING_BIAS_ERROR_SCALE`]). A damped bicycle's bias is another. On 80
 //! simulated coasting rides (0.5 N·m·s/rad, released at 4.3–5.2 m/s) the corrected σ lay 0.08
 //! 1/s below the damped bicycle's Whipple weave at the true speed (mean normalized error
 //! −0.83; −0.01 and +0.01 without damping), all of it on the rides whose fit holds real modes
@@ -176,8 +177,9 @@ impl CoastingBase {
                         ..window
                     };
                     if let Some(there) = coasting_correction(&measured, &at_speed) {
-                        for a in 0..4 {
-                            d[a] += there[a] - o.coasting_bias[a];
+                        let took = there.taken_off.iter().zip(&o.coasting_bias);
+                        for (d, (there, here)) in d.iter_mut().zip(took) {
+                            *d += there - here;
                         }
                     }
                 }
@@ -188,15 +190,16 @@ impl CoastingBase {
 }
 
 /// What the coasting corrections' error (`corrections`, each ride's `[re, im, |γ/θ|, arg]`
-/// taken off its fit) adds to the campaign's experimental covariance beyond the ride's own
-/// standard errors, which hold [`COASTING_BIAS_SE_FRACTION`] of it: that error is mostly one
+/// error scale, [`crate::ride::dynamic::CoastingCorrection::error_scale`]) adds to the
+/// campaign's experimental covariance beyond the ride's own standard errors, which hold
+/// [`COASTING_RIDE_SE_FRACTION`] of it (replaced here): that error is mostly one
 /// for the whole campaign (the tyres and damping the rides share set it), so each ride's is
 /// made common, [`COASTING_BIAS_COMMON_FRACTION`] of its correction, and a part
 /// [`COASTING_BIAS_OWN_FRACTION`] is kept as the ride's own (erratic near the weave speed).
 /// Without the common part, 14 coasting rides of an effect-free campaign gave σ and ω a
 /// shared residual of +0.3 and +0.5 of their standard errors, which the effects' fits took up.
 ///
-/// [`COASTING_BIAS_SE_FRACTION`]: crate::ride::dynamic::COASTING_BIAS_SE_FRACTION
+/// [`COASTING_RIDE_SE_FRACTION`]: crate::ride::dynamic::COASTING_RIDE_SE_FRACTION
 /// [`COASTING_BIAS_COMMON_FRACTION`]: crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION
 /// [`COASTING_BIAS_OWN_FRACTION`]: crate::ride::dynamic::COASTING_BIAS_OWN_FRACTION
 pub(super) fn correction_cov(
@@ -204,13 +207,13 @@ pub(super) fn correction_cov(
     parts: &super::fit::Parts,
 ) -> nalgebra::DMatrix<f64> {
     use crate::ride::dynamic::{
-        COASTING_BIAS_OWN_FRACTION as OWN, COASTING_BIAS_SE_FRACTION as HELD,
+        COASTING_BIAS_OWN_FRACTION as OWN, COASTING_RIDE_SE_FRACTION as HELD,
     };
     let common = correction_common(corrections, parts);
     let mut cov = &common * common.transpose();
     for (i, bi) in corrections.iter().enumerate() {
         for (a, b) in bi.iter().enumerate().take(parts.of(i)) {
-            cov[(parts.start(i) + a, parts.start(i) + a)] += (OWN * OWN - HELD.powi(2)) * b * b;
+            cov[(parts.start(i) + a, parts.start(i) + a)] += (OWN * OWN - HELD[a].powi(2)) * b * b;
         }
     }
     cov
@@ -242,7 +245,8 @@ mod tests {
 
     /// Two coasting rides (one with the mode shape, one without) and one at constant speed:
     /// the common part couples every pair of parts by 0.7² bᵢ bⱼ, and each part's own variance
-    /// becomes (0.7² + 0.3² − 0.5²) b², the 0.5 its standard error already holds replaced.
+    /// gains (0.7² + 0.3² − h²) b², the fraction h its standard error already holds replaced
+    /// (1 in the eigenvalue, 0.5 in the shape).
     #[test]
     fn a_coasting_correction_is_mostly_common_and_partly_its_rides_own() {
         let parts = Parts::new(vec![4, 2, 4]);
@@ -253,9 +257,12 @@ mod tests {
         // Ride 0's σ with ride 1's ω, and ride 0's phase with its own |γ/θ|.
         assert!(close(cov[(0, 5)], 0.49 * 0.02 * 0.01));
         assert!(close(cov[(3, 2)], 0.49 * 0.03 * 0.01));
-        // Diagonals: (0.49 + 0.09 − 0.25) b².
-        assert!(close(cov[(1, 1)], 0.33 * 0.05 * 0.05));
-        assert!(close(cov[(4, 4)], 0.33 * 0.04 * 0.04));
+        // Diagonals: (0.49 + 0.09 − 1) b² in the eigenvalue, (0.49 + 0.09 − 0.25) b² in the
+        // shape.
+        assert!(close(cov[(1, 1)], -0.42 * 0.05 * 0.05));
+        assert!(close(cov[(4, 4)], -0.42 * 0.04 * 0.04));
+        assert!(close(cov[(2, 2)], 0.33 * 0.01 * 0.01));
+        assert!(close(cov[(3, 3)], 0.33 * 0.03 * 0.03));
         // The ride at constant speed is untouched; ride 1's missing shape parts unused.
         assert!((6..10).all(|k| (0..10).all(|l| cov[(k, l)] == 0.0 && cov[(l, k)] == 0.0)));
         assert!((&cov - cov.transpose()).amax() <= 1e-18);

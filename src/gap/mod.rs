@@ -598,7 +598,7 @@ pub fn diagnose_study(
             }
         }
     }
-    let corrections: Vec<[f64; 4]> = rides.iter().map(|o| o.coasting_bias).collect();
+    let corrections: Vec<[f64; 4]> = rides.iter().map(|o| o.coasting_error_scale).collect();
     exp_cov += coasting::correction_cov(&corrections, &parts);
     // The motion's size: each ride's fit differs from the small motion's by κ times its
     // size, κ one per condition and part.

@@ -34,10 +34,13 @@ pub struct Observation {
     /// The window's length (s) and the bicycle's forward acceleration over it (m/s²).
     pub window_s: f64,
     pub window_accel_mps2: f64,
-    /// The correction taken off a coasting ride's eigenvalue and mode shape for its changing
-    /// speed (`[re, im]` in 1/s, `[|γ/θ|, arg]`; [`crate::ride::dynamic::DynamicTest`]), 0
-    /// otherwise: its error is common to the campaign's rides.
+    /// The correction taken off a coasting ride's fit for its changing speed (`[re, im]` in
+    /// 1/s, `[|γ/θ|, arg]`; [`crate::ride::dynamic::DynamicTest`]), 0 otherwise.
     pub coasting_bias: [f64; 4],
+    /// The size that correction's error is counted in (same layout,
+    /// [`crate::ride::dynamic::CoastingCorrection::error_scale`]), 0 at constant speed: its
+    /// error is mostly common to the campaign's rides.
+    pub coasting_error_scale: [f64; 4],
     /// The window the ride stage replayed for `coasting_bias`, on a ride whose speed changed
     /// over it ([`super::coasting`] replays each candidate's bicycle on it).
     pub coasting: Option<crate::ride::dynamic::CoastingWindow>,
@@ -72,6 +75,7 @@ impl Observation {
             window_s: t.fit.end_s - t.fit.start_s,
             window_accel_mps2: t.speed.sources.window_accel_mps2,
             coasting_bias: t.coasting_bias,
+            coasting_error_scale: t.coasting_error_scale,
             coasting: t.coasting,
             set_speed_mps: None,
             motion_sq_rad2: crate::ride::dynamic::motion_size_rad2(
@@ -126,6 +130,7 @@ impl Observation {
             window_s: b - a,
             window_accel_mps2: 0.0,
             coasting_bias: [0.0; 4],
+            coasting_error_scale: [0.0; 4],
             coasting: None,
             set_speed_mps: d.set_speed_mps,
             motion_sq_rad2: 0.0,

@@ -142,11 +142,15 @@ pub struct DynamicTest {
     pub release_s: Option<f64>,
     /// The fit's weave and mode shape, corrected by [`replay_coasting`].
     pub fit: ModalFit,
-    /// What was taken off the fit for the coasting ([`coasting_correction`]: [`replay_coasting`]
-    /// times [`COASTING_BIAS_APPLIED`] for the eigenvalue, [`COASTING_SHAPE_APPLIED`] for the
-    /// shape, and the slowing bicycle's own change of its shape, [`accel_shape_shift`]):
-    /// `[re (1/s), im (1/s), |γ/θ|, arg γ/θ (rad)]`, zeros on a ride at constant speed.
+    /// What was taken off the fit for the coasting ([`CoastingCorrection::taken_off`]: the
+    /// mode shape's replay and the slowing bicycle's own change of its shape; nothing off the
+    /// eigenvalue): `[re (1/s), im (1/s), |γ/θ|, arg γ/θ (rad)]`, zeros on a ride at constant
+    /// speed.
     pub coasting_bias: [f64; 4],
+    /// The size the coasting correction's error is counted in
+    /// ([`CoastingCorrection::error_scale`]), in the same layout: the fit's standard errors
+    /// hold [`COASTING_RIDE_SE_FRACTION`] of it.
+    pub coasting_error_scale: [f64; 4],
     /// On a ride whose speed changes over the window: the window as it was replayed for
     /// `coasting_bias` (the gap stage replays each candidate's bicycle on it).
     pub coasting: Option<CoastingWindow>,
@@ -205,7 +209,8 @@ pub fn dynamic_test(
     let mut fit = fit;
     let canonical = Canonical::from_benchmark(&nominal).with_control(model.control);
     let window = CoastingWindow::of(&fit, signals.sample_rate_hz, speed.speed_mps, accel);
-    let coasting_bias = coasting_correction(&canonical, &window).unwrap_or([0.0; 4]);
+    let correction = coasting_correction(&canonical, &window).unwrap_or_default();
+    let coasting_bias = correction.taken_off;
     let through_speed = correction_through_speed(&canonical, &window, speed.speed_se_mps);
     if fit.drift.is_none() {
         // The drift's fit failed: its error is taken from the model's slope dλ/dv times the
@@ -244,7 +249,7 @@ pub fn dynamic_test(
     w.im_se = w.im_se.hypot(im_nl);
     fit.shape.ratio.se = fit.shape.ratio.se.hypot(ratio_nl);
     fit.shape.phase_rad.se = fit.shape.phase_rad.se.hypot(phase_nl);
-    // The correction taken off, its own error (see COASTING_BIAS_APPLIED) and the speed's
+    // The correction taken off, its own error (see COASTING_BIAS_ERROR_SCALE) and the speed's
     // through it added to each part's.
     let w = &mut fit.weave;
     let sh = &mut fit.shape;
@@ -255,9 +260,9 @@ pub fn dynamic_test(
         (&mut sh.phase_rad.value, &mut sh.phase_rad.se),
     ];
     for (k, (value, se)) in parts.into_iter().enumerate() {
-        *value -= coasting_bias[k];
+        *value -= correction.taken_off[k];
         *se = se
-            .hypot(COASTING_BIAS_SE_FRACTION * coasting_bias[k])
+            .hypot(COASTING_RIDE_SE_FRACTION[k] * correction.error_scale[k])
             .hypot(through_speed[k]);
     }
     let model = model_weave(path, model, &speed, &fit.weave)?;
@@ -269,7 +274,8 @@ pub fn dynamic_test(
         catch_s: signals.catch_s,
         fit,
         coasting_bias,
-        coasting: (accel != 0.0 && coasting_bias != [0.0; 4]).then_some(window),
+        coasting_error_scale: correction.error_scale,
+        coasting: (accel != 0.0 && correction != CoastingCorrection::default()).then_some(window),
         model,
         trace,
         warnings: signals.log.warnings.clone(),
@@ -509,7 +515,7 @@ fn fit_span(s: &RideSignals, options: &ModalOptions, a: f64, b: f64) -> Result<M
 /// error, halved, `[re, im, |γ/θ|, arg]`; zeros where either fails. Near the weave speed the
 /// correction is erratic in the speed (a replay's fit of a motion neither growing nor dying),
 /// and a correction taken at a speed off by its error is off by this; the ride's error carries
-/// it beside the correction's own ([`COASTING_BIAS_SE_FRACTION`]). Measured on 149 knife-edge
+/// it beside the correction's own ([`COASTING_RIDE_SE_FRACTION`]). Measured on 149 knife-edge
 /// coasting rides released at 2.9–4.2 m/s (tests/speed.rs; normalized errors against the
 /// Whipple model of the true bicycle at the true speed): at 3.0–3.2 m/s arg γ/θ lay −1.95 ±
 /// 1.55 of its errors with it, −2.44 ± 1.94 without (the replay's phase there +0.027 rad
@@ -526,7 +532,7 @@ pub fn correction_through_speed(
     let at = |dv: f64| {
         let mut w = *window;
         w.speed_mps += dv;
-        coasting_correction(model, &w)
+        coasting_correction(model, &w).map(|c| c.taken_off)
     };
     if !(speed_se_mps.is_finite() && speed_se_mps > 0.0) {
         return [0.0; 4];
@@ -594,43 +600,65 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
         .map(|(t, _)| t)
 }
 
-/// How much of [`replay_coasting`] is taken off the fitted eigenvalue. The measured bicycle's rigid-wheeled model gives the bias; on
-/// simulated coasting rides the true bias was that (knife-edge wheels) or of the opposite sign
-/// (compliant tyres, steer damping: their mode shape changes differently with speed), and which
-/// the lab's bicycle is the ride stage cannot know. A quarter is taken off, the middle of the
-/// two ends: over 100 coasting rides each (tests/speed.rs), ω's mean normalized error against
-/// the Whipple model (which the gap stage predicts with) is +0.24 on knife-edge wheels and
-/// −0.24 against the simulator's own linearization with tyres and damping (+0.46 and −0.07
-/// with nothing taken off, +0.04 and −0.41 with half), σ's +0.17 and +0.10. Its error is 0.5
-/// of what is taken off ([`COASTING_BIAS_SE_FRACTION`]), about the spread of a bias uniform
-/// over the two ends.
+/// The size of a coasting ride's eigenvalue bias that its error is counted in, as a fraction
+/// of [`replay_coasting`]'s `[re, im]`; none of the replay is taken off the eigenvalue. The
+/// measured bicycle's rigid-wheeled model gives the replay; on simulated coasting rides the
+/// true bias was about half of it (knife-edge wheels) or a tenth of it of the opposite sign
+/// (compliant tyres and steer damping, whose mode shape changes otherwise with speed), and
+/// which the lab's bicycle is the ride stage cannot know: a real one rolls on tyres. Over 100
+/// coasting rides each (tests/speed.rs), ω's mean normalized error against the Whipple model
+/// (which the gap stage predicts with) is +0.43 on knife-edge wheels and −0.07 against the
+/// simulator's own linearization with tyres and damping (+0.24 and −0.24 with a quarter of the
+/// replay taken off and half of this size as its error, +0.04 and −0.41 with half). The fit's standard error holds the whole of
+/// this size ([`COASTING_RIDE_SE_FRACTION`]), and the gap stage makes most of it common to a
+/// campaign's rides ([`COASTING_BIAS_COMMON_FRACTION`]).
 ///
-/// Half was taken off before, fitted to the knife-edge rides alone. Over the noted campaigns
-/// of docs/gap-calibration.md (issue 29) that left a systematic residual on the slow rides of
-/// the effect-free campaigns (below 3.6 m/s σ's mean −0.076 1/s, −0.40 of its errors, and the
-/// residual there +1.0 times the correction taken off, as if a full replay were the bias), which
-/// a rear point mass's fit took up: its mean error −0.24 kg (0.6 of its standard errors), right
-/// beyond the detection limit 33 of 44. With a quarter: −0.14 kg, 36 of 44; the six noted
-/// effects nearest their limits right 128/164 → 132/166; effect-free noted campaigns below p
-/// 0.01 3 of 200 as before (below 0.05 17 → 16), varied 1 → 2 of 200 (13 below 0.05 as
-/// before); over the whole of docs/gap-calibration.md, noted right beyond the limit 324/364 →
-/// 328/366 (the mass 33/44 → 36/44), varied 322/350 → 323/352, sync as before. Nothing taken
-/// off went further (the mass −0.04 kg, 135/167) but left the knife-edge rides' ω +0.46 of its
-/// errors high and 4 of 200 noted controls below 0.01.
+/// Half of the replay was taken off first, fitted to the knife-edge rides alone; over the
+/// noted campaigns of docs/gap-calibration.md (issue 29) that left a systematic residual on
+/// the slow rides of the effect-free campaigns (below 3.6 m/s σ's mean −0.076 1/s, −0.40 of
+/// its errors), which a rear point mass's fit took up: its mean error −0.24 kg, right beyond
+/// the detection limit 33 of 44. A quarter: −0.14 kg, 36 of 44. None, its error carried: the
+/// mass's median normalized error −0.21 → 0.00 (noted), −0.22 → +0.14 (varied), right there 38
+/// of 44; over the whole of docs/gap-calibration.md right beyond the detection limit noted
+/// 328/366 → 334/366 (91.3 %), varied 323/352 → 324/352, sync 409/424 as before; effect-free
+/// campaigns below p 0.01 noted 3 → 4 of 200 (below 0.05 16 → 19), varied 2 → 3 (13), sync 1
+/// (11) as before; outside the library 0 of 600 attributed as before. The cost: a front point
+/// mass's fits went low (noted median z −0.44 → −0.69, within 1 SE 35 → 28 of 50, within 2 SE
+/// 46 → 44). Taking none off without carrying its error (the standard errors as at constant
+/// speed) gave 4 of 200 noted controls below 0.01 too, with the knife-edge rides' ω +0.46 of
+/// their errors unaccounted for.
 ///
 /// These fractions are the replay's from the model's weave alone. Started where the fit
 /// says the motion began instead (`ReplayStart::Fitted`, as the gap stage replays a damped
-/// candidate), measured twice (issue 29): with half, a rear point mass's mean error went to
-/// −0.08 kg but 6 of 200 noted effect-free campaigns fell below p 0.01 and the front frame's
-/// I_xx was right less often (46 → 43 of 50); in full, ω on the knife-edge rides' errors lost
-/// its spread (0.72): that start needs its own fractions.
-pub const COASTING_BIAS_APPLIED: f64 = 0.25;
-/// The standard error left for the correction, as a fraction of the part taken off: a ride's
-/// own (`bikeproc dynamic`). Across a campaign the part not known is one and the same (the
-/// tyres and the damping the rides share decide its sign), so the gap stage treats it as one
-/// error common to every coasting ride, [`COASTING_BIAS_COMMON_FRACTION`] of each ride's
-/// correction, beside [`COASTING_BIAS_OWN_FRACTION`] of it kept as the ride's own.
+/// candidate), measured twice (issue 29): with half taken off, a rear point mass's mean error
+/// went to −0.08 kg but 6 of 200 noted effect-free campaigns fell below p 0.01 and the front
+/// frame's I_xx was right less often (46 → 43 of 50); in full, ω on the knife-edge rides'
+/// errors lost its spread (0.72).
+pub const COASTING_BIAS_ERROR_SCALE: f64 = 0.25;
+/// The standard error of a correction the ride stage takes, as a fraction of it: the mode
+/// shape's (its replay taken off in full), and the gap stage's shifts of a candidate's
+/// replay ([`crate::gap::coasting`]).
 pub const COASTING_BIAS_SE_FRACTION: f64 = 0.5;
+/// The standard error a ride keeps for its coasting correction (`bikeproc dynamic`), per part
+/// `[re, im, |γ/θ|, arg]`, as a fraction of its error scale
+/// ([`CoastingCorrection::error_scale`]). The eigenvalue's, the whole scale (a quarter of the
+/// replay): nothing is taken off it, and the bias lies anywhere from about −0.1 to +0.54 of
+/// the replay (tyres and damping, knife-edge wheels), whose RMS about none is 0.29 of it. With
+/// half the scale, a knife-edge ride released at 2.7 m/s (below the weave speed, the replay
+/// −0.38 1/s in σ) lay 4.45 of its errors from the truth; with the whole, 3.6 (tests/speed.rs,
+/// 40 rides at 2.8–6.3 m/s). The shape's, [`COASTING_BIAS_SE_FRACTION`] of what is taken off.
+///
+/// Across a campaign the part not known is one and the same (the tyres and the damping the
+/// rides share decide it), so the gap stage replaces this by one error common to every
+/// coasting ride, [`COASTING_BIAS_COMMON_FRACTION`] of each ride's scale, beside
+/// [`COASTING_BIAS_OWN_FRACTION`] of it kept as the ride's own: the campaign's test does not
+/// depend on this.
+pub const COASTING_RIDE_SE_FRACTION: [f64; 4] = [
+    1.0,
+    1.0,
+    COASTING_BIAS_SE_FRACTION,
+    COASTING_BIAS_SE_FRACTION,
+];
 /// The common part of the correction's error across one campaign's rides, as a fraction of
 /// each ride's correction: the residual the half-correction left lay at +0.85 of it on
 /// knife-edge wheels and −0.6 with the realistic tyres and damping (the means above, over 100
@@ -663,14 +691,19 @@ pub const COASTING_BIAS_OWN_FRACTION: f64 = 0.3;
 /// −0.0100 on average: fitted to such campaigns, a sensor clock came out 1.25 of its standard
 /// errors low (median of 12), the front frame's I_xx 0.6 low.
 pub const COASTING_SHAPE_APPLIED: f64 = 1.0;
-/// The parts of a [`ReplayStart::Weave`] replay's `[re, im, |γ/θ|, arg]` that the ride stage
-/// takes off a coasting ride's fit ([`COASTING_BIAS_APPLIED`], [`COASTING_SHAPE_APPLIED`]).
-pub const COASTING_APPLIED: [f64; 4] = [
-    COASTING_BIAS_APPLIED,
-    COASTING_BIAS_APPLIED,
-    COASTING_SHAPE_APPLIED,
-    COASTING_SHAPE_APPLIED,
-];
+/// A coasting ride's correction ([`coasting_correction`]): what is taken off its fit, and the
+/// size its error is counted in, each `[re (1/s), im (1/s), |γ/θ|, arg γ/θ (rad)]`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CoastingCorrection {
+    /// Taken off: the mode shape's part of the replay ([`COASTING_SHAPE_APPLIED`]) and the
+    /// slowing bicycle's own change of its shape ([`accel_shape_shift`]); zero in the
+    /// eigenvalue.
+    pub taken_off: [f64; 4],
+    /// The eigenvalue's part: [`COASTING_BIAS_ERROR_SCALE`] of the replay; the shape's: what is
+    /// taken off. The ride's standard errors hold [`COASTING_RIDE_SE_FRACTION`] of it; the gap
+    /// stage's common and own parts are fractions of it too.
+    pub error_scale: [f64; 4],
+}
 
 /// A linear bicycle a coasting ride can be replayed on ([`replay_coasting`]): the Whipple
 /// model here ([`Canonical`]), the gap stage's extended ones (damping, tyres) there.
@@ -760,8 +793,8 @@ const REPLAY_SAMPLES: f64 = 80.0;
 /// Where a replay ([`replay_coasting`]) starts its free motion.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ReplayStart {
-    /// On the model's weave alone: the ride stage's correction, whose part taken off
-    /// ([`COASTING_BIAS_APPLIED`]) was measured with this start.
+    /// On the model's weave alone: the ride stage's correction, whose error's size
+    /// ([`COASTING_BIAS_ERROR_SCALE`]) was measured with this start.
     Weave,
     /// Where the ride's fit says the motion began: its weave (the model's mode shape, the
     /// fit's amplitude and phase in θ) and its real modes as fitted. On a damped bicycle's
@@ -790,18 +823,27 @@ impl CoastingWindow {
     }
 }
 
-/// The whole of what a coasting ride's fit is corrected by on `model`: the part
-/// [`COASTING_APPLIED`] of its replay from the model's weave ([`replay_coasting`],
-/// [`ReplayStart::Weave`]) and the slowing bicycle's own mode shape less the one at constant
-/// speed ([`accel_shape_shift`]), `[re (1/s), im (1/s), |γ/θ|, arg γ/θ (rad)]`. What is left is
-/// to be compared with the model at constant speed. `None` when the model has no weave there; a
-/// replay that fails leaves the shift alone.
-pub fn coasting_correction(model: &impl LinearWeave, w: &CoastingWindow) -> Option<[f64; 4]> {
+/// A coasting ride's correction on `model` ([`CoastingCorrection`]), from its replay from the
+/// model's weave ([`replay_coasting`], [`ReplayStart::Weave`]) and the slowing bicycle's own
+/// mode shape less the one at constant speed ([`accel_shape_shift`]). What is left once
+/// `taken_off` is off the fit is to be compared with the model at constant speed. `None` when
+/// the model has no weave there; a replay that fails leaves the shift alone.
+pub fn coasting_correction(
+    model: &impl LinearWeave,
+    w: &CoastingWindow,
+) -> Option<CoastingCorrection> {
     let shift = accel_shape_shift(model, w)?;
     let replay = replay_coasting(model, w, ReplayStart::Weave).unwrap_or([0.0; 4]);
-    Some(std::array::from_fn(|a| {
-        COASTING_APPLIED[a] * replay[a] + shift[a]
-    }))
+    let shape = |a: usize| COASTING_SHAPE_APPLIED * replay[a] + shift[a];
+    Some(CoastingCorrection {
+        taken_off: [0.0, 0.0, shape(2), shape(3)],
+        error_scale: [
+            COASTING_BIAS_ERROR_SCALE * replay[0],
+            COASTING_BIAS_ERROR_SCALE * replay[1],
+            shape(2),
+            shape(3),
+        ],
+    })
 }
 
 /// What the window's acceleration does to `model`'s mode shape at the window's speed: the
