@@ -210,7 +210,6 @@ pub fn dynamic_test(
     let canonical = Canonical::from_benchmark(&nominal).with_control(model.control);
     let window = CoastingWindow::of(&fit, signals.sample_rate_hz, speed.speed_mps, accel);
     let correction = coasting_correction(&canonical, &window).unwrap_or_default();
-    let coasting_bias = correction.taken_off;
     let through_speed = correction_through_speed(&canonical, &window, speed.speed_se_mps);
     if fit.drift.is_none() {
         // The drift's fit failed: its error is taken from the model's slope dλ/dv times the
@@ -273,7 +272,7 @@ pub fn dynamic_test(
         release_s: signals.release_s,
         catch_s: signals.catch_s,
         fit,
-        coasting_bias,
+        coasting_bias: correction.taken_off,
         coasting_error_scale: correction.error_scale,
         coasting: (accel != 0.0 && correction != CoastingCorrection::default()).then_some(window),
         model,
@@ -609,9 +608,9 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
 /// coasting rides each (tests/speed.rs), ω's mean normalized error against the Whipple model
 /// (which the gap stage predicts with) is +0.43 on knife-edge wheels and −0.07 against the
 /// simulator's own linearization with tyres and damping (+0.24 and −0.24 with a quarter of the
-/// replay taken off and half of this size as its error, +0.04 and −0.41 with half). The fit's standard error holds the whole of
-/// this size ([`COASTING_RIDE_SE_FRACTION`]), and the gap stage makes most of it common to a
-/// campaign's rides ([`COASTING_BIAS_COMMON_FRACTION`]).
+/// replay taken off and half of this size as its error, +0.04 and −0.41 with half). The fit's
+/// standard error holds the whole of this size ([`COASTING_RIDE_SE_FRACTION`]), and the gap
+/// stage makes most of it common to a campaign's rides ([`COASTING_BIAS_COMMON_FRACTION`]).
 ///
 /// Half of the replay was taken off first, fitted to the knife-edge rides alone; over the
 /// noted campaigns of docs/gap-calibration.md (issue 29) that left a systematic residual on
