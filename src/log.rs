@@ -1415,8 +1415,9 @@ const POWERS_OF_TEN: [f64; 23] = [
 /// make an integer m < 2⁵³ and there are k ≤ 22 decimals, m and 10ᵏ are exact doubles and one
 /// division rounds m / 10ᵏ correctly, as the standard parser does. `None` for any other form
 /// (an exponent, more digits, no digit on a side of the point, signs, words), which the
-/// standard parser then reads. A quarter of a log's reading went to the general parser.
-fn plain_decimal(t: &[u8]) -> Option<f64> {
+/// standard parser then reads. A quarter of a log's reading went to the general parser, and
+/// as much of a CSV's ([`crate::signal`]).
+pub(crate) fn plain_decimal(t: &[u8]) -> Option<f64> {
     let number = PlainNumber::scan(t, b'.');
     if number.len != t.len() {
         return None;

@@ -306,9 +306,8 @@ fn number(
     k: usize,
 ) -> Result<f64, SignalError> {
     let field = rec.get(k).unwrap_or(b"").trim_ascii();
-    std::str::from_utf8(field)
-        .ok()
-        .and_then(|s| s.parse::<f64>().ok())
+    crate::log::plain_decimal(field)
+        .or_else(|| std::str::from_utf8(field).ok()?.parse::<f64>().ok())
         .filter(|x| x.is_finite())
         .ok_or_else(|| SignalError::Csv {
             path: path.to_path_buf(),
@@ -404,6 +403,31 @@ impl<R: std::io::Read> CsvRows<R> {
         })
     }
 
+    /// Rows of a table whose header was read elsewhere: `reader` starts at a row's start (a
+    /// part of a file read beside the part before it, its lines numbered from 1).
+    pub fn headless(reader: R, path: &Path, headers: Vec<String>) -> CsvRows<R> {
+        CsvRows {
+            reader: csv::ReaderBuilder::new()
+                .has_headers(false)
+                .flexible(true)
+                .from_reader(reader),
+            path: path.to_path_buf(),
+            headers,
+            first: None,
+            record: csv::ByteRecord::new(),
+        }
+    }
+
+    /// The input read from.
+    pub fn get_ref(&self) -> &R {
+        self.reader.get_ref()
+    }
+
+    /// Where the next row starts (at the end: the end of the input).
+    pub fn position(&self) -> &csv::Position {
+        self.reader.position()
+    }
+
     /// Reads the next row into [`CsvRows::record`] and gives its line; `None` at the end.
     pub fn next_row(&mut self) -> Result<Option<u64>, SignalError> {
         let err = |line: u64, message: String| csv_error(&self.path, line, 1, message);
@@ -474,6 +498,18 @@ impl<R: std::io::Read> CsvRows<R> {
     /// The index of the first column named any of `names` ([`CsvTable::find`]'s rule).
     pub fn find(&self, names: &[&str]) -> Option<usize> {
         find_column(&self.headers, names)
+    }
+}
+
+impl<R: std::io::Read + std::io::Seek> CsvRows<R> {
+    /// Reads on from `position`, the start of a row as [`csv::ByteRecord::position`] gave it
+    /// on an earlier read of the same file (its lines numbered on from there).
+    pub fn seek(&mut self, position: csv::Position) -> Result<(), SignalError> {
+        self.first = None;
+        let line = position.line();
+        self.reader
+            .seek(position)
+            .map_err(|e| csv_error(&self.path, line, 1, format!("cannot read on here: {e}")))
     }
 }
 

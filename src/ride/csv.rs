@@ -12,9 +12,10 @@
 //! shape; without a wheel-speed column the speed must be given.
 //!
 //! A long recording (hours at 100 Hz) is never held whole: [`ride_decays_file`] streams it once
-//! into a [`KickSeries`] (time, roll rate, wheel turning: 9 bytes a row) to find its kicks
-//! ([`find_kicks`]: where each push ends and its free decay ends, and why), then again keeping
-//! only the kicks' windows.
+//! into a [`KickSeries`] (time, roll rate, wheel turning: 9 bytes a row; a large file in two
+//! halves at once), every row checked, to find its kicks ([`find_kicks`]: where each push ends
+//! and its free decay ends, and why), noting where every 128th row starts; then it reads only
+//! the kicks' windows, each from the last note before it.
 
 use super::modal::{fit_modes, Eigenvalue, ModalFit, ModalOptions, ModeShape};
 use super::read::RideError;
@@ -281,24 +282,144 @@ fn plan(
 /// [`Quantity::ALL`]'s order (`NaN` where it has none).
 type Row = [f64; 6];
 
-/// Streams the rows of a ride's CSV through `each(row index, row)`, every value checked where
-/// it is read: a finite number in its quantity's physical range (a wheel speed from −1 m/s, an
-/// encoder's noise at a standstill, to a riding speed's most; an angle within ±π; a rate within
-/// ±100 rad/s), times that advance; a roll or roll rate that never changes is refused (no motion
-/// recorded). Reading stops where `each` returns `false` (the rest of the file unread and
-/// unchecked). Gives the columns used and the number of rows read.
+/// Where a row of a ride's CSV starts, noted on a first pass over a long recording so that a
+/// second reads only the kicks' windows: the row's place in the file, its index and its time (s).
+#[derive(Debug, Clone)]
+struct RowMark {
+    position: csv::Position,
+    row: usize,
+    time_s: f64,
+}
+
+/// Rows from one [`RowMark`] to the next: a second pass reads at most this many rows before
+/// each window (1.3 s at 100 Hz), the marks of 10 million rows taking 3 MB.
+const MARK_ROWS: usize = 128;
+
+/// A file's size and modification time, the same on two passes over it unless it changed
+/// between them.
+fn file_stamp(path: &Path) -> Option<(u64, std::time::SystemTime)> {
+    let meta = std::fs::metadata(path).ok()?;
+    Some((meta.len(), meta.modified().ok()?))
+}
+
+/// Streams the rows of a ride's CSV through `each(row index, row, where it starts)`, every
+/// value checked where it is read: a finite number in its quantity's physical range (a wheel
+/// speed from −1 m/s, an encoder's noise at a standstill, to a riding speed's most; an angle
+/// within ±π; a rate within ±100 rad/s), times that advance; a roll or roll rate that never
+/// changes is refused (no motion recorded). Reading stops where `each` returns `false` (the
+/// rest of the file unread and unchecked). Gives the columns used and the number of rows read.
 fn stream_rows(
     path: &Path,
     given: &Columns,
     rate_hz: Option<f64>,
-    mut each: impl FnMut(usize, &Row) -> bool,
+    each: impl FnMut(usize, &Row, Option<&csv::Position>) -> bool,
 ) -> Result<(Vec<(Quantity, String)>, usize), RideError> {
+    let (mut rows, plan) = open_rows(path, given, rate_hz, u64::MAX)?;
+    let (n, still) = rows_from(&mut rows, &plan, 0, each)?;
+    still.refuse(path, &plan, n)?;
+    Ok((plan.columns(), n))
+}
+
+/// A ride's CSV opened as text ([`crate::kind::open_text`]) up to `limit_bytes`, its header
+/// read and its columns planned.
+fn open_rows(
+    path: &Path,
+    given: &Columns,
+    rate_hz: Option<f64>,
+    limit_bytes: u64,
+) -> Result<
+    (
+        crate::signal::CsvRows<QuoteWatch<impl std::io::Read + Send>>,
+        Plan,
+    ),
+    RideError,
+> {
+    use std::io::Read;
     let file = crate::kind::open_text(path).map_err(|e| {
         let at = e.line.map_or(String::new(), |l| format!("line {l}: "));
         err(path, format!("{at}{}", e.message))
     })?;
-    let mut rows = crate::signal::CsvRows::open(file, path)?;
+    let rows = crate::signal::CsvRows::open(QuoteWatch::new(file.take(limit_bytes)), path)?;
     let plan = plan(path, &rows.headers, |n| rows.find(n), given, rate_hz)?;
+    Ok((rows, plan))
+}
+
+impl Plan {
+    /// The quantities found and their columns' names (the time's source last where the table
+    /// has none).
+    fn columns(&self) -> Vec<(Quantity, String)> {
+        let mut columns: Vec<(Quantity, String)> =
+            self.found.iter().map(|f| (f.0, f.3.clone())).collect();
+        if let Some(rate) = self.rate_hz {
+            columns.push((Quantity::Time, format!("row number at {rate} Hz")));
+        }
+        columns
+    }
+}
+
+/// The roll's and the roll rate's first values over some rows, and whether every other was the
+/// same (no motion recorded).
+#[derive(Debug, Clone, Copy)]
+struct Stillness([(Option<f64>, bool); 2]);
+
+impl Default for Stillness {
+    fn default() -> Stillness {
+        Stillness([(None, true); 2])
+    }
+}
+
+impl Stillness {
+    /// Quantity `w` (0: roll, 1: roll rate) read as `x`.
+    fn see(&mut self, w: usize, x: f64) {
+        match self.0[w].0 {
+            None => self.0[w].0 = Some(x),
+            Some(v) if v != x => self.0[w].1 = false,
+            _ => {}
+        }
+    }
+
+    /// Over these rows and `later` ones.
+    fn then(self, later: Stillness) -> Stillness {
+        Stillness([0, 1].map(|w| {
+            let (a, b) = (self.0[w], later.0[w]);
+            let same = a.0.zip(b.0).is_none_or(|(x, y)| x == y);
+            (a.0.or(b.0), a.1 && b.1 && same)
+        }))
+    }
+
+    /// The error of a file whose roll or roll rate never changes over its `rows` (> 1).
+    fn refuse(&self, path: &Path, plan: &Plan, rows: usize) -> Result<(), RideError> {
+        for (w, q) in [(0, Quantity::Roll), (1, Quantity::RollRate)] {
+            if let (Some(v), true) = self.0[w] {
+                if rows > 1 {
+                    let name = plan
+                        .found
+                        .iter()
+                        .find(|f| f.0 == q)
+                        .map_or("", |f| f.3.as_str());
+                    return Err(err(
+                        path,
+                        format!(
+                            "{} `{name}` is {v} in every row: no motion was recorded",
+                            q.key()
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// [`stream_rows`]' reading from the next row of `rows`, whose index is `first_row` (its time,
+/// where the table has none, from that index). Gives the index after the last row read and
+/// the roll's and roll rate's [`Stillness`] over the rows read.
+fn rows_from<R: std::io::Read>(
+    rows: &mut crate::signal::CsvRows<R>,
+    plan: &Plan,
+    first_row: usize,
+    mut each: impl FnMut(usize, &Row, Option<&csv::Position>) -> bool,
+) -> Result<(usize, Stillness), RideError> {
     let ranges: Vec<Option<(f64, f64, &str)>> = plan
         .found
         .iter()
@@ -313,10 +434,9 @@ fn stream_rows(
         .collect();
     let slot = |q: Quantity| Quantity::ALL.iter().position(|&a| a == q).unwrap_or(0);
     let mut row: Row = [f64::NAN; 6];
-    let mut n = 0usize;
+    let mut n = first_row;
     let mut previous_t: Option<f64> = None;
-    // The first value of the roll and the roll rate, and whether either ever changed.
-    let mut still: [(Option<f64>, bool); 2] = [(None, true), (None, true)];
+    let mut still = Stillness::default();
     while let Some(line) = rows.next_row()? {
         for ((q, k, factor, name), range) in plan.found.iter().zip(&ranges) {
             let x = rows.number(line, *k)? * factor;
@@ -334,16 +454,10 @@ fn stream_rows(
                         .into());
                 }
             }
-            if let Some(w) = match q {
-                Quantity::Roll => Some(0),
-                Quantity::RollRate => Some(1),
-                _ => None,
-            } {
-                match still[w].0 {
-                    None => still[w].0 = Some(x),
-                    Some(v) if v != x => still[w].1 = false,
-                    _ => {}
-                }
+            match q {
+                Quantity::Roll => still.see(0, x),
+                Quantity::RollRate => still.see(1, x),
+                _ => {}
             }
             row[slot(*q)] = x;
         }
@@ -359,36 +473,13 @@ fn stream_rows(
                 .into());
         }
         previous_t = Some(row[0]);
-        let more = each(n, &row);
+        let more = each(n, &row, rows.record().position());
         n += 1;
         if !more {
             break;
         }
     }
-    for (w, q) in [(0, Quantity::Roll), (1, Quantity::RollRate)] {
-        if let (Some(v), true) = still[w] {
-            if n > 1 {
-                let name = plan
-                    .found
-                    .iter()
-                    .find(|f| f.0 == q)
-                    .map_or("", |f| f.3.as_str());
-                return Err(err(
-                    path,
-                    format!(
-                        "{} `{name}` is {v} in every row: no motion was recorded",
-                        q.key()
-                    ),
-                ));
-            }
-        }
-    }
-    let mut columns: Vec<(Quantity, String)> =
-        plan.found.iter().map(|f| (f.0, f.3.clone())).collect();
-    if let Some(rate) = plan.rate_hz {
-        columns.push((Quantity::Time, format!("row number at {rate} Hz")));
-    }
-    Ok((columns, n))
+    Ok((n, still))
 }
 
 /// Reads a ride's CSV: the columns of [`Quantity`] by their recognised names or by `given`.
@@ -404,6 +495,72 @@ pub fn read_csv_ride(
     read_csv_ride_within(path, given, rate_hz, None)
 }
 
+/// Time windows (s) by their starts, with the latest end among each one and those before it: a
+/// time lies in some window when the latest end among the windows started by then reaches it
+/// (a binary search a row, where a scan of every window made a long recording's second pass
+/// quadratic in its kicks).
+struct Windows {
+    sorted: Vec<(f64, f64)>,
+    latest_end: Vec<f64>,
+}
+
+impl Windows {
+    fn new(windows: &[(f64, f64)]) -> Windows {
+        let mut sorted = windows.to_vec();
+        sorted.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let latest_end = sorted
+            .iter()
+            .scan(f64::NEG_INFINITY, |m, &(_, b)| {
+                *m = m.max(b);
+                Some(*m)
+            })
+            .collect();
+        Windows { sorted, latest_end }
+    }
+
+    /// How many windows start by `t`.
+    fn started(&self, t: f64) -> usize {
+        self.sorted.partition_point(|&(a, _)| a <= t)
+    }
+
+    /// Whether `t` lies in a window.
+    fn holds(&self, t: f64) -> bool {
+        let started = self.started(t);
+        started > 0 && self.latest_end[started - 1] >= t
+    }
+
+    /// The last window's end (−∞ without windows).
+    fn last_end(&self) -> f64 {
+        self.latest_end.last().copied().unwrap_or(f64::NEG_INFINITY)
+    }
+}
+
+/// A [`CsvRide`] of the columns read and the values kept.
+fn ride_of(path: &Path, columns: Vec<(Quantity, String)>, values: [Vec<f64>; 6]) -> CsvRide {
+    let [time_s, roll, roll_rate, steer, steer_rate, wheel] = values;
+    let has = |q: Quantity| columns.iter().any(|c| c.0 == q);
+    let column = |q: Quantity, v: Vec<f64>| has(q).then_some(v);
+    CsvRide {
+        path: path.to_path_buf(),
+        time_s,
+        roll_rad: column(Quantity::Roll, roll),
+        roll_rate_rad_per_s: column(Quantity::RollRate, roll_rate),
+        steer_rad: column(Quantity::Steer, steer),
+        steer_rate_rad_per_s: column(Quantity::SteerRate, steer_rate),
+        wheel_speed_mps: column(Quantity::WheelSpeed, wheel),
+        columns,
+    }
+}
+
+/// Appends the quantities of `row` that the file has to `values`.
+fn keep(values: &mut [Vec<f64>; 6], row: &Row) {
+    for (v, x) in values.iter_mut().zip(row) {
+        if !x.is_nan() {
+            v.push(*x);
+        }
+    }
+}
+
 /// [`read_csv_ride`] keeping only the rows within one of `windows` (s; every row when
 /// `None`): a long recording's kicks in memory of their own size, the file read (and checked)
 /// up to the last window's end.
@@ -414,48 +571,73 @@ pub fn read_csv_ride_within(
     windows: Option<&[(f64, f64)]>,
 ) -> Result<CsvRide, RideError> {
     let mut values: [Vec<f64>; 6] = Default::default();
-    // The windows by their starts, with the latest end among each one and those before it: a
-    // time lies in some window when the latest end among the windows started by then reaches it
-    // (a binary search a row, where a scan of every window made a long recording's second pass
-    // quadratic in its kicks).
-    let mut sorted: Vec<(f64, f64)> = windows.map(<[_]>::to_vec).unwrap_or_default();
-    sorted.sort_by(|x, y| x.0.total_cmp(&y.0));
-    let latest_end: Vec<f64> = sorted
-        .iter()
-        .scan(f64::NEG_INFINITY, |m, &(_, b)| {
-            *m = m.max(b);
-            Some(*m)
-        })
-        .collect();
-    let last_end = windows.map(|_| latest_end.last().copied().unwrap_or(f64::NEG_INFINITY));
-    let (columns, _) = stream_rows(path, given, rate_hz, |_, row| {
-        let keep = windows.is_none() || {
-            let started = sorted.partition_point(|&(a, _)| a <= row[0]);
-            started > 0 && latest_end[started - 1] >= row[0]
-        };
-        if keep {
-            for (v, x) in values.iter_mut().zip(row) {
-                if !x.is_nan() {
-                    v.push(*x);
-                }
-            }
+    let windows = windows.map(Windows::new);
+    let (columns, _) = stream_rows(path, given, rate_hz, |_, row, _| {
+        if windows.as_ref().is_none_or(|w| w.holds(row[0])) {
+            keep(&mut values, row);
         }
         // Times advance: past the last window's end nothing more is needed.
-        last_end.is_none_or(|end| row[0] <= end)
+        windows.as_ref().is_none_or(|w| row[0] <= w.last_end())
     })?;
-    let [time_s, roll, roll_rate, steer, steer_rate, wheel] = values;
-    let has = |q: Quantity| columns.iter().any(|c| c.0 == q);
-    let column = |q: Quantity, v: Vec<f64>| has(q).then_some(v);
-    Ok(CsvRide {
-        path: path.to_path_buf(),
-        time_s,
-        roll_rad: column(Quantity::Roll, roll),
-        roll_rate_rad_per_s: column(Quantity::RollRate, roll_rate),
-        steer_rad: column(Quantity::Steer, steer),
-        steer_rate_rad_per_s: column(Quantity::SteerRate, steer_rate),
-        wheel_speed_mps: column(Quantity::WheelSpeed, wheel),
-        columns,
-    })
+    Ok(ride_of(path, columns, values))
+}
+
+/// [`read_csv_ride_within`] on a second pass over a file whose rows a first one checked and
+/// marked ([`RowMark`], in order): before each window not yet reached it reads on from the last
+/// mark before its start, a long recording's kicks read without the rows between them. The file
+/// must be as the first pass found it (`stamp`).
+fn read_marked_windows(
+    path: &Path,
+    given: &Columns,
+    rate_hz: Option<f64>,
+    windows: &[(f64, f64)],
+    marks: &[RowMark],
+    stamp: Option<(u64, std::time::SystemTime)>,
+) -> Result<CsvRide, RideError> {
+    let file = std::fs::File::open(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
+    if stamp.is_none() || file_stamp(path) != stamp {
+        return Err(err(
+            path,
+            "it changed while it was read (its size or time differ from the first pass's): \
+             read it again",
+        ));
+    }
+    let mut rows = crate::signal::CsvRows::open(file, path)?;
+    let plan = plan(path, &rows.headers, |n| rows.find(n), given, rate_hz)?;
+    let windows = Windows::new(windows);
+    let mut values: [Vec<f64>; 6] = Default::default();
+    // The index of the next row the reader gives, and the first window not yet read.
+    let (mut next_row, mut next) = (0usize, 0usize);
+    while next < windows.sorted.len() {
+        let start = windows.sorted[next].0;
+        let before = marks.partition_point(|m| m.time_s <= start);
+        if let Some(mark) = before.checked_sub(1).map(|i| &marks[i]) {
+            if mark.row > next_row {
+                rows.seek(mark.position.clone())?;
+                next_row = mark.row;
+            }
+        }
+        // Read on to the first row beyond every window started by then.
+        let mut reached = windows.sorted.len();
+        let (read_to, _) = rows_from(&mut rows, &plan, next_row, |_, row, _| {
+            let started = windows.started(row[0]);
+            if started > 0 && windows.latest_end[started - 1] >= row[0] {
+                keep(&mut values, row);
+                true
+            } else if started > next {
+                reached = started;
+                false
+            } else {
+                true
+            }
+        })?;
+        if read_to == next_row {
+            break;
+        }
+        next_row = read_to;
+        next = reached;
+    }
+    Ok(ride_of(path, plan.columns(), values))
 }
 
 /// What a CSV decay's eigenvalue was fitted from.
@@ -873,6 +1055,87 @@ impl Times {
     }
 }
 
+/// A long recording's first pass ([`KickSeries::read`]): its kick series and the marks for
+/// the second.
+#[derive(Debug)]
+struct FirstPass {
+    series: KickSeries,
+    marks: Vec<RowMark>,
+}
+
+/// Files from this size (bytes) have their kicks' pass read in two halves at once
+/// ([`KickSeries::read_halves`]): half the time of one pass on two cores.
+const HALVES_FROM_BYTES: u64 = 16 << 20;
+
+/// The second half of a file read by [`KickSeries::read_halves`], as read: each row's time
+/// (where the file has a time column), kick value and wheel turning, a mark (its index and
+/// place in the half) every [`MARK_ROWS`] rows, the rows read, their [`Stillness`], and
+/// whether a `"` was among the bytes.
+#[derive(Debug, Default)]
+struct LaterHalf {
+    times: Vec<f64>,
+    values: Vec<f32>,
+    moving: Vec<bool>,
+    marks: Vec<(usize, csv::Position)>,
+    rows: usize,
+    still: Stillness,
+    quoted: bool,
+}
+
+impl LaterHalf {
+    /// The rows of `path` from byte `cut` (a line's start) on; `None` on any error.
+    fn read(path: &Path, headers: Vec<String>, plan: &Plan, cut: u64) -> Option<LaterHalf> {
+        use std::io::{Read, Seek};
+        let mut file = std::fs::File::open(path).ok()?;
+        file.seek(std::io::SeekFrom::Start(cut)).ok()?;
+        let limit = crate::kind::MAX_INPUT_BYTES.saturating_sub(cut);
+        let mut rows =
+            crate::signal::CsvRows::headless(QuoteWatch::new(file.take(limit)), path, headers);
+        let mut half = LaterHalf::default();
+        let (rows_read, still) = rows_from(&mut rows, plan, 0, |j, row, position| {
+            if plan.rate_hz.is_none() {
+                half.times.push(row[0]);
+            }
+            let value = if row[2].is_nan() { row[1] } else { row[2] };
+            half.values.push(value as f32);
+            half.moving.push(row[5].is_nan() || row[5] > MOVING_MPS);
+            if let Some(position) = position.filter(|_| j % MARK_ROWS == 0) {
+                half.marks.push((j, position.clone()));
+            }
+            true
+        })
+        .ok()?;
+        half.rows = rows_read;
+        half.still = still;
+        half.quoted = rows.get_ref().quoted;
+        Some(half)
+    }
+}
+
+/// A reader noting whether a `"` passed through it: a quoted field may hold a line break, and
+/// a file with one is not cut at a line break.
+struct QuoteWatch<R> {
+    inner: R,
+    quoted: bool,
+}
+
+impl<R> QuoteWatch<R> {
+    fn new(inner: R) -> QuoteWatch<R> {
+        QuoteWatch {
+            inner,
+            quoted: false,
+        }
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for QuoteWatch<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.quoted |= buf[..n].contains(&b'"');
+        Ok(n)
+    }
+}
+
 /// What kicks are found in, 9 bytes a row: the times, the roll rate (its column, or the roll's
 /// central difference) and whether the wheel turns at over [`MOVING_MPS`] (every row when the
 /// file has no wheel speed). A day at 100 Hz in under 80 MB.
@@ -906,24 +1169,137 @@ impl KickSeries {
     }
 
     /// Streams a ride's CSV into its kick series (every row checked as [`read_csv_ride`]
-    /// checks it), with the columns found.
-    fn read(
+    /// checks it), with a mark every [`MARK_ROWS`] rows or so. A file of
+    /// [`HALVES_FROM_BYTES`] or more is read in two halves at once where it can be
+    /// ([`KickSeries::read_halves`]), the same series from either way.
+    fn read(path: &Path, given: &Columns, rate_hz: Option<f64>) -> Result<FirstPass, RideError> {
+        KickSeries::read_from_halves_of(path, given, rate_hz, HALVES_FROM_BYTES)
+    }
+
+    /// [`KickSeries::read`], in halves from `halves_from_bytes`.
+    fn read_from_halves_of(
         path: &Path,
         given: &Columns,
         rate_hz: Option<f64>,
-    ) -> Result<(KickSeries, Vec<(Quantity, String)>), RideError> {
+        halves_from_bytes: u64,
+    ) -> Result<FirstPass, RideError> {
+        let size = std::fs::metadata(path).map_or(0, |m| m.len());
+        if (halves_from_bytes..crate::kind::MAX_INPUT_BYTES).contains(&size) {
+            if let Some(read) = KickSeries::read_halves(path, given, rate_hz, size) {
+                return Ok(read);
+            }
+        }
         let mut series = KickSeries::default();
-        let (columns, _) = stream_rows(path, given, rate_hz, |_, row| {
-            // Row: time, roll, roll rate, steer, steer rate, wheel speed.
-            let value = if row[2].is_nan() { row[1] } else { row[2] };
-            series.push(row[0], value, row[5].is_nan() || row[5] > MOVING_MPS);
+        let mut marks = Vec::new();
+        let (columns, _) = stream_rows(path, given, rate_hz, |n, row, position| {
+            series.take(&mut marks, n, row, position);
             true
         })?;
+        Ok(series.finish(columns, marks))
+    }
+
+    /// Row `n` pushed ([`KickSeries::push`]), marked where `n` is a multiple of [`MARK_ROWS`].
+    fn take(
+        &mut self,
+        marks: &mut Vec<RowMark>,
+        n: usize,
+        row: &Row,
+        position: Option<&csv::Position>,
+    ) {
+        // Row: time, roll, roll rate, steer, steer rate, wheel speed.
+        let value = if row[2].is_nan() { row[1] } else { row[2] };
+        self.push(row[0], value, row[5].is_nan() || row[5] > MOVING_MPS);
+        if let Some(position) = position.filter(|_| n % MARK_ROWS == 0) {
+            marks.push(RowMark {
+                position: position.clone(),
+                row: n,
+                time_s: row[0],
+            });
+        }
+    }
+
+    /// The series of every row read, its roll differentiated where the file has no roll rate.
+    fn finish(mut self, columns: Vec<(Quantity, String)>, marks: Vec<RowMark>) -> FirstPass {
         // The columns have a roll rate or a roll angle ([`plan`] refuses a file with neither).
         if !columns.iter().any(|c| c.0 == Quantity::RollRate) {
-            series.differentiate();
+            self.differentiate();
         }
-        Ok((series, columns))
+        FirstPass {
+            series: self,
+            marks,
+        }
+    }
+
+    /// [`KickSeries::read`] of a file of `size` bytes in two halves at once, cut at the first line
+    /// break from its middle on: the first half into the series as it is read, the second into
+    /// [`LaterHalf`] (the times of its rows, where they count from the first row, known only
+    /// once the first half is counted), appended after. `None` wherever this cannot give what
+    /// one pass would (a `"` in the file, whose quoted field might hold the line break; no line
+    /// break; any error, found again with its line by the pass over the whole).
+    fn read_halves(
+        path: &Path,
+        given: &Columns,
+        rate_hz: Option<f64>,
+        size: u64,
+    ) -> Option<FirstPass> {
+        use std::io::{Read, Seek};
+        let cut = {
+            let mut file = std::fs::File::open(path).ok()?;
+            file.seek(std::io::SeekFrom::Start(size / 2)).ok()?;
+            let mut head = Vec::with_capacity(1 << 16);
+            file.take(1 << 16).read_to_end(&mut head).ok()?;
+            size / 2 + head.iter().position(|&b| b == b'\n')? as u64 + 1
+        };
+        let (mut first, plan) = open_rows(path, given, rate_hz, cut).ok()?;
+        let headers = first.headers.clone();
+        let mut last_t = f64::NEG_INFINITY;
+        let (later, (mut series, mut marks, n1, still, end)) = std::thread::scope(|scope| {
+            let later = scope.spawn(|| LaterHalf::read(path, headers, &plan, cut));
+            let mut series = KickSeries::default();
+            let mut marks = Vec::new();
+            let read = rows_from(&mut first, &plan, 0, |n, row, position| {
+                series.take(&mut marks, n, row, position);
+                last_t = row[0];
+                true
+            });
+            let later = later.join().ok().flatten();
+            let first = read
+                .ok()
+                .filter(|_| !first.get_ref().quoted)
+                .map(|(n1, still)| (series, marks, n1, still, first.position().clone()));
+            later.zip(first)
+        })?;
+        if later.quoted || later.rows == 0 {
+            return None;
+        }
+        // The second half's rows and marks, numbered on from the first's.
+        let time = |j: usize| match plan.rate_hz {
+            Some(rate) => (n1 + j) as f64 / rate,
+            None => later.times[j],
+        };
+        if plan.rate_hz.is_none() && last_t >= time(0) {
+            return None;
+        }
+        let still = still.then(later.still);
+        still.refuse(path, &plan, n1 + later.rows).ok()?;
+        for j in 0..later.rows {
+            series.push(time(j), f64::from(later.values[j]), later.moving[j]);
+        }
+        for (j, at) in later.marks {
+            let position = {
+                let mut p = csv::Position::new();
+                p.set_byte(cut + at.byte())
+                    .set_line(end.line() - 1 + at.line())
+                    .set_record(end.record() + at.record());
+                p
+            };
+            marks.push(RowMark {
+                position,
+                row: n1 + j,
+                time_s: time(j),
+            });
+        }
+        Some(series.finish(plan.columns(), marks))
     }
 
     fn push(&mut self, t: f64, value: f64, moving: bool) {
@@ -1327,8 +1703,9 @@ fn no_kick(path: &Path, span_s: f64) -> RideError {
 }
 
 /// [`ride_decays`] of a ride's CSV file, read in bounded memory: with a window, only its rows are
-/// kept; without, a first pass finds the kicks in the compact [`KickSeries`] (9 bytes a row) and a
-/// second keeps only the rows of their windows. Every row is checked in each pass.
+/// kept; without, a first pass finds the kicks in the compact [`KickSeries`] (9 bytes a row),
+/// checking every row and marking where they start, and a second reads only the rows of
+/// their windows.
 pub fn ride_decays_file(
     path: &Path,
     columns: &Columns,
@@ -1342,7 +1719,8 @@ pub fn ride_decays_file(
         let ride = read_csv_ride_within(path, columns, rate_hz, Some(&[w]))?;
         return ride_decays(&ride, window_s, given, model, options);
     }
-    let (kicks, span_s) = find_kicks_file(path, columns, rate_hz)?;
+    let stamp = file_stamp(path);
+    let (kicks, span_s, marks) = find_kicks_marked(path, columns, rate_hz)?;
     if span_s <= WHOLE_RECORD_MAX_S {
         let ride = read_csv_ride(path, columns, rate_hz)?;
         return ride_decays(&ride, None, given, model, options);
@@ -1351,7 +1729,7 @@ pub fn ride_decays_file(
         return Err(no_kick(path, span_s));
     }
     let windows: Vec<(f64, f64)> = kicks.iter().map(|k| k.window_s).collect();
-    let ride = read_csv_ride_within(path, columns, rate_hz, Some(&windows))?;
+    let ride = read_marked_windows(path, columns, rate_hz, &windows, &marks, stamp)?;
     Ok(decays_of(&ride, kicks, given, model, options))
 }
 
@@ -1362,14 +1740,23 @@ pub fn find_kicks_file(
     columns: &Columns,
     rate_hz: Option<f64>,
 ) -> Result<(Vec<Kick>, f64), RideError> {
-    let (series, _) = KickSeries::read(path, columns, rate_hz)?;
+    find_kicks_marked(path, columns, rate_hz).map(|(kicks, span_s, _)| (kicks, span_s))
+}
+
+/// [`find_kicks_file`] with the pass's [`RowMark`]s.
+fn find_kicks_marked(
+    path: &Path,
+    columns: &Columns,
+    rate_hz: Option<f64>,
+) -> Result<(Vec<Kick>, f64, Vec<RowMark>), RideError> {
+    let FirstPass { series, marks, .. } = KickSeries::read(path, columns, rate_hz)?;
     let n = series.len();
     let span_s = if n > 0 {
         series.t(n - 1) - series.t(0)
     } else {
         0.0
     };
-    Ok((find_kicks_in(&series), span_s))
+    Ok((find_kicks_in(&series), span_s, marks))
 }
 
 /// The samples whose times (strictly increasing, as the reader keeps them) lie in `[a, b]`.
@@ -1605,5 +1992,158 @@ impl DecaySummary {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scratch directory of this test's own.
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("bikeproc_csv_{name}_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A recording of `rows` rows at 100 Hz: with a time column or without, its roll rate or
+    /// its roll, a wheel speed that stops for a while (rows 3,000–3,999), seeded noise.
+    fn recording(rows: usize, time: bool, rate: bool) -> String {
+        use crate::sim::draw::Draw;
+        let mut rng = crate::sim::draw::seeded(32);
+        let mut text = String::new();
+        text += if time { "time_s," } else { "" };
+        text += if rate {
+            "roll_rate_rad_per_s"
+        } else {
+            "roll_rad"
+        };
+        text += ",rear_wheel_speed_m_per_s\n";
+        for i in 0..rows {
+            if time {
+                text += &format!("{:.2},", i as f64 * 0.01);
+            }
+            let x = 0.05 * (i as f64 * 0.05).sin() + 0.002 * rng.normal();
+            let v = if (3000..4000).contains(&i) { 0.0 } else { 5.0 };
+            text += &format!("{x:.5},{v:.3}\n");
+        }
+        text
+    }
+
+    /// The row `mark` names, read by seeking a fresh reader to it: its line and its first value.
+    fn row_at(path: &Path, mark: &RowMark) -> (u64, f64) {
+        let file = std::fs::File::open(path).unwrap();
+        let mut rows = crate::signal::CsvRows::open(file, path).unwrap();
+        rows.seek(mark.position.clone()).unwrap();
+        let line = rows.next_row().unwrap().unwrap();
+        (line, rows.number(line, 0).unwrap())
+    }
+
+    /// Issue 32 item 5: the first pass read in two halves at once gives the series one pass
+    /// gives, bit for bit (the times, the kick values, the wheel turning, the columns), with a
+    /// time column or with `--rate`, from a roll rate or a roll (differentiated across the
+    /// cut); every mark of either way names the row it says, at its line (the header is line 1).
+    #[test]
+    fn halves_read_what_one_pass_reads() {
+        let dir = scratch("halves");
+        for (time, rate) in [(true, true), (false, true), (true, false)] {
+            let path = dir.join("ride.csv");
+            let text = recording(20_011, time, rate);
+            std::fs::write(&path, &text).unwrap();
+            let rate_hz = (!time).then_some(100.0);
+            let given = Columns::default();
+            let size = text.len() as u64;
+            assert!(KickSeries::read_halves(&path, &given, rate_hz, size).is_some());
+            let one = KickSeries::read_from_halves_of(&path, &given, rate_hz, u64::MAX).unwrap();
+            let two = KickSeries::read_from_halves_of(&path, &given, rate_hz, 0).unwrap();
+            let (one, one_marks, two, two_marks) = (one.series, one.marks, two.series, two.marks);
+            assert_eq!(one.len(), 20_011);
+            assert_eq!(one.times.base, two.times.base);
+            assert_eq!(one.times.offset, two.times.offset);
+            assert_eq!(one.rate, two.rate);
+            assert_eq!(one.moving, two.moving);
+            assert_eq!(one_marks.len(), 20_011_usize.div_ceil(MARK_ROWS));
+            assert!(two_marks.len() >= one_marks.len());
+            for mark in one_marks.iter().chain(&two_marks) {
+                let (line, first) = row_at(&path, mark);
+                assert_eq!(line, mark.row as u64 + 2, "{mark:?}");
+                let want = text.lines().nth(mark.row + 1).unwrap();
+                let want: f64 = want.split(',').next().unwrap().parse().unwrap();
+                assert_eq!(first, want, "{mark:?}");
+                let t = if time { want } else { mark.row as f64 / 100.0 };
+                assert_eq!(mark.time_s, t, "{mark:?}");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A file the halves cannot read as one pass does is read in one pass: a quoted field (which
+    /// may hold a line break) anywhere, or a bad value in the second half, whose error then
+    /// names its line in the whole file.
+    #[test]
+    fn a_quote_or_an_error_is_read_in_one_pass() {
+        let dir = scratch("quoted");
+        let path = dir.join("ride.csv");
+        let text = recording(20_000, true, true);
+        let given = Columns::default();
+        let quoted = text.replacen("\n1.00,", "\n\"1.00\",", 1);
+        std::fs::write(&path, &quoted).unwrap();
+        assert!(KickSeries::read_halves(&path, &given, None, quoted.len() as u64).is_none());
+        assert_eq!(
+            KickSeries::read_from_halves_of(&path, &given, None, 0)
+                .unwrap()
+                .series
+                .len(),
+            20_000
+        );
+        let bad = text.replacen("\n150.00,", "\n150.00x,", 1);
+        std::fs::write(&path, &bad).unwrap();
+        assert!(KickSeries::read_halves(&path, &given, None, bad.len() as u64).is_none());
+        let error = KickSeries::read_from_halves_of(&path, &given, None, 0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains(":15002:1:") && error.contains("150.00x"),
+            "{error}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Issue 32 item 5: the second pass from the first's marks keeps exactly the rows the
+    /// windowed reader keeps (every window's rows, in order, once, overlapping windows too), and
+    /// refuses a file that changed between the passes.
+    #[test]
+    fn the_marked_pass_keeps_what_the_windowed_reader_keeps() {
+        let dir = scratch("marked");
+        let path = dir.join("ride.csv");
+        std::fs::write(&path, recording(20_000, true, true)).unwrap();
+        let given = Columns::default();
+        let marks = KickSeries::read_from_halves_of(&path, &given, None, 0)
+            .unwrap()
+            .marks;
+        let windows = [
+            (30.0, 31.5),
+            (2.0, 9.0),
+            (5.0, 6.0),
+            (8.5, 12.25),
+            (40.0, 40.0),
+            (150.0, 151.0),
+            (199.5, 400.0),
+        ];
+        let stamp = file_stamp(&path);
+        let marked = read_marked_windows(&path, &given, None, &windows, &marks, stamp).unwrap();
+        let kept = read_csv_ride_within(&path, &given, None, Some(&windows)).unwrap();
+        assert_eq!(marked.time_s, kept.time_s);
+        assert_eq!(marked.roll_rate_rad_per_s, kept.roll_rate_rad_per_s);
+        assert_eq!(marked.wheel_speed_mps, kept.wheel_speed_mps);
+        assert_eq!(marked.columns, kept.columns);
+        assert_eq!(marked.time_s.len(), 1026 + 151 + 1 + 101 + 50);
+        let other = stamp.map(|(len, time)| (len + 1, time));
+        let error = read_marked_windows(&path, &given, None, &windows, &marks, other).unwrap_err();
+        assert!(
+            error.to_string().contains("changed while it was read"),
+            "{error}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
