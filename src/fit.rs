@@ -874,7 +874,7 @@ pub fn fit_short_decay(
     let sum_sq: f64 = x.iter().map(|v| v * v).sum();
     let mut carrier = vec![(0.0, 0.0); tau.len()];
     // The best (parameters, residual sum of squares) over every σ at one ω.
-    let mut best_at = |omega: f64| -> Option<(Vec<f64>, f64)> {
+    let mut best_at = |omega: f64| -> Option<([f64; 5], f64)> {
         for (slot, t) in carrier.iter_mut().zip(&tau) {
             *slot = (omega * t).sin_cos();
         }
@@ -893,7 +893,7 @@ pub fn fit_short_decay(
         .filter_map(|omega| best_at(omega).map(|(_, r)| (omega, r)))
         .collect();
     coarse_best.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut best: Option<(Vec<f64>, f64)> = None;
+    let mut best: Option<([f64; 5], f64)> = None;
     for &(centre, _) in coarse_best.iter().take(SHORT_DECAY_REFINED) {
         let lo = (centre - coarse).max(omega_range.0);
         let hi = (centre + coarse).min(omega_range.1);
@@ -914,7 +914,8 @@ pub const SHORT_DECAY_REFINED: usize = 3;
 
 /// [`linear_step`] without a trend from a record's envelope `e^{−στ}` and carrier
 /// `(sin ωτ, cos ωτ)` at every sample; the residual sum of squares from the normal equations
-/// (Σx² − pᵀAᵀx, `sum_sq` = Σx²).
+/// (Σx² − pᵀAᵀx, `sum_sq` = Σx²). The sums of the row (1, e sin, e cos) times itself and
+/// times x, each product once (the upper triangle, mirrored), in the samples' order.
 fn linear_step_on(
     sigma: f64,
     omega: f64,
@@ -922,18 +923,27 @@ fn linear_step_on(
     carrier: &[(f64, f64)],
     x: &[f64],
     sum_sq: f64,
-) -> Option<(Vec<f64>, f64)> {
-    let mut ata = nalgebra::Matrix3::<f64>::zeros();
-    let mut atb = nalgebra::Vector3::<f64>::zeros();
+) -> Option<([f64; 5], f64)> {
+    let [mut a00, mut a01, mut a02, mut a11, mut a12, mut a22] = [0.0; 6];
+    let [mut b0, mut b1, mut b2] = [0.0; 3];
     for ((&e, &(s, c)), &xi) in envelope.iter().zip(carrier).zip(x) {
-        let row = nalgebra::Vector3::new(1.0, e * s, e * c);
-        ata += row * row.transpose();
-        atb += row * xi;
+        let (es, ec) = (e * s, e * c);
+        a00 += 1.0;
+        a01 += es;
+        a02 += ec;
+        a11 += es * es;
+        a12 += es * ec;
+        a22 += ec * ec;
+        b0 += xi;
+        b1 += es * xi;
+        b2 += ec * xi;
     }
+    let ata = nalgebra::Matrix3::new(a00, a01, a02, a01, a11, a12, a02, a12, a22);
+    let atb = nalgebra::Vector3::new(b0, b1, b2);
     let sol = ata.cholesky()?.solve(&atb);
     let r = sum_sq - sol.dot(&atb);
     r.is_finite()
-        .then(|| (vec![sol[0], sol[1], sol[2], sigma, omega], r))
+        .then_some(([sol[0], sol[1], sol[2], sigma, omega], r))
 }
 
 /// Everything measured about one free oscillation.

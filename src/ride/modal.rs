@@ -214,8 +214,9 @@ struct Basis {
 /// products' rounding grows with the run (below 1e-14 relative over 32 samples).
 const BASIS_RUN: usize = 32;
 
-/// The iterations a modal fit's Levenberg–Marquardt may take ([`solve`]).
-const SOLVE_ITERATIONS: usize = 200;
+/// The iterations a modal fit's Levenberg–Marquardt may take (every fit of an IMU ride's; a
+/// structure's search in [`ModalOptions::search_iterations`]).
+pub const SOLVE_ITERATIONS: usize = 200;
 
 /// Samples between two checks of a trial's partial cost against the cost to beat
 /// ([`Problem::rss_within`]).
@@ -724,6 +725,10 @@ pub struct ModalOptions {
     /// (a window that starts in the castor's tail carries it, whether or not the noise lets
     /// the criterion see it).
     pub min_real_modes: usize,
+    /// The iterations each structure's fit may take while the information criterion chooses
+    /// among them ([`SOLVE_ITERATIONS`] by default; the chosen one is fitted again with that
+    /// many).
+    pub search_iterations: usize,
 }
 
 /// A fit's starting point ([`ModalOptions::start`]): the weave's `[σ, ω]` and the real modes'
@@ -751,6 +756,7 @@ pub fn refit_as(
             only: Some(structure),
             start,
             min_real_modes: 0,
+            search_iterations: SOLVE_ITERATIONS,
         };
         fit_modes(t_s, roll_rad, steer_rad, &options).ok()
     };
@@ -770,6 +776,7 @@ impl Default for ModalOptions {
             only: None,
             start: None,
             min_real_modes: 0,
+            search_iterations: SOLVE_ITERATIONS,
         }
     }
 }
@@ -861,7 +868,8 @@ pub fn fit_modes(
     for st in structures {
         problem.st = st;
         let rates = options.start.map(|s| s.real_rates);
-        let Some(c) = fit_structure(&problem, sigma, omega, rates) else {
+        let Some(c) = fit_structure(&problem, sigma, omega, rates, options.search_iterations)
+        else {
             continue;
         };
         if best.as_ref().is_none_or(|b| c.bic < b.bic) {
@@ -964,6 +972,7 @@ fn fit_structure(
     sigma: f64,
     omega: f64,
     rates: Option<[f64; MAX_REAL_MODES]>,
+    iterations: usize,
 ) -> Option<Candidate> {
     const RATES: [f64; 5] = [-0.3, -1.0, -3.0, -8.0, -20.0];
     let st = problem.st;
@@ -992,7 +1001,7 @@ fn fit_structure(
         })
         .min_by(|a, b| a.0.total_cmp(&b.0))?
         .1;
-    let mut p = solve(problem, p0)?;
+    let mut p = solve_within(problem, p0, iterations)?;
     if !plausible(&p) {
         return None;
     }
@@ -1036,7 +1045,12 @@ fn fit_structure(
 /// three rides; refusing the structures whose fit reached the cap moved ω's mean error +0.48
 /// → +0.71.
 fn solve(problem: &Problem<'_>, p0: Vec<f64>) -> Option<Vec<f64>> {
-    let sol = levenberg_marquardt(problem, 2 * problem.n(), p0, SOLVE_ITERATIONS);
+    solve_within(problem, p0, SOLVE_ITERATIONS)
+}
+
+/// [`solve`] in at most `iterations`.
+fn solve_within(problem: &Problem<'_>, p0: Vec<f64>, iterations: usize) -> Option<Vec<f64>> {
+    let sol = levenberg_marquardt(problem, 2 * problem.n(), p0, iterations);
     let mut p = sol.params;
     if p[1] < 0.0 {
         // ω → −ω (and ω̇, b) is the same curve.
