@@ -2139,13 +2139,15 @@ mod tests {
         let marks = KickSeries::read_from_halves_of(&path, &given, None, 0)
             .unwrap()
             .marks;
+        // Out of order, overlapping, nested, a single instant, far apart (a seek each) and
+        // one past the end.
         let windows = [
-            (30.0, 31.5),
-            (2.0, 9.0),
-            (5.0, 6.0),
-            (8.5, 12.25),
-            (40.0, 40.0),
             (150.0, 151.0),
+            (3.0, 7.5),
+            (6.0, 6.5),
+            (7.0, 12.25),
+            (90.0, 90.0),
+            (120.3, 121.0),
             (199.5, 400.0),
         ];
         let stamp = file_stamp(&path);
@@ -2155,7 +2157,8 @@ mod tests {
         assert_eq!(marked.roll_rate_rad_per_s, kept.roll_rate_rad_per_s);
         assert_eq!(marked.wheel_speed_mps, kept.wheel_speed_mps);
         assert_eq!(marked.columns, kept.columns);
-        assert_eq!(marked.time_s.len(), 1026 + 151 + 1 + 101 + 50);
+        // 3.00–12.25 s, 90.00, 120.30–121.00, 150.00–151.00 and 199.50–199.99 s.
+        assert_eq!(marked.time_s.len(), 926 + 1 + 71 + 101 + 50);
         let other = stamp.map(|(len, time)| (len + 1, time));
         let error = read_marked_windows(&path, &given, None, &windows, &marks, other).unwrap_err();
         assert!(
