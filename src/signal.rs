@@ -332,6 +332,15 @@ fn field_column(rec: &csv::ByteRecord, k: usize) -> usize {
         + (field.len() - field.trim_ascii_start().len())
 }
 
+/// The csv reader of [`CsvRows`]: every record a row (the header is read as one), rows of any
+/// length (counted against the header's by [`CsvRows::next_row`]).
+fn rows_reader<R: std::io::Read>(reader: R) -> csv::Reader<R> {
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(reader)
+}
+
 /// A CSV of named columns read row by row, one record held at a time (a recording of millions
 /// of rows in bounded memory); the same rules and errors as [`CsvTable::read`].
 pub struct CsvRows<R: std::io::Read> {
@@ -347,10 +356,7 @@ pub struct CsvRows<R: std::io::Read> {
 impl<R: std::io::Read> CsvRows<R> {
     /// Reads the header row (or takes a first row of numbers only as the first sample).
     pub fn open(reader: R, path: &Path) -> Result<CsvRows<R>, SignalError> {
-        let mut reader = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(true)
-            .from_reader(reader);
+        let mut reader = rows_reader(reader);
         let err =
             |line: u64, column: usize, message: String| csv_error(path, line, column, message);
         // The header as text (its names trimmed); the rows as bytes, each field trimmed and
@@ -407,10 +413,7 @@ impl<R: std::io::Read> CsvRows<R> {
     /// part of a file read beside the part before it, its lines numbered from 1).
     pub fn headless(reader: R, path: &Path, headers: Vec<String>) -> CsvRows<R> {
         CsvRows {
-            reader: csv::ReaderBuilder::new()
-                .has_headers(false)
-                .flexible(true)
-                .from_reader(reader),
+            reader: rows_reader(reader),
             path: path.to_path_buf(),
             headers,
             first: None,

@@ -525,7 +525,11 @@ impl Windows {
 
     /// Whether `t` lies in a window.
     fn holds(&self, t: f64) -> bool {
-        let started = self.started(t);
+        self.reaches(self.started(t), t)
+    }
+
+    /// Whether one of the first `started` windows reaches `t`.
+    fn reaches(&self, started: usize, t: f64) -> bool {
         started > 0 && self.latest_end[started - 1] >= t
     }
 
@@ -621,7 +625,7 @@ fn read_marked_windows(
         let mut reached = windows.sorted.len();
         let (read_to, _) = rows_from(&mut rows, &plan, next_row, |_, row, _| {
             let started = windows.started(row[0]);
-            if started > 0 && windows.latest_end[started - 1] >= row[0] {
+            if windows.reaches(started, row[0]) {
                 keep(&mut values, row);
                 true
             } else if started > next {
@@ -1114,9 +1118,9 @@ impl LaterHalf {
             if plan.rate_hz.is_none() {
                 half.times.push(row[0]);
             }
-            let value = if row[2].is_nan() { row[1] } else { row[2] };
+            let (value, moving) = kick_sample(row);
             half.values.push(value as f32);
-            half.moving.push(row[5].is_nan() || row[5] > MOVING_MPS);
+            half.moving.push(moving);
             if let Some(position) = position.filter(|_| j % MARK_ROWS == 0) {
                 half.marks.push((j, position.clone()));
             }
@@ -1128,6 +1132,14 @@ impl LaterHalf {
         half.quoted = rows.get_ref().quoted;
         Some(half)
     }
+}
+
+/// What a row gives a [`KickSeries`]: its roll rate (or, in a file without one, its roll) and
+/// whether the wheel turns at over [`MOVING_MPS`] (always, in a file without a wheel speed).
+fn kick_sample(row: &Row) -> (f64, bool) {
+    // Row: time, roll, roll rate, steer, steer rate, wheel speed.
+    let value = if row[2].is_nan() { row[1] } else { row[2] };
+    (value, row[5].is_nan() || row[5] > MOVING_MPS)
 }
 
 /// A reader noting whether a `"` passed through it: a quoted field may hold a line break, and
@@ -1224,9 +1236,8 @@ impl KickSeries {
         row: &Row,
         position: Option<&csv::Position>,
     ) {
-        // Row: time, roll, roll rate, steer, steer rate, wheel speed.
-        let value = if row[2].is_nan() { row[1] } else { row[2] };
-        self.push(row[0], value, row[5].is_nan() || row[5] > MOVING_MPS);
+        let (value, moving) = kick_sample(row);
+        self.push(row[0], value, moving);
         if let Some(position) = position.filter(|_| n % MARK_ROWS == 0) {
             marks.push(RowMark {
                 position: position.clone(),
@@ -1767,7 +1778,7 @@ fn find_kicks_marked(
     columns: &Columns,
     rate_hz: Option<f64>,
 ) -> Result<(Vec<Kick>, f64, Vec<RowMark>), RideError> {
-    let FirstPass { series, marks, .. } = KickSeries::read(path, columns, rate_hz)?;
+    let FirstPass { series, marks } = KickSeries::read(path, columns, rate_hz)?;
     let n = series.len();
     let span_s = if n > 0 {
         series.t(n - 1) - series.t(0)
@@ -2058,7 +2069,7 @@ mod tests {
     }
 
     /// Issue 32 item 5: the first pass read in two halves at once gives the series one pass
-    /// gives, bit for bit (the times, the kick values, the wheel turning, the columns), with a
+    /// gives, bit for bit (the times, the kick values, the wheel turning), with a
     /// time column or with `--rate`, from a roll rate or a roll (differentiated across the
     /// cut); every mark of either way names the row it says, at its line (the header is line 1).
     #[test]
