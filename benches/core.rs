@@ -265,17 +265,21 @@ fn data_campaign_observations() -> (
 }
 
 /// Issues 17 and 33: the diagnosis's cost against the number of rides: the 16 rides of
-/// `data/rides.toml` taken 1/2, 1, 2, … 32 times (the copies 0.02 m/s apart), every
-/// candidate and pair fitted and left one ride out at a time.
-#[divan::bench(sample_count = 3, args = [8, 16, 32, 64, 128, 256, 512])]
+/// `data/rides.toml` taken 1/2, 1, 2, … 64 times (the copies 0.02 m/s apart, their coasting
+/// windows moved with them), every candidate and pair fitted and left one ride out at a time.
+#[divan::bench(sample_count = 3, args = [8, 16, 32, 64, 128, 256, 512, 1000])]
 fn gap_diagnosis_by_rides(bencher: divan::Bencher, n: usize) {
     use bikeproc::gap::{diagnose, GapOptions, Observation};
     let (model, base) = data_campaign_observations();
     let rides: Vec<Observation> = (0..n)
         .map(|k| {
             let mut o = base[k % base.len()].clone();
+            let dv = 0.02 * (k / base.len()) as f64;
             o.ride = format!("{}_{}", o.ride, k / base.len());
-            o.speed_mps += 0.02 * (k / base.len()) as f64;
+            o.speed_mps += dv;
+            if let Some(w) = o.coasting.as_mut() {
+                w.speed_mps += dv;
+            }
             o
         })
         .collect();

@@ -10,16 +10,18 @@
 //! 8.0e-13 in 36.2 µs (medians).
 
 use super::conditions::{ConditionModel, Layout};
-use super::effects::{linear_bike_assuming, predict_weave, specs, Assumed, Effect};
+use super::effects::{
+    clock, linear_bike_assuming, predict_weave, specs, true_speed, Assumed, Effect,
+};
 use super::linear::LinearBike;
+use super::speed_grid;
 use super::Observation;
 use crate::model::uncertain::Parametrized;
 use crate::model::Benchmark;
 use crate::ride::dynamic::COASTING_BIAS_SE_FRACTION;
 use nalgebra::{Complex, DMatrix, DVector};
 
-/// A ride's predicted weave and, where asked for, its mode shape γ/θ.
-type Prediction = (Complex<f64>, Option<Complex<f64>>);
+use speed_grid::Prediction;
 
 /// A campaign (or a study of several conditions, each a campaign) ready to fit: the rides,
 /// each condition's measured bicycle, each ride's condition and unextended weave (the branch
@@ -35,8 +37,12 @@ pub struct Campaign<'a> {
     /// The parts of each ride's residual: 2, the eigenvalue's real and imaginary parts; 4, and
     /// the mode shape's |γ/θ| and phase (rad).
     pub parts: Parts,
-    /// Covariance of `[re₀, im₀, (|γ/θ|₀, arg₀,) re₁, …]` of the residuals (experiment − model).
-    pub cov: DMatrix<f64>,
+    /// Covariance of `[re₀, im₀, (|γ/θ|₀, arg₀,) re₁, …]` of the residuals (experiment − model):
+    /// given whole at the measured bicycle; at a candidate's fit ([`Campaign::at_fit`]) made
+    /// on first use ([`Campaign::cov`]) from `exp_cov`, `model_factor` and the coasting shifts'
+    /// errors. A large campaign reads only its rides' blocks ([`Campaign::cov_block`]): at
+    /// 1,000 rides the whole, 4,000 × 4,000, cost 0.13 s and 128 MB per candidate.
+    pub cov: std::sync::OnceLock<DMatrix<f64>>,
     /// Its Cholesky factor, made once ([`Campaign::factor`]).
     pub factor: std::sync::OnceLock<Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>>,
     /// Its inverse, made on first use (`Campaign::make_inverse`).
@@ -69,6 +75,9 @@ pub struct Campaign<'a> {
     /// From this many rides a ride left out is refitted by an unchecked Newton step
     /// ([`refit_near`], [`super::GapOptions::trusted_newton_rides`]).
     pub trusted_newton_rides: usize,
+    /// Whether a condition with many rides is predicted from a grid of speeds
+    /// ([`super::GapOptions::speed_grid`]).
+    pub speed_grid: bool,
 }
 
 /// Where each ride's parts lie in the residual vector: 2 (the eigenvalue's real and imaginary
@@ -210,21 +219,44 @@ impl<'a> Campaign<'a> {
         params: &[f64],
         rides: &[usize],
     ) -> Option<DVector<f64>> {
-        let base = |c: usize| self.conditions[c].base;
-        let predicted = self.predictions(effects, params, &base, &self.guesses, rides)?;
         let mut r = DVector::zeros(self.parts.count(rides));
         let mut at = 0;
-        for (&i, (w, shape)) in rides.iter().zip(predicted) {
-            let o = &self.obs[i];
-            r[at] = o.weave.re - w.re;
-            r[at + 1] = o.weave.im - w.im;
-            if let Some(s) = shape {
-                r[at + 2] = o.shape_ratio.value - s.norm();
-                r[at + 3] = crate::signal::wrap_pi(o.shape_phase_rad.value - s.arg());
-            }
+        for (&i, ri) in rides
+            .iter()
+            .zip(self.residuals_each(effects, params, rides))
+        {
+            r.rows_mut(at, self.parts.of(i)).copy_from(&ri?);
             at += self.parts.of(i);
         }
         Some(r)
+    }
+
+    /// Each of `rides`' residual as [`Campaign::residuals`] has it; `None` where its
+    /// prediction fails.
+    fn residuals_each(
+        &self,
+        effects: &[Effect],
+        params: &[f64],
+        rides: &[usize],
+    ) -> Vec<Option<DVector<f64>>> {
+        let base = |c: usize| self.conditions[c].base;
+        let predicted = self.predictions_each(effects, params, &base, &self.guesses, rides);
+        rides
+            .iter()
+            .zip(predicted)
+            .map(|(&i, p)| {
+                let (w, shape) = p?;
+                let o = &self.obs[i];
+                let mut r = DVector::zeros(self.parts.of(i));
+                r[0] = o.weave.re - w.re;
+                r[1] = o.weave.im - w.im;
+                if let Some(s) = shape {
+                    r[2] = o.shape_ratio.value - s.norm();
+                    r[3] = crate::signal::wrap_pi(o.shape_phase_rad.value - s.arg());
+                }
+                Some(r)
+            })
+            .collect()
     }
 
     /// The predicted weave and (where its parts include it) mode shape of each of `rides` under
@@ -239,27 +271,79 @@ impl<'a> Campaign<'a> {
         guesses: &[Complex<f64>],
         rides: &[usize],
     ) -> Option<Vec<Prediction>> {
-        let layout = self.layout(effects);
-        let mut bikes: Vec<Option<(LinearBike, Vec<f64>)>> = vec![None; self.conditions.len()];
-        rides
-            .iter()
-            .map(|&i| {
-                let c = self.ride_condition[i];
-                let (bike, own) = bikes[c]
-                    .get_or_insert_with(|| self.bike_on(&base(c), effects, &layout, params, c));
-                let with_shape = self.parts.of(i) > 2;
-                let (w, s) =
-                    predict_weave(bike, effects, own, &self.obs[i], guesses[i], with_shape)?;
-                match &self.coasting_shift {
-                    Some((of, shifts)) if of.as_slice() == effects => {
-                        let d = shifts[i];
-                        let s = s.map(|s| Complex::from_polar(s.norm() + d[2], s.arg() + d[3]));
-                        Some((w + Complex::new(d[0], d[1]), s))
-                    }
-                    _ => Some((w, s)),
-                }
-            })
+        self.predictions_each(effects, params, base, guesses, rides)
+            .into_iter()
             .collect()
+    }
+
+    /// [`Campaign::predictions`] ride by ride, `None` where a ride has none. A condition with
+    /// many rides takes them from a grid of speeds where that is exact to
+    /// [`speed_grid::TOLERANCE`]; the others (and every ride of a campaign of data/'s size)
+    /// from their own eigenproblems.
+    fn predictions_each(
+        &self,
+        effects: &[Effect],
+        params: &[f64],
+        base: &dyn Fn(usize) -> Benchmark,
+        guesses: &[Complex<f64>],
+        rides: &[usize],
+    ) -> Vec<Option<Prediction>> {
+        let layout = self.layout(effects);
+        let mut out: Vec<Option<Prediction>> = vec![None; rides.len()];
+        for c in 0..self.conditions.len() {
+            let here: Vec<usize> = (0..rides.len())
+                .filter(|&k| self.ride_condition[rides[k]] == c)
+                .collect();
+            if here.is_empty() {
+                continue;
+            }
+            let (bike, own) = self.bike_on(&base(c), effects, &layout, params, c);
+            let with_shape = |i: usize| self.parts.of(i) > 2;
+            let speeds: Vec<f64> = here
+                .iter()
+                .map(|&k| true_speed(effects, &own, &self.obs[rides[k]]))
+                .collect();
+            let branches: Vec<Complex<f64>> = here.iter().map(|&k| guesses[rides[k]]).collect();
+            let shape = here.iter().any(|&k| with_shape(rides[k]));
+            let grid = self
+                .speed_grid
+                .then(|| {
+                    speed_grid::interpolate(&speeds, &branches, shape, &|v, guess| {
+                        bike.weave_and_shape(v, guess, shape)
+                    })
+                })
+                .flatten();
+            let clock = clock(effects, &own);
+            for (n, &k) in here.iter().enumerate() {
+                let i = rides[k];
+                let predicted = match grid.as_ref().and_then(|g| g[n]) {
+                    Some((w, s)) => Some((w / clock, s.filter(|_| with_shape(i)))),
+                    None => predict_weave(
+                        &bike,
+                        effects,
+                        &own,
+                        &self.obs[i],
+                        guesses[i],
+                        with_shape(i),
+                    ),
+                };
+                out[k] = predicted.map(|p| self.with_shift(effects, i, p));
+            }
+        }
+        out
+    }
+
+    /// `p`, ride `i`'s prediction under `effects`, with what its coasting replay adds under
+    /// them ([`Campaign::coasting_shift`]), where the campaign holds that candidate's.
+    fn with_shift(&self, effects: &[Effect], i: usize, (w, s): Prediction) -> Prediction {
+        match &self.coasting_shift {
+            Some((of, shifts)) if of.as_slice() == effects => {
+                let d = shifts[i];
+                let s = s.map(|s| Complex::from_polar(s.norm() + d[2], s.arg() + d[3]));
+                (w + Complex::new(d[0], d[1]), s)
+            }
+            _ => (w, s),
+        }
     }
 
     /// The campaign with a candidate's coasting shifts ([`super::coasting`]) taken
@@ -320,19 +404,45 @@ impl<'a> Campaign<'a> {
         if factor.nrows() != self.parts.total() || factor.iter().any(|v| !v.is_finite()) {
             return None;
         }
-        let mut cov = self.exp_cov + &factor * factor.transpose();
-        if let Some(d) = this.coasting_error() {
-            for (k, e) in d.iter().enumerate() {
-                cov[(k, k)] += e * e;
-            }
-        }
         Some(Campaign {
-            cov,
+            cov: std::sync::OnceLock::new(),
             factor: std::sync::OnceLock::new(),
             inverse: std::sync::OnceLock::new(),
             model_factor: factor,
             ..this
         })
+    }
+
+    /// [`Campaign::cov`] whole, made on first use.
+    pub fn cov(&self) -> &DMatrix<f64> {
+        self.cov.get_or_init(|| {
+            let u = &self.model_factor;
+            let mut cov = self.exp_cov + u * u.transpose();
+            if let Some(d) = self.coasting_error() {
+                for (k, e) in d.iter().enumerate() {
+                    cov[(k, k)] += e * e;
+                }
+            }
+            cov
+        })
+    }
+
+    /// Ride `i`'s block of [`Campaign::cov`]: from the whole where it is made (and in a campaign
+    /// of fewer than [`STRUCTURED_WHITENING_RIDES`] rides, which makes it), otherwise from its
+    /// parts.
+    pub fn cov_block(&self, i: usize) -> DMatrix<f64> {
+        let (start, p) = (self.parts.start(i), self.parts.of(i));
+        if self.cov.get().is_some() || self.obs.len() < STRUCTURED_WHITENING_RIDES {
+            return self.cov().view((start, start), (p, p)).into_owned();
+        }
+        let u = self.model_factor.rows(start, p);
+        let mut block = self.exp_cov.view((start, start), (p, p)) + u * u.transpose();
+        if let Some((_, shifts)) = &self.coasting_shift {
+            for a in 0..p {
+                block[(a, a)] += (COASTING_BIAS_SE_FRACTION * shifts[i][a]).powi(2);
+            }
+        }
+        block
     }
 
     /// The indices of `rides`' parts in the residual vector.
@@ -350,7 +460,7 @@ impl<'a> Campaign<'a> {
     /// positive definite.
     pub fn factor(&self) -> Option<&nalgebra::Cholesky<f64, nalgebra::Dyn>> {
         self.factor
-            .get_or_init(|| self.cov.clone().cholesky())
+            .get_or_init(|| self.cov().clone().cholesky())
             .as_ref()
     }
 
@@ -457,7 +567,10 @@ impl<'a> Campaign<'a> {
             self.factor()?.clone()
         } else {
             let idx = self.indices(&rides);
-            let cov = self.cov.select_rows(idx.iter()).select_columns(idx.iter());
+            let cov = self
+                .cov()
+                .select_rows(idx.iter())
+                .select_columns(idx.iter());
             cov.cholesky()?
         };
         Some(Subset {
@@ -501,9 +614,7 @@ impl<'a> Campaign<'a> {
         i: usize,
     ) -> Option<DVector<f64>> {
         let r = self.residuals(effects, params, &[i])?;
-        let idx = self.indices(&[i]);
-        let block = self.cov.select_rows(idx.iter()).select_columns(idx.iter());
-        block.cholesky()?.l().solve_lower_triangular(&r)
+        self.cov_block(i).cholesky()?.l().solve_lower_triangular(&r)
     }
 }
 
@@ -550,9 +661,8 @@ impl<'c, 'a> ResidualCache<'c, 'a> {
         if let Some(e) = find(&lock()) {
             return e;
         }
-        let per_ride = (0..self.campaign.obs.len())
-            .map(|i| self.campaign.residuals(self.effects, params, &[i]))
-            .collect();
+        let all: Vec<usize> = (0..self.campaign.obs.len()).collect();
+        let per_ride = self.campaign.residuals_each(self.effects, params, &all);
         let made = std::sync::Arc::new(Evaluated {
             params: params.to_vec(),
             per_ride,

@@ -42,6 +42,7 @@ pub mod linear;
 pub mod observe;
 pub mod rank;
 pub mod significance;
+pub mod speed_grid;
 pub mod ties;
 pub mod verdict;
 pub use crate::stats;
@@ -276,6 +277,9 @@ pub struct GapOptions {
     /// ([`fit::refit_near`]; [`fit::TRUSTED_NEWTON_RIDES`] by default, `usize::MAX` to check
     /// every step).
     pub trusted_newton_rides: usize,
+    /// Predict a condition with many rides from a grid of speeds where that is exact to
+    /// [`speed_grid::TOLERANCE`] (true by default; false to solve every ride's eigenproblem).
+    pub speed_grid: bool,
 }
 
 impl Default for GapOptions {
@@ -283,6 +287,7 @@ impl Default for GapOptions {
         GapOptions {
             shape: true,
             trusted_newton_rides: fit::TRUSTED_NEWTON_RIDES,
+            speed_grid: true,
         }
     }
 }
@@ -640,7 +645,7 @@ pub fn diagnose_study(
         ride_condition: ride_condition.clone(),
         guesses: guesses.clone(),
         parts: parts.clone(),
-        cov: &exp_cov + &model_cov,
+        cov: std::sync::OnceLock::from(&exp_cov + &model_cov),
         factor: std::sync::OnceLock::new(),
         inverse: std::sync::OnceLock::new(),
         model_factor: wm.factor.select_rows(model_idx.iter()),
@@ -651,6 +656,7 @@ pub fn diagnose_study(
         coasting: &coasting,
         coasting_shift: None,
         trusted_newton_rides: options.trusted_newton_rides,
+        speed_grid: options.speed_grid,
     };
     d.parts_per_ride = parts.most();
     d.dof = total;
@@ -689,7 +695,7 @@ pub fn diagnose_study(
         .enumerate()
         .map(|(i, o)| {
             let at = parts.start(i);
-            let se = |a: usize| campaign.cov[(at + a, at + a)].sqrt();
+            let se = |a: usize| campaign.cov()[(at + a, at + a)].sqrt();
             let (re_se, im_se) = (se(0), se(1));
             let (ratio_se, phase_se) = if parts.of(i) > 2 {
                 (se(2), se(3))

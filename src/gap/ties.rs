@@ -115,7 +115,7 @@ pub(super) fn next_rides(
             let (start, p) = (parts.start(i), parts.of(i));
             let model_block = match &model_at_grid {
                 Some(wm) => block(&wm.cov, WEAVE_PARTS * k, p),
-                None => block(&campaign.cov, start, p) - block(exp_cov, start, p),
+                None => campaign.cov_block(i) - block(exp_cov, start, p),
             };
             let Some(chol) = (block(exp_cov, start, p) + model_block).cholesky() else {
                 return zero;
@@ -371,7 +371,6 @@ pub(super) fn next_conditions(
     let rivals = rivals_of(ranking, tied, best);
     let needed = still_needed(best, &rivals);
     let obs = campaign.obs;
-    let parts = &campaign.parts;
     // The changes: (words, from condition, its model changed).
     let mut changes: Vec<(String, usize, Benchmark, crate::model::SteerControl)> = Vec::new();
     for (c, cond) in campaign.conditions.iter().enumerate() {
@@ -430,8 +429,7 @@ pub(super) fn next_conditions(
                 .filter_map(|&v| {
                     let i = nearest(obs, own.iter().copied(), v)?;
                     let b = predict(best, base, *control, v, i)?;
-                    let (start, p) = (parts.start(i), parts.of(i));
-                    let block = campaign.cov.view((start, start), (p, p)).into_owned();
+                    let block = campaign.cov_block(i);
                     let chol = block.cholesky()?;
                     let d: Vec<f64> = rivals
                         .iter()
