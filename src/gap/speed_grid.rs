@@ -6,7 +6,8 @@
 //!
 //! A ride's prediction is an eigenproblem at its speed (4 × 4, or 9 × 9 with compliant tyres),
 //! and a candidate's fit, its errors and its held-out refits ask for every ride's hundreds of
-//! times: with 1,000 rides that was 58 % of `bikeproc gap`'s time. The weave and its shape are
+//! times: with 1,000 rides the diagnosis took 22.7 s solving each ride's, 16.1 s with the
+//! grid (data/rides.toml's rides 62 times over, 0.02 m/s apart). The weave and its shape are
 //! analytic in the speed wherever the weave is a simple eigenvalue, so a condition whose rides
 //! outnumber twice the grid's points ([`STEP_MPS`] apart over their speeds) solves the
 //! eigenproblem at the grid's points only and interpolates each ride by the cubic through the
