@@ -269,20 +269,9 @@ fn data_campaign_observations() -> (
 /// windows moved with them), every candidate and pair fitted and left one ride out at a time.
 #[divan::bench(sample_count = 3, args = [8, 16, 32, 64, 128, 256, 512, 1000])]
 fn gap_diagnosis_by_rides(bencher: divan::Bencher, n: usize) {
-    use bikeproc::gap::{diagnose, GapOptions, Observation};
+    use bikeproc::gap::{diagnose, GapOptions};
     let (model, base) = data_campaign_observations();
-    let rides: Vec<Observation> = (0..n)
-        .map(|k| {
-            let mut o = base[k % base.len()].clone();
-            let dv = 0.02 * (k / base.len()) as f64;
-            o.ride = format!("{}_{}", o.ride, k / base.len());
-            o.speed_mps += dv;
-            if let Some(w) = o.coasting.as_mut() {
-                w.speed_mps += dv;
-            }
-            o
-        })
-        .collect();
+    let rides = bikeproc::gap::observe::copies(&base, n, 0.02, true);
     bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions::default(), &|_, _| {}));
 }
 

@@ -2,7 +2,7 @@
 //! which) against their sealed truth; the campaign in data/; campaigns that support no
 //! conclusion; the diagnosis's tyres against the simulator's.
 
-use bikeproc::gap::{diagnose_campaign, ride_contrasts, Diagnosis};
+use bikeproc::gap::{diagnose_campaign, ride_contrasts, Diagnosis, GapOptions};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::model::uncertain;
 use bikeproc::ride::dynamic::RideManifest;
@@ -594,7 +594,7 @@ fn noted_steer_damping_is_unbiased() {
 /// last ride an index out of bounds). Noted design (coasting rides), 0.1–0.6 N·m·s/rad.
 #[test]
 fn eigenvalue_only_rides_take_their_own_coasting_errors() {
-    use bikeproc::gap::{diagnose, observe::observations, GapOptions};
+    use bikeproc::gap::{diagnose, observe::observations};
     use bikeproc::ride::dynamic::run_campaign;
     use bikeproc::ride::modal::ModalOptions;
     let bike_path = root().join("data/lab_bike.toml");
@@ -696,29 +696,11 @@ fn a_mass_seen_across_rides_is_named_first_at_its_size() {
 /// over 128 rides, 0.003 per ride's part, where the next candidate lies 3,000 away).
 #[test]
 fn a_large_campaigns_refits_trust_the_newton_step() {
-    use bikeproc::gap::{diagnose, observe::observations, GapOptions};
-    use bikeproc::ride::dynamic::run_campaign;
-    use bikeproc::ride::modal::ModalOptions;
-    let manifest = RideManifest::load(&root().join("data/rides.toml")).unwrap();
-    let model = uncertain::load(&manifest.bike_path()).unwrap();
-    let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
-    let (base, _) = observations(&results);
-    let rides: Vec<_> = (0..8 * base.len())
-        .map(|k| {
-            let mut o = base[k % base.len()].clone();
-            o.ride = format!("{}_{}", o.ride, k / base.len());
-            o.speed_mps += 0.02 * (k / base.len()) as f64;
-            o
-        })
-        .collect();
-    let run = |trusted_newton_rides: usize| {
-        let options = GapOptions {
-            trusted_newton_rides,
-            ..GapOptions::default()
-        };
-        diagnose(&rides, &[], &model, &options, &|_, _| {}).unwrap()
+    let newton = |trusted_newton_rides: usize| GapOptions {
+        trusted_newton_rides,
+        ..GapOptions::default()
     };
-    let (trusted, checked) = (run(rides.len()), run(usize::MAX));
+    let (rides, [trusted, checked]) = diagnosed_copies(8, false, [newton(128), newton(usize::MAX)]);
     let (mut worst, mut worst_at_bound): (f64, f64) = (0.0, 0.0);
     for t in &trusted.ranking {
         if let Some(c) = checked.ranking.iter().find(|c| c.effect == t.effect) {
@@ -730,23 +712,15 @@ fn a_large_campaigns_refits_trust_the_newton_step() {
             }
         }
     }
-    let names = |d: &Diagnosis| {
-        d.ranking
-            .iter()
-            .map(|r| r.effect.clone())
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(names(&trusted), names(&checked));
-    assert_eq!(trusted.tied, checked.tied);
+    assert_same_ranking_and_ties(&trusted, &checked);
     assert!(worst < 1e-6, "held-out Σz² apart by {worst:.1e} of itself");
     assert!(
         worst_at_bound < 1e-3,
         "held-out Σz² apart by {worst_at_bound:.1e} of itself with a bound held"
     );
     println!(
-        "{} rides, {} candidates: held-out Σz² within {worst:.1e}, {worst_at_bound:.1e} with a \
-         bound held",
-        rides.len(),
+        "{rides} rides, {} candidates: held-out Σz² within {worst:.1e}, {worst_at_bound:.1e} \
+         with a bound held",
         trusted.ranking.len()
     );
 }
@@ -763,41 +737,12 @@ fn a_large_campaigns_refits_trust_the_newton_step() {
 /// itself (measured: 1.4e-5).
 #[test]
 fn a_large_campaigns_grid_of_speeds_is_its_rides_own_eigenproblems() {
-    use bikeproc::gap::{diagnose, observe::observations, GapOptions};
-    use bikeproc::ride::dynamic::run_campaign;
-    use bikeproc::ride::modal::ModalOptions;
-    let manifest = RideManifest::load(&root().join("data/rides.toml")).unwrap();
-    let model = uncertain::load(&manifest.bike_path()).unwrap();
-    let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
-    let (base, _) = observations(&results);
-    let rides: Vec<_> = (0..20 * base.len())
-        .map(|k| {
-            let mut o = base[k % base.len()].clone();
-            let dv = 0.02 * (k / base.len()) as f64;
-            o.ride = format!("{}_{}", o.ride, k / base.len());
-            o.speed_mps += dv;
-            if let Some(w) = o.coasting.as_mut() {
-                w.speed_mps += dv;
-            }
-            o
-        })
-        .collect();
-    let run = |speed_grid: bool| {
-        let options = GapOptions {
-            speed_grid,
-            ..GapOptions::default()
-        };
-        diagnose(&rides, &[], &model, &options, &|_, _| {}).unwrap()
+    let grid = |speed_grid: bool| GapOptions {
+        speed_grid,
+        ..GapOptions::default()
     };
-    let (grid, own) = (run(true), run(false));
-    let names = |d: &Diagnosis| {
-        d.ranking
-            .iter()
-            .map(|r| r.effect.clone())
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(names(&grid), names(&own));
-    assert_eq!(grid.tied, own.tied);
+    let (rides, [grid, own]) = diagnosed_copies(20, true, [grid(true), grid(false)]);
+    assert_same_ranking_and_ties(&grid, &own);
     let (mut param, mut heldout): (f64, f64) = (0.0, 0.0);
     for (g, o) in grid.ranking.iter().zip(&own.ranking) {
         for ((pg, po), se) in g.params.iter().zip(&o.params).zip(&o.params_se) {
@@ -807,9 +752,8 @@ fn a_large_campaigns_grid_of_speeds_is_its_rides_own_eigenproblems() {
             heldout.max((g.heldout_chi2_after - o.heldout_chi2_after).abs() / o.heldout_chi2_after);
     }
     println!(
-        "{} rides, {} candidates: parameters within {param:.1e} of their errors, held-out Σz² \
-         within {heldout:.1e}",
-        rides.len(),
+        "{rides} rides, {} candidates: parameters within {param:.1e} of their errors, held-out \
+         Σz² within {heldout:.1e}",
         grid.ranking.len()
     );
     assert!(param <= 1e-3, "a parameter {param:.1e} of its error apart");
@@ -817,4 +761,37 @@ fn a_large_campaigns_grid_of_speeds_is_its_rides_own_eigenproblems() {
         heldout <= 4e-4,
         "held-out Σz² {heldout:.1e} of itself apart"
     );
+}
+
+/// The 16 rides of `data/rides.toml` taken `times` times (`gap::observe::copies`, the copies
+/// 0.02 m/s apart, their coasting windows moved with them where `move_windows`) and diagnosed
+/// with each of `options`: the number of rides and the diagnoses.
+fn diagnosed_copies<const N: usize>(
+    times: usize,
+    move_windows: bool,
+    options: [GapOptions; N],
+) -> (usize, [Diagnosis; N]) {
+    use bikeproc::gap::diagnose;
+    use bikeproc::gap::observe::{copies, observations};
+    use bikeproc::ride::dynamic::run_campaign;
+    use bikeproc::ride::modal::ModalOptions;
+    let manifest = RideManifest::load(&root().join("data/rides.toml")).unwrap();
+    let model = uncertain::load(&manifest.bike_path()).unwrap();
+    let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
+    let (base, _) = observations(&results);
+    let rides = copies(&base, times * base.len(), 0.02, move_windows);
+    let diagnoses = options.map(|o| diagnose(&rides, &[], &model, &o, &|_, _| {}).unwrap());
+    (rides.len(), diagnoses)
+}
+
+/// Two diagnoses name the same candidates in the same order and tie the same ones.
+fn assert_same_ranking_and_ties(a: &Diagnosis, b: &Diagnosis) {
+    let names = |d: &Diagnosis| {
+        d.ranking
+            .iter()
+            .map(|r| r.effect.clone())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(names(a), names(b));
+    assert_eq!(a.tied, b.tied);
 }

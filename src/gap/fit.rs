@@ -240,7 +240,7 @@ impl<'a> Campaign<'a> {
         rides: &[usize],
     ) -> Vec<Option<DVector<f64>>> {
         let base = |c: usize| self.conditions[c].base;
-        let predicted = self.predictions_each(effects, params, &base, &self.guesses, rides);
+        let predicted = self.predictions(effects, params, &base, &self.guesses, rides);
         rides
             .iter()
             .zip(predicted)
@@ -261,26 +261,11 @@ impl<'a> Campaign<'a> {
 
     /// The predicted weave and (where its parts include it) mode shape of each of `rides` under
     /// `effects` at `params` (the fitted vector of their layout), each condition's bicycle
-    /// `base(c)`, each ride's branch followed from `guesses` (indexed by ride); `None` when a
-    /// ride has none.
+    /// `base(c)`, each ride's branch followed from `guesses` (indexed by ride); `None` where a
+    /// ride has none. A condition with many rides takes them from a grid of speeds where that
+    /// is exact to [`speed_grid::TOLERANCE`]; the others (and every ride of a campaign of
+    /// data/'s size) from their own eigenproblems.
     fn predictions(
-        &self,
-        effects: &[Effect],
-        params: &[f64],
-        base: &dyn Fn(usize) -> Benchmark,
-        guesses: &[Complex<f64>],
-        rides: &[usize],
-    ) -> Option<Vec<Prediction>> {
-        self.predictions_each(effects, params, base, guesses, rides)
-            .into_iter()
-            .collect()
-    }
-
-    /// [`Campaign::predictions`] ride by ride, `None` where a ride has none. A condition with
-    /// many rides takes them from a grid of speeds where that is exact to
-    /// [`speed_grid::TOLERANCE`]; the others (and every ride of a campaign of data/'s size)
-    /// from their own eigenproblems.
-    fn predictions_each(
         &self,
         effects: &[Effect],
         params: &[f64],
@@ -401,12 +386,16 @@ impl<'a> Campaign<'a> {
         let all: Vec<usize> = (0..self.obs.len()).collect();
         let nominal_base = |c: usize| self.conditions[c].base;
         let this = self.with_coasting(effects, params);
-        let at = this.predictions(effects, params, &nominal_base, &this.guesses, &all)?;
+        let at: Vec<Prediction> = this
+            .predictions(effects, params, &nominal_base, &this.guesses, &all)
+            .into_iter()
+            .collect::<Option<_>>()?;
         let guesses: Vec<Complex<f64>> = at.iter().map(|(w, _)| *w).collect();
         let inputs = &models.first()?.inputs;
         let (_, factor) = crate::uncertainty::propagate_factor(inputs, |x| {
             let base = |c: usize| models[c].benchmark_at(x);
-            let Some(pred) = this.predictions(effects, params, &base, &guesses, &all) else {
+            let pred = this.predictions(effects, params, &base, &guesses, &all);
+            let Some(pred) = pred.into_iter().collect::<Option<Vec<Prediction>>>() else {
                 return vec![f64::NAN; self.parts.total()];
             };
             let mut out = Vec::with_capacity(self.parts.total());

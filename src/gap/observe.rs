@@ -197,6 +197,30 @@ pub struct BandResidual {
     pub im: crate::fit::Estimate,
 }
 
+/// `n` rides from `base`'s taken over and over: copy k of each `k · step_mps` faster and named
+/// `{ride}_{k}`, its coasting window moved with it where `move_windows`. A large campaign from
+/// a small one, for the diagnosis's cost and agreement at many rides (benches, tests).
+pub fn copies(
+    base: &[Observation],
+    n: usize,
+    step_mps: f64,
+    move_windows: bool,
+) -> Vec<Observation> {
+    (0..n)
+        .map(|k| {
+            let copy = k / base.len();
+            let mut o = base[k % base.len()].clone();
+            let dv = step_mps * copy as f64;
+            o.ride = format!("{}_{copy}", o.ride);
+            o.speed_mps += dv;
+            if let Some(w) = o.coasting.as_mut().filter(|_| move_windows) {
+                w.speed_mps += dv;
+            }
+            o
+        })
+        .collect()
+}
+
 /// A campaign's analysed rides as observations, and the names and reasons of those that gave
 /// none.
 pub fn observations(

@@ -143,6 +143,19 @@ impl Deviates {
         rand::RngExt::random::<f64>(&mut self.0)
     }
 
+    /// `v` filled with standard normal deviates, a pair at a time (the last pair's second
+    /// dropped where `v`'s length is odd).
+    fn fill_normal(&mut self, v: &mut DVector<f64>) {
+        let n = v.len();
+        for k in (0..n).step_by(2) {
+            let z = self.normal_pair();
+            v[k] = z[0];
+            if k + 1 < n {
+                v[k + 1] = z[1];
+            }
+        }
+    }
+
     fn normal_pair(&mut self) -> [f64; 2] {
         let u = 1.0 - self.uniform();
         let v = self.uniform();
@@ -164,25 +177,31 @@ fn null_draws(directions: &[Direction], n: usize) -> (Vec<f64>, Vec<f64>) {
 
 /// [`null_draws`] of every part.
 fn null_draws_whole(directions: &[Direction], n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut deviates = Deviates::new(NULL_SEED);
     let mut u = DVector::zeros(n);
-    let (mut campaign, mut targeted) = (
-        Vec::with_capacity(NULL_DRAWS),
-        Vec::with_capacity(NULL_DRAWS),
-    );
-    for _ in 0..NULL_DRAWS {
-        for k in (0..n).step_by(2) {
-            let z = deviates.normal_pair();
-            u[k] = z[0];
-            if k + 1 < n {
-                u[k + 1] = z[1];
-            }
-        }
+    smallest_p_draws(n, |deviates| {
+        deviates.fill_normal(&mut u);
         let chi2 = u.norm_squared();
         let best = directions
             .iter()
             .map(|d| single_p(d.likelihood_ratio(&u), d.dof(), chi2, n))
             .fold(1.0, f64::min);
+        (chi2, best)
+    })
+}
+
+/// [`NULL_DRAWS`] draws of `(χ², the directions' smallest p)` from `draw` (on `n` parts): the
+/// sorted smallest p-values over the χ² test and the directions, and over the directions alone.
+fn smallest_p_draws(
+    n: usize,
+    mut draw: impl FnMut(&mut Deviates) -> (f64, f64),
+) -> (Vec<f64>, Vec<f64>) {
+    let mut deviates = Deviates::new(NULL_SEED);
+    let (mut campaign, mut targeted) = (
+        Vec::with_capacity(NULL_DRAWS),
+        Vec::with_capacity(NULL_DRAWS),
+    );
+    for _ in 0..NULL_DRAWS {
+        let (chi2, best) = draw(&mut deviates);
         targeted.push(best);
         campaign.push(best.min(stats::chi2_sf(chi2, n)));
     }
@@ -218,21 +237,10 @@ fn null_draws_in_span(directions: &[Direction], n: usize) -> Option<(Vec<f64>, V
             None => d.basis.tr_mul(&q),
         })
         .collect();
-    let mut deviates = Deviates::new(NULL_SEED);
     let mut z = DVector::zeros(m);
-    let (mut campaign, mut targeted) = (
-        Vec::with_capacity(NULL_DRAWS),
-        Vec::with_capacity(NULL_DRAWS),
-    );
-    for _ in 0..NULL_DRAWS {
-        for k in (0..m).step_by(2) {
-            let x = deviates.normal_pair();
-            z[k] = x[0];
-            if k + 1 < m {
-                z[k + 1] = x[1];
-            }
-        }
-        let chi2 = z.norm_squared() + chi2_deviate(n - m, &mut deviates);
+    Some(smallest_p_draws(n, |deviates| {
+        deviates.fill_normal(&mut z);
+        let chi2 = z.norm_squared() + chi2_deviate(n - m, deviates);
         let best = directions
             .iter()
             .zip(&read)
@@ -245,12 +253,8 @@ fn null_draws_in_span(directions: &[Direction], n: usize) -> Option<(Vec<f64>, V
                 single_p(lr, d.dof(), chi2, n)
             })
             .fold(1.0, f64::min);
-        targeted.push(best);
-        campaign.push(best.min(stats::chi2_sf(chi2, n)));
-    }
-    campaign.sort_by(f64::total_cmp);
-    targeted.sort_by(f64::total_cmp);
-    Some((campaign, targeted))
+        (chi2, best)
+    }))
 }
 
 /// A deviate of χ²(ν), ν ≥ 2: twice a Gamma(ν/2) deviate by Marsaglia and Tsang's
