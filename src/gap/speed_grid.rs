@@ -93,6 +93,25 @@ pub fn interpolate(
             Some([w.re, w.im, s.re, s.im])
         })
         .collect();
+    // Each interval checked once: from its left point k, whether the two fourth differences
+    // about it (points k − 2 … k + 3) put the cubic's error within the tolerance.
+    let fourth = |k: usize, c: usize| -> Option<f64> {
+        let f = |j: usize| values[j].map(|x| x[c]);
+        Some(f(k)? - 4.0 * f(k + 1)? + 6.0 * f(k + 2)? - 4.0 * f(k + 3)? + f(k + 4)?)
+    };
+    let interval_ok: Vec<bool> = (0..values.len())
+        .map(|k| {
+            let error = (k >= 2 && k + 3 < values.len())
+                .then(|| {
+                    (0..4)
+                        .map(|c| Some(fourth(k - 2, c)?.abs().max(fourth(k - 1, c)?.abs())))
+                        .try_fold(0.0, |m: f64, e| Some(m.max(e?)))
+                })
+                .flatten();
+            // Not finite (a point's value), or too large.
+            error.is_some_and(|e| e * 3.0 / 128.0 <= TOLERANCE)
+        })
+        .collect();
     Some(
         speeds_mps
             .iter()
@@ -100,21 +119,8 @@ pub fn interpolate(
                 let x = v / STEP_MPS;
                 let j = x.floor();
                 let t = x - j;
-                // The interval's left point in the grid, and the six points its check reads.
                 let left = (j as i64 - first) as usize;
-                let six: Vec<[f64; 4]> = (left - 2..=left + 3)
-                    .map(|k| values[k])
-                    .collect::<Option<_>>()?;
-                let fourth = |s: &[[f64; 4]], c: usize| {
-                    s[0][c] - 4.0 * s[1][c] + 6.0 * s[2][c] - 4.0 * s[3][c] + s[4][c]
-                };
-                let error = (0..4)
-                    .map(|c| fourth(&six[..5], c).abs().max(fourth(&six[1..], c).abs()))
-                    .fold(0.0, f64::max)
-                    * 3.0
-                    / 128.0;
-                // Not finite (a point's value), or too large.
-                if error.is_nan() || error > TOLERANCE {
+                if !interval_ok[left] {
                     return None;
                 }
                 let weights = [
@@ -123,7 +129,11 @@ pub fn interpolate(
                     -(t + 1.0) * t * (t - 2.0) / 2.0,
                     (t + 1.0) * t * (t - 1.0) / 6.0,
                 ];
-                let value = |c: usize| -> f64 { (0..4).map(|k| weights[k] * six[k + 1][c]).sum() };
+                let value = |c: usize| -> f64 {
+                    (0..4)
+                        .map(|k| weights[k] * values[left - 1 + k].map_or(f64::NAN, |x| x[c]))
+                        .sum()
+                };
                 let w = Complex::new(value(0), value(1));
                 let s = shape.then(|| Complex::new(value(2), value(3)));
                 Some((w, s))
