@@ -10,9 +10,7 @@
 //! 8.0e-13 in 36.2 µs (medians).
 
 use super::conditions::{ConditionModel, Layout};
-use super::effects::{
-    clock, linear_bike_assuming, predict_weave, specs, true_speed, Assumed, Effect,
-};
+use super::effects::{clock, linear_bike_assuming, specs, true_speed, Assumed, Effect};
 use super::linear::LinearBike;
 use super::speed_grid;
 use super::Observation;
@@ -298,21 +296,16 @@ impl<'a> Campaign<'a> {
                     })
                 })
                 .flatten();
+            // As the ride would report it ([`super::effects::predict_weave`]): the weave at its
+            // true speed, from the grid or its own eigenproblem, over the clock's scale.
             let clock = clock(effects, &own);
             for (n, &k) in here.iter().enumerate() {
                 let i = rides[k];
-                let predicted = match grid.as_ref().and_then(|g| g[n]) {
-                    Some((w, s)) => Some((w / clock, s.filter(|_| with_shape(i)))),
-                    None => predict_weave(
-                        &bike,
-                        effects,
-                        &own,
-                        &self.obs[i],
-                        guesses[i],
-                        with_shape(i),
-                    ),
+                let at_speed = match grid.as_ref().and_then(|g| g[n]) {
+                    Some((w, s)) => Some((w, s.filter(|_| with_shape(i)))),
+                    None => bike.weave_and_shape(speeds[n], guesses[i], with_shape(i)),
                 };
-                out[k] = predicted.map(|p| self.with_shift(effects, i, p));
+                out[k] = at_speed.map(|(w, s)| self.with_shift(effects, i, (w / clock, s)));
             }
         }
         out
