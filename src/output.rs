@@ -22,6 +22,84 @@ pub enum OutputError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// An output that is one of the command's inputs, or a folder to be replaced that holds
+    /// one: writing it would destroy what the command reads.
+    #[error(
+        "{output}: refused as the output: it {how} {input}, which writing it would destroy; \
+         name another file or folder"
+    )]
+    OverInput {
+        output: PathBuf,
+        input: PathBuf,
+        how: &'static str,
+    },
+}
+
+/// The identity of an existing file or folder (device and inode on Unix; its canonical path
+/// elsewhere): two paths name the same place whatever their spelling, links or `..`.
+fn identity(path: &Path) -> Option<(u64, u64, PathBuf)> {
+    let meta = std::fs::metadata(path).ok()?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        Some((meta.dev(), meta.ino(), PathBuf::new()))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = meta;
+        Some((0, 0, std::fs::canonicalize(path).ok()?))
+    }
+}
+
+/// Whether `a` and `b` name the same existing file or folder.
+pub fn same_place(a: &Path, b: &Path) -> bool {
+    matches!((identity(a), identity(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// Refuses, before any work, files to be written that are one of the command's `inputs`
+/// (`bikeproc measured X.txt --out X.txt`): an output replaced whole would be the input lost.
+pub fn refuse_files_over_inputs(outputs: &[&Path], inputs: &[&Path]) -> Result<(), OutputError> {
+    for out in outputs {
+        if let Some(input) = inputs.iter().find(|i| same_place(out, i)) {
+            return Err(OutputError::OverInput {
+                output: out.to_path_buf(),
+                input: input.to_path_buf(),
+                how: "is the input",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Refuses, before any work, a folder to be replaced whole ([`replace_dir`]) that is, or
+/// holds, one of `inputs` or the working folder (`bikeproc report --out data`): its old set is
+/// removed once the new one is in place. Also refuses what [`replace_dir`] would (a file, a
+/// symlink), so that the refusal comes before the work, not after it.
+pub fn refuse_folder_over_inputs(dir: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
+    if !check_destination(dir, true)? {
+        return Ok(());
+    }
+    let Ok(root) = std::fs::canonicalize(dir) else {
+        return Ok(());
+    };
+    let cwd = std::env::current_dir().ok();
+    let working = cwd
+        .as_deref()
+        .map(|c| (c, "is or holds the working folder"));
+    let named = inputs.iter().map(|i| (*i, "is or holds the input"));
+    for (input, how) in named.chain(working) {
+        let Ok(inside) = std::fs::canonicalize(input) else {
+            continue;
+        };
+        if inside.starts_with(&root) {
+            return Err(OutputError::OverInput {
+                output: dir.to_path_buf(),
+                input: input.to_path_buf(),
+                how,
+            });
+        }
+    }
+    Ok(())
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {

@@ -11,6 +11,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(bikeproc::output::write_atomic(path, bytes)?)
 }
 
+/// Refuses, before any work, an output file that is one of the inputs (`inputs` and the
+/// optional `more`): writing it would destroy what the command reads.
+pub fn refuse_files_over_inputs(
+    outputs: &[&Path],
+    inputs: &[&Path],
+    more: Option<&Path>,
+) -> Result<()> {
+    let mut all = inputs.to_vec();
+    all.extend(more);
+    Ok(bikeproc::output::refuse_files_over_inputs(outputs, &all)?)
+}
+
 /// Prints JSON (`--json`) or the plain text.
 pub fn emit<T: serde::Serialize>(
     json: bool,

@@ -2,7 +2,7 @@
 //! periods, the bar's stiffness, inertia tensors and a bicycle's benchmark parameters.
 
 use super::args::{CalibrateArgs, InertiaArgs, MeasuredArgs, PeriodArgs};
-use super::io::{advance, emit, note, progress, write_atomic};
+use super::io::{advance, emit, note, progress, refuse_files_over_inputs, write_atomic};
 use anyhow::{bail, Context, Result};
 use bikeproc::fit::{self, FitOptions, PeriodBatch};
 use bikeproc::inertia::{self, text};
@@ -147,10 +147,21 @@ pub fn measured(a: MeasuredArgs) -> Result<()> {
         &|k| matches!(k, Kind::MeasuredBicycle),
         "a bicycle's raw measurements",
     )?;
+    let format = match &a.out {
+        Some(out) => {
+            refuse_files_over_inputs(&[out], &[&a.file], None)?;
+            Some(bikeproc::model::params::BikeFileFormat::for_output(out)?)
+        }
+        None => None,
+    };
     let bike = inertia::measured::MeasuredBicycle::load(&a.file)?;
     let report = bike.report(10.0, 0.01)?;
-    if let Some(out) = &a.out {
-        write_atomic(out, bike.to_benchmark_text().as_bytes())?;
+    if let (Some(out), Some(format)) = (&a.out, format) {
+        let text = match format {
+            bikeproc::model::params::BikeFileFormat::Toml => bike.benchmark().to_toml(),
+            bikeproc::model::params::BikeFileFormat::Text => bike.to_benchmark_text(),
+        };
+        write_atomic(out, text.as_bytes())?;
         note!("wrote {}", out.display());
     }
     emit(a.json, &report, || inertia::text::measured_text(&report))

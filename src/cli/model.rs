@@ -4,11 +4,11 @@
 //! that the ride commands share.
 
 use super::args::{CompareArgs, DesignArgs, SensitivityArgs, StabilityArgs};
-use super::io::{emit, write_atomic};
+use super::io::{emit, refuse_files_over_inputs, write_atomic};
 use anyhow::Result;
 use bikeproc::kind::{self, Kind};
 use bikeproc::model::{self, uncertain::Parametrized};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub fn stability(a: StabilityArgs) -> Result<()> {
     let mut p = load_bike(&a.bike)?;
@@ -29,6 +29,10 @@ pub fn sensitivity(a: SensitivityArgs) -> Result<()> {
 }
 
 pub fn compare(a: CompareArgs) -> Result<()> {
+    if let Some(svg) = &a.svg {
+        let bikes: Vec<&Path> = a.bikes.iter().map(PathBuf::as_path).collect();
+        refuse_files_over_inputs(&[svg], &bikes, a.rider.as_deref())?;
+    }
     let models = a
         .bikes
         .iter()
@@ -43,11 +47,15 @@ pub fn compare(a: CompareArgs) -> Result<()> {
 
 pub fn design(a: DesignArgs) -> Result<()> {
     use bikeproc::model::design::{design, DesignVariable};
+    if let Some(out) = &a.out {
+        refuse_files_over_inputs(&[out], &[&a.bike], a.rider.as_deref())?;
+        model::params::BikeFileFormat::for_output(out)?;
+    }
     let p = with_rider(load_bike(&a.bike)?, a.rider.as_deref())?;
     let vars = DesignVariable::parse_list(&a.vary)?;
     let d = design(&p.name, &p.nominal(), &vars, a.stable, a.max_change)?;
     if let Some(out) = &a.out {
-        write_atomic(out, d.bicycle.to_text().as_bytes())?;
+        write_atomic(out, d.bicycle.to_file_text(out)?.as_bytes())?;
     }
     emit(a.json, &d, || d.to_text())?;
     if !d.reached {

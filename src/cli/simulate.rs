@@ -2,7 +2,7 @@
 //! blind campaigns, the failure fixtures). The only command that uses [`bikeproc::sim`].
 
 use super::args::{RideArgs, SimCommand};
-use super::io::{note, out, write_atomic};
+use super::io::{note, out, refuse_files_over_inputs, write_atomic};
 use anyhow::{Context, Result};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::log::Log;
@@ -71,14 +71,27 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             bike,
             out,
             results,
-        } => return gap_calibration(campaigns, controls, &only, &bike, &out, results.as_deref()),
+        } => {
+            // With --results the Markdown alone is made again from them.
+            let json = out.with_extension("json");
+            let outputs: &[&Path] = if results.is_some() {
+                &[&out]
+            } else {
+                &[&out, &json]
+            };
+            refuse_files_over_inputs(outputs, &[&bike], results.as_deref())?;
+            return gap_calibration(campaigns, controls, &only, &bike, &out, results.as_deref());
+        }
         SimCommand::StudyCalibration {
             studies,
             near_nominal,
             controls,
             bike,
             out,
-        } => return study_calibration(studies, near_nominal, controls, &bike, &out),
+        } => {
+            refuse_files_over_inputs(&[&out], &[&bike], None)?;
+            return study_calibration(studies, near_nominal, controls, &bike, &out);
+        }
         SimCommand::RideFaults { out } => {
             let bike = LabBike::load(Path::new("data/lab_bike.toml"))?;
             return write_generated(&out, &campaign::ride_fault_fixtures(&bike)?);
@@ -139,6 +152,21 @@ pub fn simulate(s: SimCommand) -> Result<()> {
 }
 
 fn simulate_ride(r: RideArgs) -> Result<()> {
+    let truth = r.truth.clone().unwrap_or_else(|| {
+        let stem = r
+            .out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        r.out.with_file_name("truth").join(format!("{stem}.json"))
+    });
+    let cal = Log::cal_path(&r.out);
+    let effects_file = Path::new(&r.effects);
+    refuse_files_over_inputs(
+        &[&r.out, &cal, &truth],
+        &[&r.bike],
+        (!matches!(r.effects.as_str(), "none" | "realistic")).then_some(effects_file),
+    )?;
     let bike = bikeproc::model::uncertain::load(&r.bike)?.nominal();
     let effects = match r.effects.as_str() {
         "none" => ride::Effects::default(),
@@ -154,18 +182,10 @@ fn simulate_ride(r: RideArgs) -> Result<()> {
     spec.mode = r.mode.into();
     spec.locale = r.locale.into();
     let ride = ride::simulate_ride(&bike, &spec, r.seed)?;
-    let truth = r.truth.clone().unwrap_or_else(|| {
-        let stem = r
-            .out
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        r.out.with_file_name("truth").join(format!("{stem}.json"))
-    });
     let truth_json = serde_json::to_string(&ride.truth)?;
     write_atomic_set(&[
         (&r.out, ride.angles_log.as_bytes()),
-        (&Log::cal_path(&r.out), ride.cal_log.as_bytes()),
+        (&cal, ride.cal_log.as_bytes()),
         (&truth, truth_json.as_bytes()),
     ])?;
     let t = &ride.truth;

@@ -27,6 +27,40 @@ pub enum ParamError {
     NoEigenvalues,
 }
 
+/// The format a bicycle file is written in, from its name: what the readers take it for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BikeFileFormat {
+    /// Benchmark TOML (`name = value`, `name_se = sigma`): a `*.toml` name.
+    Toml,
+    /// BicycleParameters' text (`IBxx = 0.53+/-0.002`): any other name.
+    Text,
+}
+
+impl BikeFileFormat {
+    /// The format of a bicycle file to be written at `path`; a name ending in `Measured.txt`
+    /// is refused, since it is read back as raw measurements, not parameters.
+    pub fn for_output(path: &Path) -> Result<BikeFileFormat, ParamError> {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if name.ends_with("Measured.txt") {
+            return Err(ParamError::Invalid {
+                path: path.to_path_buf(),
+                message: "a name ending in `Measured.txt` is read as a bicycle's raw \
+                          measurements, not its parameters: name it `…Benchmark.txt` (or \
+                          `.toml`)"
+                    .into(),
+            });
+        }
+        Ok(if path.extension().is_some_and(|e| e == "toml") {
+            BikeFileFormat::Toml
+        } else {
+            BikeFileFormat::Text
+        })
+    }
+}
+
 macro_rules! benchmark_params {
     ($( $field:ident : $name:literal, $doc:literal; )*) => {
         /// A bicycle in the benchmark form, with a standard error for every parameter.
@@ -194,6 +228,17 @@ impl Benchmark {
         b.se = se;
         b.validate(path)?;
         Ok(b)
+    }
+
+    /// These parameters as the text of a bicycle file named `path`, in the format its name
+    /// says, so that [`crate::model::uncertain::load`] reads back what was written: benchmark
+    /// TOML for `*.toml`, BicycleParameters' text otherwise. A name ending in `Measured.txt`
+    /// is refused: it is read back as a bicycle's raw measurements.
+    pub fn to_file_text(&self, path: &Path) -> Result<String, ParamError> {
+        Ok(match BikeFileFormat::for_output(path)? {
+            BikeFileFormat::Toml => self.to_toml(),
+            BikeFileFormat::Text => self.to_text(),
+        })
     }
 
     /// Writes TOML.
