@@ -113,6 +113,10 @@ pub fn propagate_with_factor<F: Fn(&[f64]) -> Vec<f64>>(
 /// `U = J V √D` for the inputs' covariance `Σ = V D Vᵀ` over the inputs with an error.
 fn factor_of(jac: &DMatrix<f64>, cov: &DMatrix<f64>) -> DMatrix<f64> {
     let with_error: Vec<usize> = (0..cov.nrows()).filter(|&i| cov[(i, i)] > 0.0).collect();
+    if with_error.is_empty() {
+        // Inputs without errors (a bicycle file with none): the outputs carry none of theirs.
+        return DMatrix::zeros(jac.nrows(), 0);
+    }
     let sub = cov
         .select_rows(with_error.iter())
         .select_columns(with_error.iter());

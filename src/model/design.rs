@@ -53,13 +53,26 @@ impl DesignVariable {
 
     /// Every name of `names` ([`DesignVariable::parse`]), or the first that is not one.
     pub fn parse_list<S: AsRef<str>>(names: &[S]) -> Result<Vec<DesignVariable>, DesignError> {
-        names
+        let vars = names
             .iter()
             .map(|n| {
                 let n = n.as_ref().trim();
                 DesignVariable::parse(n).ok_or_else(|| DesignError::UnknownVariable(n.into()))
             })
-            .collect()
+            .collect::<Result<Vec<_>, _>>()?;
+        // One parameter named twice (`trail,c`: the trail is the fork's offset c) would be
+        // weighed twice in the change's norm and its change printed as half.
+        let given: Vec<&str> = names.iter().map(|n| n.as_ref().trim()).collect();
+        for (i, v) in vars.iter().enumerate() {
+            if let Some(j) = (0..i).find(|&j| parameter_of(vars[j]) == parameter_of(*v)) {
+                return Err(DesignError::Repeated {
+                    first: given[j].into(),
+                    again: given[i].into(),
+                    parameter: Benchmark::NAMES[parameter_of(*v)].into(),
+                });
+            }
+        }
+        Ok(vars)
     }
 
     /// Its name as the command line takes it.
@@ -82,6 +95,12 @@ pub enum DesignError {
     NoVariables,
     #[error("`{0}`: not a design variable (head_angle, trail, wheelbase, or a benchmark parameter's name other than g: w, c, lam, rR, mR, IRxx, IRyy, xB, zB, mB, IBxx, IByy, IBzz, IBxz, xH, zH, mH, IHxx, IHyy, IHzz, IHxz, rF, mF, IFxx, IFyy)")]
     UnknownVariable(String),
+    #[error("--vary moves `{parameter}` twice (`{first}` and `{again}`): name each variable once")]
+    Repeated {
+        first: String,
+        again: String,
+        parameter: String,
+    },
     #[error("`{0}` is zero on this bicycle: a relative change of it means nothing (vary another)")]
     ZeroParameter(String),
     #[error(transparent)]
@@ -332,6 +351,12 @@ fn least_shortfall(x: &[f64], g: [f64; 2], grads: &[[f64; 2]], bound: f64) -> Ve
     y
 }
 
+/// The squared shortfall of the constraints' values `g` (m²/s²): how far the weave speed lies
+/// above the target's start and the capsize speed below its end; zero when both are met.
+fn shortfall(g: [f64; 2]) -> f64 {
+    g.iter().map(|v| v.max(0.0).powi(2)).sum()
+}
+
 /// Whether one stable range covers `[a, b]`.
 fn covers(ranges: &[(f64, Option<f64>)], (a, b): (f64, f64)) -> bool {
     ranges
@@ -378,19 +403,30 @@ pub fn design(
                 least_shortfall(&x, g, &grads, max_change)
             }
         };
-        // Step toward it, halved until the model's search still finds the speeds.
+        // Step toward it, halved until the model's search still finds the speeds and, while
+        // the target is missed, until the model's own shortfall shrinks: a step the
+        // linearization promised but the model does not keep is not taken (it used to leave
+        // the unchanged bicycle as the "closest design" when a smaller shortfall was in reach).
+        let now = shortfall(g);
         let mut step = 1.0;
         let mut moved = None;
+        let mut searched = false;
         while step > 1e-3 {
             let trial: Vec<f64> = x.iter().zip(&y).map(|(p, q)| p + step * (q - p)).collect();
             if let Ok(next) = constraints(&base, vars, &trial, (a, b), v_max) {
-                moved = Some((trial, next));
-                break;
+                searched = true;
+                if now == 0.0 || shortfall(next.0) < now {
+                    moved = Some((trial, next));
+                    break;
+                }
             }
             step *= 0.5;
         }
         let Some((trial, (g2, grads2, stab2))) = moved else {
-            reason = Some("the model's search failed near the changes asked for".into());
+            if !searched {
+                reason = Some("the model's search failed near the changes asked for".into());
+            }
+            // Otherwise no step shrinks the shortfall: this is the closest design.
             break;
         };
         let delta = trial

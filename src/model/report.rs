@@ -54,12 +54,19 @@ pub struct StabilityReport {
     pub weave_merge_speed_mps: Option<f64>,
     /// `[[lo, hi], …]`, `hi` null when stable up to the end of the speeds searched.
     pub stable_ranges_mps: Vec<(f64, Option<f64>)>,
+    /// The characteristic speeds were searched from 0 to this speed (m/s, the grid's END): a
+    /// weave or capsize speed beyond it is not seen, and an open range may end beyond it.
+    pub searched_to_mps: f64,
     pub eigenvalues: Vec<EigenRow>,
 }
 
 /// What a speed grid START:END:STEP must be for [`StabilityReport::over`].
-pub const SPEED_GRID_RULE: &str =
-    "expected START:END:STEP, finite, with 0 ≤ START < END and 0 < STEP (at most a million speeds)";
+pub const SPEED_GRID_RULE: &str = "expected START:END:STEP in m/s, finite, with 0 ≤ START < END ≤ \
+     100 and 0 < STEP (at most a million speeds)";
+
+/// The highest speed a grid may reach (m/s): beyond any bicycle's, and the characteristic
+/// speeds' search (every 0.01 m/s up to END) stays within 10,000 eigenproblems.
+pub const MAX_GRID_SPEED_MPS: f64 = 100.0;
 
 /// Whether `(start, end, step)` is a speed grid [`StabilityReport::over`] takes
 /// ([`SPEED_GRID_RULE`]).
@@ -67,6 +74,7 @@ pub fn valid_speed_grid((start, end, step): (f64, f64, f64)) -> bool {
     [start, end, step].iter().all(|x| x.is_finite())
         && start >= 0.0
         && end > start
+        && end <= MAX_GRID_SPEED_MPS
         && step > 0.0
         && (end - start) / step <= 1e6
 }
@@ -91,12 +99,9 @@ impl StabilityReport {
         let speeds = speed_grid((lo, hi, step));
         let s = p.speeds(hi, 0.01)?;
         let bands = p.bands(&speeds)?;
-        Ok(StabilityReport::new(
-            &p.name,
-            &s,
-            &bands,
-            &p.nominal_canonical(),
-        ))
+        let mut report = StabilityReport::new(&p.name, &s, &bands, &p.nominal_canonical());
+        report.searched_to_mps = hi;
+        Ok(report)
     }
 
     pub fn new(
@@ -122,6 +127,7 @@ impl StabilityReport {
             capsize_speed_se_mps: s.capsize_speed_se_mps,
             weave_merge_speed_mps: s.stability.weave_merge_speed_mps,
             stable_ranges_mps: s.stability.stable_ranges_mps.clone(),
+            searched_to_mps: b.sweep.speeds_mps.last().copied().unwrap_or(0.0),
             eigenvalues: (0..b.sweep.speeds_mps.len())
                 .map(|i| {
                     let (v, w) = (b.sweep.speeds_mps[i], b.sweep.eigenvalues[i][0]);
@@ -157,14 +163,23 @@ impl StabilityReport {
                 Some(se) => format!("{v:.4} ± {se:.4} m/s"),
                 None => format!("{v:.4} m/s (standard error unavailable)"),
             },
-            None => "none in the range".into(),
+            None => format!(
+                "none up to {} m/s (the end of the search)",
+                crate::stats::number_text(self.searched_to_mps)
+            ),
         };
         let _ = writeln!(
             s,
             "{}: linearized Whipple model (Meijaard et al. 2007)",
             self.bike
         );
-        let ranges = super::ranges_text(&self.stable_ranges_mps, 4, " m/s");
+        let mut ranges = super::ranges_text(&self.stable_ranges_mps, 4, " m/s");
+        if let (Some(last), Some((lo, None))) = (ranges.last_mut(), self.stable_ranges_mps.last()) {
+            *last = format!(
+                "{lo:.4} m/s to at least {} m/s (the end of the search)",
+                crate::stats::number_text(self.searched_to_mps)
+            );
+        }
         let _ = writeln!(
             s,
             "  stable         {}",
