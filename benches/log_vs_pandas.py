@@ -6,7 +6,10 @@ alternately with `bikeproc.read_log` (which also places every row on the sample 
 counter) and with pandas' `read_csv` (C engine, which does not), each in a fresh process so that
 its peak memory can be taken (the peak resident size, VmHWM, after the read less before it: the
 interpreter and the imports excluded). Prints each reader's median throughput (MB/s) and peak
-memory over the file's size.
+memory over the file's size; then `bikeproc period FILE --segment 5:400 --sensor 00300417`
+(the command-line program, `--bin`, default `target/release/bikeproc`) under
+`/usr/bin/time`, its peak resident memory over the file's size beside pandas' (issue 77: at
+most 1.5 times).
 
 Run from the checkout with the Python package installed (`pip install ./python pandas`):
 
@@ -115,6 +118,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", type=int, default=6_000_000)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--bin", default="target/release/bikeproc", help="the bikeproc program")
     ap.add_argument("--measure", choices=["bikeproc", "pandas"], help=argparse.SUPPRESS)
     ap.add_argument("--file", help=argparse.SUPPRESS)
     a = ap.parse_args()
@@ -143,6 +147,30 @@ def main():
                 f"{which:9} {size / 1e6 / s:7.1f} MB/s (median of {len(r)}: {s:.2f} s), "
                 f"peak memory {m / 1e6:.0f} MB = {m / size:.2f} × the file"
             )
+        period(a.bin, path, size, a.rounds)
+
+
+def period(program, path, size, rounds):
+    """`bikeproc period` on the log's first sensor, a segment of it: wall time and peak resident
+    memory (the whole process, as /usr/bin/time reports it) over the file's size."""
+    if not (os.path.exists(program) and os.path.exists("/usr/bin/time")):
+        print(f"period    skipped: no {program} or no /usr/bin/time")
+        return
+    runs = []
+    for _ in range(rounds):
+        cmd = ["/usr/bin/time", "-f", "%e %M", program, "period", path]
+        cmd += ["--segment", "5:400", "--sensor", "00300417"]
+        # Its output read and dropped: bikeproc refuses a standard output that is /dev/null
+        # opened read-write, as subprocess.DEVNULL opens it.
+        done = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        seconds, kib = done.stderr.strip().splitlines()[-1].split()
+        runs.append((float(seconds), int(kib) * 1024))
+    s = statistics.median(x[0] for x in runs)
+    m = max(x[1] for x in runs)
+    print(
+        f"period    {s:.2f} s (median of {len(runs)}), peak memory {m / 1e6:.0f} MB = "
+        f"{m / size:.2f} × the file (`bikeproc period --segment 5:400 --sensor 00300417`)"
+    )
 
 
 if __name__ == "__main__":

@@ -36,6 +36,17 @@ use std::f64::consts::PI;
 pub enum FitError {
     #[error("only {0} samples: too short to fit an oscillation")]
     TooShort(usize),
+    #[error(
+        "the segment {}–{} s lies outside the recording ({:.2}–{:.2} s)",
+        crate::stats::number_text(segment.0),
+        crate::stats::number_text(segment.1),
+        recording.0,
+        recording.1
+    )]
+    SegmentOutside {
+        segment: (f64, f64),
+        recording: (f64, f64),
+    },
     #[error("no oscillation found: the spectrum has no peak above the noise")]
     NoPeak,
     #[error("the fit did not converge ({0})")]
@@ -1061,9 +1072,9 @@ pub fn measure_file(
     let loaded =
         crate::signal::load_signal(file, extract, sensor, &crate::log::ReadOptions::default())?;
     let sig = &loaded.signal;
-    let osc = analyse(sig, options).map_err(|source| MeasureError::Fit {
+    let osc = analyse(sig, options).map_err(|error| MeasureError::Fit {
         path: file.to_path_buf(),
-        source,
+        error,
     })?;
     let mut summary = osc.summary(sig);
     summary.receiver_time_off_rows = loaded.time_off_rows;
@@ -1075,10 +1086,12 @@ pub fn measure_file(
 pub enum MeasureError {
     #[error(transparent)]
     Read(#[from] crate::signal::SignalError),
-    #[error("{}: {source}", path.display())]
+    /// The fit's error, said once with its file (not also as a cause: `{e:#}` printed it
+    /// twice).
+    #[error("{}: {error}", path.display())]
     Fit {
         path: std::path::PathBuf,
-        source: FitError,
+        error: FitError,
     },
 }
 
@@ -1110,7 +1123,16 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
             let i0 = t.iter().position(|&v| v >= a - slack).unwrap_or(n);
             let i1 = t.iter().rposition(|&v| v <= b + slack).unwrap_or(0);
             if i1 <= i0 + 8 {
-                return Err(FitError::TooShort(i1.saturating_sub(i0)));
+                let span = (t.first().copied(), t.last().copied());
+                return Err(match span {
+                    (Some(first), Some(last)) if b < first || a > last => {
+                        FitError::SegmentOutside {
+                            segment: (a, b),
+                            recording: (first, last),
+                        }
+                    }
+                    _ => FitError::TooShort(i1.saturating_sub(i0)),
+                });
             }
             (i0, i1)
         }
@@ -1119,11 +1141,7 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
     if i1 < i0 + 16 {
         return Err(FitError::TooShort(i1 + 1 - i0));
     }
-    let stretch = Signal {
-        index: signal.index[i0..=i1].to_vec(),
-        values: x[i0..=i1].to_vec(),
-        ..signal.clone()
-    };
+    let stretch = signal.part(i0, i1, x[i0..=i1].to_vec());
     let stretch_spectrum = ZoomSpectrum::of(&stretch, Window::Rectangular);
     let min_f = options
         .min_freq_hz
@@ -1181,20 +1199,16 @@ pub fn analyse(signal: &Signal, options: &FitOptions) -> Result<Oscillation, Fit
             samples: seg_t.len(),
         });
     }
-    let segment = Signal {
-        index: signal.index[i0..=i1].to_vec(),
-        values: seg_x.to_vec(),
-        ..signal.clone()
-    };
-    let residual = Signal {
-        values: fit
-            .eval_many(seg_t)
+    let segment = signal.part(i0, i1, seg_x.to_vec());
+    let residual = signal.part(
+        i0,
+        i1,
+        fit.eval_many(seg_t)
             .iter()
             .zip(seg_x)
             .map(|(m, xi)| xi - m)
             .collect(),
-        ..segment.clone()
-    };
+    );
     // Rectangular windows: a second mode decays early in the segment, where Hann's taper would
     // hide it; the residual has no step at its start.
     let secondary_peaks = secondary_peaks(

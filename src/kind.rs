@@ -136,6 +136,10 @@ pub const MAX_INPUT_BYTES: u64 = 4 << 30;
 /// How much of an input is looked at before it is read as text.
 const HEAD_BYTES: usize = 64 * 1024;
 
+/// The longest first line an input may have (bytes): a table of some 200,000 columns' header;
+/// longer, it is not a line-based text file of bikeproc's formats.
+const MAX_FIRST_LINE_BYTES: usize = 4 << 20;
+
 /// Opens `path` as a line-based text input: its first 64 KiB must hold no NUL byte and (when
 /// more follows) a line break, and the whole is read to at most [`MAX_INPUT_BYTES`]. Refused
 /// with the reason otherwise: `/dev/zero` linked as a log read 4.2 GB before running out of
@@ -160,13 +164,39 @@ pub fn open_text(path: &Path) -> Result<impl std::io::Read + Send, NotText> {
         });
     }
     if head.len() == HEAD_BYTES && !head.contains(&b'\n') {
-        return Err(NotText {
-            line: Some(1),
-            message: format!(
-                "no line break in the first {} KiB: not a line-based text file",
-                HEAD_BYTES / 1024
-            ),
-        });
+        // A wide table's header (10,000 columns is some 200 KiB) is read on to its line break,
+        // up to MAX_FIRST_LINE_BYTES, every byte of it text.
+        let mut more = Vec::new();
+        (&mut file)
+            .take((MAX_FIRST_LINE_BYTES - HEAD_BYTES) as u64)
+            .read_to_end(&mut more)
+            .map_err(io)?;
+        let end = more.iter().position(|&b| b == b'\n' || b == 0);
+        match end.map(|at| (at, more[at])) {
+            Some((_, b'\n')) => {}
+            Some((at, _)) => {
+                return Err(NotText {
+                    line: Some(1),
+                    message: format!(
+                        "binary data (a NUL byte at byte {}): not a text file of bikeproc's \
+                         formats",
+                        HEAD_BYTES + at
+                    ),
+                })
+            }
+            None if more.len() + HEAD_BYTES < MAX_FIRST_LINE_BYTES => {}
+            None => {
+                return Err(NotText {
+                    line: Some(1),
+                    message: format!(
+                        "no line break in the first {} MiB: not a line-based text file (a \
+                         table's header line is at most that long)",
+                        MAX_FIRST_LINE_BYTES >> 20
+                    ),
+                })
+            }
+        }
+        head.extend(more);
     }
     let rest = file.take(MAX_INPUT_BYTES - head.len() as u64);
     Ok(std::io::Cursor::new(head).chain(rest))

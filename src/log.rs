@@ -259,19 +259,29 @@ impl fmt::Display for LogError {
 }
 
 /// Limits on corrupt rows (cut short, holding NaN, or a value beyond its channel's range) that are kept as gaps.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct ReadOptions {
     /// Longest run of consecutive corrupt rows accepted (default 25 rows = 0.25 s at 100 Hz).
     pub max_corrupt_run: usize,
     /// Largest fraction of corrupt rows accepted, in percent (default 5 %).
     pub max_corrupt_percent: f64,
+    /// Keep only this sensor's (by id or label) columns and sensor: the others' rows are read
+    /// and checked as rows, their values not kept (a long log of two sensors held both, where
+    /// a pendulum's period needs one). An id or label the log lacks keeps every sensor.
+    pub only_sensor: Option<String>,
+    /// Read the header alone (its metadata, columns and sensors), no data row: what a caller
+    /// checks before it reads a long log whole.
+    pub header_only: bool,
 }
 
 impl Default for ReadOptions {
+    /// The reader's limits (25 corrupt rows in a run, 5 % in all), every sensor kept.
     fn default() -> Self {
         ReadOptions {
             max_corrupt_run: 25,
             max_corrupt_percent: 5.0,
+            only_sensor: None,
+            header_only: false,
         }
     }
 }
@@ -397,6 +407,52 @@ impl Log {
             // Checked while reading for the other modes; Euler angles are always a rotation.
             orientations(self.mode, &self.data, &sensor.channel_columns).unwrap_or_default()
         })
+    }
+
+    /// `sensor`'s orientations as [`Log::orientation`] gives them (sign-continuous), handed
+    /// to `visit` one at a time, in order, until it breaks, and not stored: the ones the reader
+    /// made where it did (quaternion and matrix files), else each made afresh from an Euler
+    /// file's angles (a long log's quaternions held whole were 32 bytes a row). The number of
+    /// orientations, or `None` where a row is no rotation (then [`Log::orientation`] has none).
+    pub fn each_orientation(
+        &self,
+        sensor: &Sensor,
+        mut visit: impl FnMut(&UnitQuaternion<f64>) -> std::ops::ControlFlow<()>,
+    ) -> Option<usize> {
+        if let Some(q) = sensor.orientation.get() {
+            let _ = q.iter().try_for_each(visit);
+            return Some(q.len());
+        }
+        if self.mode == OutputMode::Calibrated {
+            return Some(0);
+        }
+        let n = self.data.first().map_or(0, Vec::len);
+        let mut prev: Option<UnitQuaternion<f64>> = None;
+        for i in 0..n {
+            let mut q = orientation(self.mode, |c| self.data[sensor.channel_columns[c]][i]).ok()?;
+            if prev.is_some_and(|p| p.coords.dot(&q.coords) < 0.0) {
+                q = UnitQuaternion::new_unchecked(-q.into_inner());
+            }
+            if visit(&q).is_break() {
+                return Some(n);
+            }
+            prev = Some(q);
+        }
+        Some(n)
+    }
+
+    /// `sensor`'s orientation at kept sample `i`: [`Log::orientation`]'s where the reader made
+    /// them, else made afresh from the Euler angles, its sign as the sensor wrote it (`q` and
+    /// `−q` are one rotation: what depends on the sign alone, an average, takes
+    /// [`Log::each_orientation`]). `None` beyond the samples or where the row is no rotation.
+    pub fn orientation_at(&self, sensor: &Sensor, i: usize) -> Option<UnitQuaternion<f64>> {
+        if let Some(q) = sensor.orientation.get() {
+            return q.get(i).copied();
+        }
+        if self.mode == OutputMode::Calibrated || i >= self.data.first().map_or(0, Vec::len) {
+            return None;
+        }
+        orientation(self.mode, |c| self.data[sensor.channel_columns[c]][i]).ok()
     }
 
     /// Time of each kept sample on the sensor clock, seconds from the first row.
@@ -705,6 +761,43 @@ impl<'a> Parser<'a> {
                 });
             }
         }
+
+        if self.options.header_only {
+            return Ok(Log {
+                path: self.path.to_path_buf(),
+                sample_rate_hz,
+                mode,
+                metadata,
+                spanish_locale: separator == ';',
+                columns,
+                column_row_line: col_line_no,
+                data: Vec::new(),
+                grid_index: Vec::new(),
+                sensors,
+                gaps: GapReport::default(),
+                first_counter: 0,
+                warnings: Vec::new(),
+            });
+        }
+        // One sensor's columns kept, where one is asked for and the log has it.
+        let (columns, data_fields, sensors) =
+            match self.options.only_sensor.as_deref().and_then(|key| {
+                sensors
+                    .iter()
+                    .position(|s| s.id == key || s.label.eq_ignore_ascii_case(key))
+            }) {
+                Some(k) if sensors.len() > 1 => {
+                    let mut sensor = sensors.swap_remove(k);
+                    let keep = std::mem::take(&mut sensor.channel_columns);
+                    sensor.channel_columns = (0..keep.len()).collect();
+                    (
+                        keep.iter().map(|&c| columns[c].clone()).collect::<Vec<_>>(),
+                        keep.iter().map(|&c| data_fields[c]).collect::<Vec<_>>(),
+                        vec![sensor],
+                    )
+                }
+                _ => (columns, data_fields, sensors),
+            };
 
         // Data rows.
         let n_fields = names_text.len();

@@ -12,6 +12,7 @@
 
 use crate::log::{Log, LogError, OutputMode, ReadOptions};
 use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 /// A scalar signal sampled on a uniform grid; missing samples are absent.
@@ -27,6 +28,22 @@ pub struct Signal {
     /// Grid position of each sample.
     pub index: Vec<u64>,
     pub values: Vec<f64>,
+}
+
+impl Signal {
+    /// Samples `from..=to` of this signal with `values` in place of its own: the same name,
+    /// unit and grid, the rest of its samples not copied (a struct update from a clone copied
+    /// every sample, then dropped them).
+    pub fn part(&self, from: usize, to: usize, values: Vec<f64>) -> Signal {
+        Signal {
+            name: self.name.clone(),
+            unit: self.unit.clone(),
+            sample_rate_hz: self.sample_rate_hz,
+            t0_s: self.t0_s,
+            index: self.index[from..=to].to_vec(),
+            values,
+        }
+    }
 }
 
 /// Errors of signal extraction.
@@ -375,6 +392,15 @@ impl<R: std::io::Read> CsvRows<R> {
                     .into(),
             ));
         }
+        if first.len() == 1 && first.get(0).is_some_and(|f| f.contains('\t')) {
+            return Err(err(
+                1,
+                1,
+                "fields separated by tabs: bikeproc reads comma-separated values (`tr '\\t' \
+                 ,` converts a tab-separated file)"
+                    .into(),
+            ));
+        }
         let numbers_only = !first.is_empty()
             && first
                 .iter()
@@ -648,7 +674,25 @@ pub fn load_signal(
     };
     match extract {
         Extract::DominantRotation => {
-            let log = Log::open(path, options)?;
+            // A log of several sensors without one named is refused from its header, before
+            // its rows are read.
+            if sensor.is_none() {
+                let header_only = ReadOptions {
+                    header_only: true,
+                    ..options.clone()
+                };
+                let head = Log::open(path, &header_only)?;
+                if head.sensors.len() > 1 {
+                    pick_sensor(&head, None)?;
+                }
+            }
+            // Only the sensor named is kept (a two-sensor log's other columns were half the
+            // memory of a long recording's period).
+            let options = ReadOptions {
+                only_sensor: sensor.map(str::to_string),
+                ..options.clone()
+            };
+            let log = Log::open(path, &options)?;
             let signal = dominant_rotation(&log, sensor)?;
             Ok(loaded(signal, log))
         }
@@ -807,30 +851,65 @@ pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, Sign
         });
     }
     let s = pick_sensor(log, sensor)?;
-    let q = log.orientation(s);
-    if q.len() < 8 {
-        return Err(SignalError::Invalid {
-            path: log.path.clone(),
-            line: log.column_row_line,
-            message: format!("only {} samples: too few for a signal", q.len()),
-        });
+    // The orientations are streamed, four passes, never held (a 92 MB log's quaternions and
+    // rotation vectors were 140 MB): the same numbers in the same order as held ones.
+    let too_few = |n: usize| SignalError::Invalid {
+        path: log.path.clone(),
+        line: log.column_row_line,
+        message: format!("only {n} samples: too few for a signal"),
+    };
+    let n = log
+        .each_orientation(s, |_| ControlFlow::Break(()))
+        .unwrap_or(0);
+    if n < 8 {
+        return Err(too_few(n));
     }
-    let rest_n = (log.sample_rate_hz.round() as usize)
-        .min(q.len() / 10)
-        .max(1);
-    let rest = mean_rotation(&q[..rest_n]).ok_or_else(|| SignalError::Invalid {
+    let rest_n = (log.sample_rate_hz.round() as usize).min(n / 10).max(1);
+    let mut head = Vec::with_capacity(rest_n);
+    log.each_orientation(s, |q| {
+        head.push(*q);
+        if head.len() == rest_n {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .ok_or_else(|| too_few(0))?;
+    let rest = mean_rotation(&head).ok_or_else(|| SignalError::Invalid {
         path: log.path.clone(),
         line: log.column_row_line,
         message: "cannot average the rest orientation".into(),
     })?;
     let rest_inv = rest.inverse();
-    let r: Vec<Vector3<f64>> = q.iter().map(|qi| (rest_inv * qi).scaled_axis()).collect();
-    let mean = r.iter().fold(Vector3::zeros(), |a, b| a + b) / r.len() as f64;
+    // Each sample's rotation from the rest, in blocks made on rayon's threads and visited in
+    // order (the sums below in the order of a sequential pass). The rotation vector of
+    // `rest⁻¹ q` is that of `rest⁻¹ (−q)` bit for bit (nalgebra's axis and angle take |w|), so
+    // the quaternions' signs need not be made continuous here.
+    let each_r = |visit: &mut dyn FnMut(Vector3<f64>)| {
+        use rayon::prelude::*;
+        const BLOCK: usize = 1 << 14;
+        let mut block = Vec::with_capacity(BLOCK.min(n));
+        for start in (0..n).step_by(BLOCK) {
+            (start..(start + BLOCK).min(n))
+                .into_par_iter()
+                .map(|i| {
+                    log.orientation_at(s, i)
+                        .map_or(Vector3::from_element(f64::NAN), |q| {
+                            (rest_inv * q).scaled_axis()
+                        })
+                })
+                .collect_into_vec(&mut block);
+            block.iter().for_each(|r| visit(*r));
+        }
+    };
+    let mut sum = Vector3::zeros();
+    each_r(&mut |r| sum += r);
+    let mean = sum / n as f64;
     let mut cov = Matrix3::zeros();
-    for ri in &r {
-        let d = ri - mean;
+    each_r(&mut |r| {
+        let d = r - mean;
         cov += d * d.transpose();
-    }
+    });
     let eig = cov
         .iter()
         .all(|x| x.is_finite())
@@ -847,7 +926,8 @@ pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, Sign
     if axis_global[axis_global.iamax()] < 0.0 {
         axis = -axis;
     }
-    let values = r.iter().map(|ri| ri.dot(&axis)).collect();
+    let mut values = Vec::with_capacity(n);
+    each_r(&mut |r| values.push(r.dot(&axis)));
     let label = if s.label.is_empty() {
         s.id.clone()
     } else {
