@@ -246,27 +246,41 @@ fn the_real_study_carries_its_conditions() {
 }
 
 /// Studies that cannot be: a condition given twice, conditions of two bicycles, a study
-/// manifest naming a missing campaign, a known mass below the ground. Each refused (exit 2)
-/// with the file named.
+/// manifest naming a missing campaign, a known mass below the ground, one ride in two
+/// conditions. Each refused (exit 2) with the file named.
 #[test]
 fn a_malformed_study_is_refused_with_its_file() {
     let dir = std::env::temp_dir().join(format!("bikeproc_study_refusals_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let data = root().join("data");
-    let manifest = |bike: &str, extra: &str| {
+    let manifest = |bike: &str, ride: &str, extra: &str| {
         format!(
             "version = 1\nbike = \"{}\"\nallow_outside_folder = true\n{extra}\n\
              [[ride]]\nlog = \"{}\"\nnoted_speed_mps = 3.5\n",
             data.join(bike).display(),
-            data.join("ride_01.log").display()
+            data.join(ride).display()
         )
     };
-    std::fs::write(dir.join("a.toml"), manifest("lab_bike.toml", "")).unwrap();
-    std::fs::write(dir.join("b.toml"), manifest("lab_bike_seed.toml", "")).unwrap();
+    std::fs::write(
+        dir.join("a.toml"),
+        manifest("lab_bike.toml", "ride_01.log", ""),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("b.toml"),
+        manifest("lab_bike_seed.toml", "ride_02.log", ""),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("again.toml"),
+        manifest("lab_bike.toml", "ride_01.log", ""),
+    )
+    .unwrap();
     std::fs::write(
         dir.join("heavy.toml"),
         manifest(
             "lab_bike.toml",
+            "ride_03.log",
             "[[known_mass]]\nframe = \"rear\"\nmass_kg = 2.0\nx_m = 0.4\nz_m = 0.5\n",
         ),
     )
@@ -277,8 +291,12 @@ fn a_malformed_study_is_refused_with_its_file() {
     )
     .unwrap();
     let a = dir.join("a.toml");
-    let cases: [(Vec<PathBuf>, &str); 4] = [
+    let cases: [(Vec<PathBuf>, &str); 5] = [
         (vec![a.clone(), a.clone()], "given twice"),
+        (
+            vec![a.clone(), dir.join("again.toml")],
+            "is also in the condition",
+        ),
         (vec![a.clone(), dir.join("b.toml")], "another bicycle file"),
         (vec![dir.join("study.toml")], "missing.toml"),
         (vec![dir.join("heavy.toml"), a.clone()], "known_mass"),

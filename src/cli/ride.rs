@@ -4,7 +4,7 @@
 use super::args::{DynamicArgs, GapArgs};
 use super::io::{advance, emit, note, progress};
 use super::model::load_model;
-use super::NoRideAnalysed;
+use super::{NoRideAnalysed, Refused};
 use anyhow::Result;
 use bikeproc::kind::{self, Kind};
 use bikeproc::ride::csv::{self, KickReport};
@@ -56,6 +56,18 @@ pub fn gap(a: GapArgs) -> Result<()> {
         })?
     };
     bar.finish_and_clear();
+    if let Some(b) = &a.bike {
+        if let Ok(m) = bikeproc::model::uncertain::load(b) {
+            let cov = m.inputs.covariance();
+            if (0..cov.nrows()).all(|i| cov[(i, i)] == 0.0) {
+                note!(
+                    "warning: {}: no standard errors in the bicycle file: its parameters are \
+                     taken as exact, and the tests carry the rides' errors alone",
+                    b.display()
+                );
+            }
+        }
+    }
     emit(a.json, &d, || d.to_text())?;
     if d.rides_used == 0 {
         let file = study_file.unwrap_or_else(|| a.files[0].clone());
@@ -81,12 +93,28 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
     {
         return csv_ride(&a, &modal);
     }
-    if a.rate.is_some() {
-        anyhow::bail!(
-            "{}: --rate is for a table of time series without a time column, not an IMU log \
-             or a manifest",
-            a.file.display()
-        );
+    // What only a CSV ride takes is refused, not ignored, on a log or a manifest.
+    for (given, flag) in [
+        (
+            a.rate.is_some(),
+            "--rate is for a table of time series without a time column",
+        ),
+        (
+            a.window.is_some(),
+            "--window is for a CSV ride (a lab log's free decay is found from its kick and catch)",
+        ),
+        (
+            a.columns.is_some(),
+            "--columns is for a CSV ride (a lab log's columns are its sensors')",
+        ),
+    ] {
+        if given {
+            return Err(Refused(format!(
+                "{}: {flag}, not an IMU log or a manifest",
+                a.file.display()
+            ))
+            .into());
+        }
     }
     if extension == Some("toml") {
         return campaign(&a, &modal);
@@ -120,6 +148,14 @@ fn noted(a: &DynamicArgs) -> Option<NotedReading> {
 
 /// `bikeproc dynamic rides.toml`: every ride of a campaign manifest.
 fn campaign(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
+    if a.speed.is_some() {
+        return Err(Refused(format!(
+            "{}: --speed is for one ride; a campaign's manifest notes each ride's speed \
+             (noted_speed_mps)",
+            a.file.display()
+        ))
+        .into());
+    }
     let manifest = RideManifest::load(&a.file)?;
     let bike = a.bike.clone().unwrap_or_else(|| manifest.bike_path());
     let bar = progress(a.json);

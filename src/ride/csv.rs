@@ -21,6 +21,7 @@ use super::modal::{fit_modes, Eigenvalue, ModalFit, ModalOptions, ModeShape};
 use super::read::RideError;
 use super::speed::{NotedReading, SpeedSource};
 use crate::model::uncertain::Parametrized;
+use crate::stats::number_text;
 use crate::uncertainty::Measured;
 use std::path::{Path, PathBuf};
 
@@ -124,6 +125,12 @@ impl std::str::FromStr for Columns {
             if let Some((_, unit)) = name.rsplit_once(':') {
                 unit_factor(q, unit)?;
             }
+            if let Some((_, first)) = out.iter().find(|(g, _)| *g == q) {
+                return Err(format!(
+                    "`{}` is given twice (`{first}` and `{name}`): one column a quantity",
+                    q.key()
+                ));
+            }
             out.push((q, name.to_string()));
         }
         Ok(Columns(out))
@@ -193,6 +200,22 @@ struct Plan {
     rate_hz: Option<f64>,
 }
 
+/// A table's column names for a message: the first twenty, then how many more (a 10,000-column
+/// table's message is not its header).
+fn columns_text(headers: &[String]) -> String {
+    const SHOWN: usize = 20;
+    let mut text = headers
+        .iter()
+        .take(SHOWN)
+        .map(String::as_str)
+        .collect::<Vec<_>>()
+        .join(", ");
+    if headers.len() > SHOWN {
+        text += &format!(" and {} more", headers.len() - SHOWN);
+    }
+    text
+}
+
 /// The columns of [`Quantity`] among `headers`, by their recognised names or by `given`; a
 /// time column, or a rate for a table without one (never both).
 fn plan(
@@ -219,7 +242,7 @@ fn plan(
                         format!(
                             "no column `{name}` for {} (the columns: {})",
                             q.key(),
-                            headers.join(", ")
+                            columns_text(headers)
                         ),
                     )
                 })?;
@@ -238,6 +261,19 @@ fn plan(
                 .find_map(|(n, f)| find(&[n.as_str()]).map(|k| (k, *f))),
         };
         if let Some((k, factor)) = pick {
+            if let Some(other) = found.iter().find(|f| f.1 == k) {
+                return Err(err(
+                    path,
+                    format!(
+                        "the column `{}` would be both {} and {}: one column is one quantity \
+                         (name the other with --columns {}=NAME)",
+                        headers[k],
+                        other.0.key(),
+                        q.key(),
+                        q.key()
+                    ),
+                ));
+            }
             found.push((q, k, factor, headers[k].clone()));
         }
     }
@@ -251,7 +287,7 @@ fn plan(
                 "no roll rate or roll angle among its columns ({}): kicks are found and \
                  fitted in one of them; name it with --columns roll_rate=NAME (rad/s, or \
                  NAME:deg for °/s) or roll=NAME",
-                headers.join(", ")
+                columns_text(headers)
             ),
         ));
     }
@@ -265,7 +301,7 @@ fn plan(
             format!(
                 "no time column (time_s, or --columns time=NAME; a table sampled at a fixed \
                  rate without one: --rate HZ, or rate_hz in a manifest); the columns: {}",
-                headers.join(", ")
+                columns_text(headers)
             ),
         )),
         (Some(name), Some(rate)) => Err(err(
@@ -673,8 +709,11 @@ pub const CSV_SEARCH_ITERATIONS: usize = 100;
 /// One free decay of a CSV ride, fitted.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct CsvDecay {
-    /// The window fitted (s) and the samples in it.
+    /// The window fitted (s) and the samples in it: the one asked for, cut to the recording.
     pub window_s: (f64, f64),
+    /// The window asked for, where it reached beyond the recording (and `window_s` is cut).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub window_asked_s: Option<(f64, f64)>,
     pub samples: usize,
     pub fitted_from: FittedFrom,
     pub weave: Eigenvalue,
@@ -749,7 +788,19 @@ pub fn fit_decay(
     let path = &ride.path;
     let (first, last) = match (ride.time_s.first(), ride.time_s.last()) {
         (Some(&a), Some(&b)) => (a, b),
-        _ => return Err(err(path, "no samples")),
+        _ => {
+            return Err(err(
+                path,
+                match window_s {
+                    Some((a, b)) => format!(
+                        "the window {}–{} s holds no sample of the recording",
+                        number_text(a),
+                        number_text(b)
+                    ),
+                    None => "no samples".to_string(),
+                },
+            ))
+        }
     };
     let (a, b) = match window_s {
         Some(w) => w,
@@ -765,12 +816,20 @@ pub fn fit_decay(
             ))
         }
     };
+    // A window reaching beyond the recording is the part of it the recording holds, and is
+    // said so (a window given as 145.5–150 s of a file ending at 146 s is not 145.5–150 s).
+    let asked = (a, b);
+    let (a, b) = (a.max(first), b.min(last));
+    let window_asked_s = (asked != (a, b)).then_some(asked);
     let idx: Vec<usize> = within(&ride.time_s, (a, b)).collect();
     if idx.len() < MIN_WINDOW_SAMPLES {
         return Err(err(
             path,
             format!(
-                "the window {a}–{b} s holds {} samples: too few to fit (at least {MIN_WINDOW_SAMPLES})",
+                "the window {}–{} s holds {} samples: too few to fit (at least \
+                 {MIN_WINDOW_SAMPLES}; the recording spans {first:.2}–{last:.2} s)",
+                number_text(asked.0),
+                number_text(asked.1),
                 idx.len()
             ),
         ));
@@ -796,6 +855,7 @@ pub fn fit_decay(
     };
     let rate_decay = |(weave, vaf): (Eigenvalue, f64)| CsvDecay {
         window_s: (a, b),
+        window_asked_s,
         samples: idx.len(),
         fitted_from: FittedFrom::RollRate,
         weave,
@@ -807,6 +867,7 @@ pub fn fit_decay(
     };
     let angles_decay = |fit: ModalFit| CsvDecay {
         window_s: (a, b),
+        window_asked_s,
         samples: idx.len(),
         fitted_from: FittedFrom::RollAndSteer,
         weave: fit.weave,
@@ -1695,6 +1756,8 @@ pub fn ride_decays(
 ) -> Result<Vec<KickDecay>, RideError> {
     let (first, last) = match (ride.time_s.first(), ride.time_s.last()) {
         (Some(&a), Some(&b)) => (a, b),
+        // The window's own message (a window beyond the recording reads no rows).
+        _ if window_s.is_some() => (f64::NAN, f64::NAN),
         _ => return Err(err(&ride.path, "no samples")),
     };
     if window_s.is_some() || last - first <= WHOLE_RECORD_MAX_S {
@@ -1897,6 +1960,21 @@ impl DecaySummary {
         model: Option<&Parametrized>,
     ) -> Result<DecaySummary, RideError> {
         let speed = decay_speed(&decay, given);
+        if let Some((v, SpeedSource::WheelSpeed)) = speed {
+            // A wheel column's noise may dip below zero at a standstill (the reader takes
+            // down to −1 m/s); a window's mean below a riding speed is no ride to compare.
+            super::speed::check_reading_mps(v.value).map_err(|e| {
+                err(
+                    &ride.path,
+                    format!(
+                        "window {:.2}–{:.2} s, the wheel-speed column's mean over it: {e} (a \
+                         sign reversed, or the bicycle standing? map another column, or leave \
+                         the column out and give --speed)",
+                        decay.window_s.0, decay.window_s.1
+                    ),
+                )
+            })?;
+        }
         let model = match (model, speed) {
             (Some(m), Some((v, _))) => Some(super::dynamic::model_weave_at(
                 &ride.path,
@@ -1935,6 +2013,14 @@ impl DecaySummary {
             "window           {:.2} – {:.2} s ({} samples)",
             d.window_s.0, d.window_s.1, d.samples
         );
+        if let Some((a, b)) = d.window_asked_s {
+            let _ = writeln!(
+                out,
+                "                 of {} – {} s asked: the recording holds only this part",
+                number_text(a),
+                number_text(b)
+            );
+        }
         let _ = writeln!(out, "weave            {}", eigenvalue_text(w));
         if !d.resolves_weave() {
             let _ = writeln!(
@@ -2002,6 +2088,14 @@ impl DecaySummary {
                         _ => "the reading given",
                     }
                 );
+                if let (SpeedSource::WheelSpeed, Some(set)) = (src, self.set_speed_mps) {
+                    let _ = writeln!(
+                        out,
+                        "                 the speed given, {set:.3} m/s, is not used: the wheel \
+                         reads {:+.3} m/s from it",
+                        v.value - set
+                    );
+                }
             }
             _ => {
                 let _ = writeln!(

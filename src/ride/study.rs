@@ -88,7 +88,49 @@ impl Study {
                     ),
                 });
             }
-            conditions.push((name, RideManifest::load(p)?));
+            // A study's condition is a campaign: another kind of file is said as what it is
+            // (a study, a log or a bicycle file used to get "unknown key `conditions`").
+            if let Some(m) = crate::kind::mismatch(
+                p,
+                &|k| matches!(k, crate::kind::Kind::RideManifest),
+                "a condition of a study: a campaign manifest of rides",
+            ) {
+                let prefix = format!("{}: ", p.display());
+                return Err(ManifestError {
+                    path: p.clone(),
+                    line: None,
+                    message: m.strip_prefix(&prefix).unwrap_or(&m).to_string(),
+                });
+            }
+            let manifest = RideManifest::load(p)?;
+            // The same ride (its file, and its window where it has one) in two conditions
+            // would be counted twice, and its repeat taken for a second observation.
+            for ride in &manifest.rides {
+                let file = manifest.dir.join(&ride.log);
+                let file = std::fs::canonicalize(&file).unwrap_or(file);
+                for (other, earlier) in &conditions {
+                    let again = earlier.rides.iter().any(|r| {
+                        let f = earlier.dir.join(&r.log);
+                        std::fs::canonicalize(&f).unwrap_or(f) == file
+                            && r.window_s == ride.window_s
+                    });
+                    if again {
+                        return Err(ManifestError {
+                            path: p.clone(),
+                            line: None,
+                            message: format!(
+                                "the ride {}{} is also in the condition \"{other}\": a ride \
+                                 belongs to one condition (it would count twice)",
+                                ride.log.display(),
+                                ride.window_s
+                                    .map(|[a, b]| format!(" ({a}–{b} s)"))
+                                    .unwrap_or_default()
+                            ),
+                        });
+                    }
+                }
+            }
+            conditions.push((name, manifest));
         }
         Ok(Study {
             description: String::new(),
