@@ -4,6 +4,7 @@
 use bikeproc::fit::Trend;
 use bikeproc::log::OutputMode;
 use bikeproc::sim::imu::{Locale, Precision};
+use bikeproc::stats::number_text;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -268,7 +269,7 @@ pub struct PeriodArgs {
     #[arg(long, value_enum, default_value_t = TrendArg::Auto)]
     pub trend: TrendArg,
     /// Fit this time range instead of finding the free decay, seconds `START:END`.
-    #[arg(long, value_parser = parse_range)]
+    #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
     pub segment: Option<(f64, f64)>,
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
@@ -284,7 +285,7 @@ pub struct DynamicArgs {
     /// A CSV ride: the free decay to fit, seconds `START:END`; the file is read up to END only
     /// (without it a record of up to 10 s is one free decay; in a longer one every kick is found
     /// and each decay fitted, the recording read twice in 9 bytes a row, not held whole).
-    #[arg(long, value_parser = parse_range)]
+    #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
     pub window: Option<(f64, f64)>,
     /// A CSV ride: columns by other names, `roll=ROLL_COL,steer=…,time=…,wheel_speed=…`
     /// (quantities: time, roll, roll_rate, steer, steer_rate, wheel_speed). A unit may follow
@@ -359,8 +360,10 @@ pub struct MeasuredArgs {
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     pub json: bool,
-    /// Also write the parameters in BicycleParameters' `*Benchmark.txt` format (which
-    /// `bikeproc stability --bike` reads).
+    /// Also write the parameters, with their standard errors, in the format the name says
+    /// (which `bikeproc stability --bike` reads): benchmark TOML for `*.toml`, else
+    /// BicycleParameters' `*Benchmark.txt` text; never over the raw file read, never a name
+    /// ending in `Measured.txt`.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -388,7 +391,7 @@ pub struct StabilityArgs {
     #[arg(long)]
     pub bike: PathBuf,
     /// Speeds `START:END:STEP` in m/s.
-    #[arg(long, default_value = "0:10:0.01", value_parser = parse_speeds)]
+    #[arg(long, default_value = "0:10:0.01", value_parser = parse_speeds, allow_hyphen_values = true)]
     pub speeds: (f64, f64, f64),
     /// Move the handlebar's centre of gravity onto the steer axis (the lab's model, seed §6.2).
     #[arg(long)]
@@ -456,7 +459,7 @@ pub struct DesignArgs {
     #[arg(long)]
     pub rider: Option<PathBuf>,
     /// The speeds `A:B` (m/s) over which the bicycle is to be stable.
-    #[arg(long, value_parser = parse_speed_range)]
+    #[arg(long, value_parser = parse_speed_range, allow_hyphen_values = true)]
     pub stable: (f64, f64),
     /// What may change, comma-separated: head_angle, trail, wheelbase, or benchmark
     /// parameters by name.
@@ -465,7 +468,8 @@ pub struct DesignArgs {
     /// The largest relative change of any variable (0.5: ±50 %).
     #[arg(long, default_value_t = 0.5, value_parser = within(0.0, true, 0.95))]
     pub max_change: f64,
-    /// Write the changed bicycle here (BicycleParameters text).
+    /// Write the changed bicycle here, in the format the name says (which `stability`
+    /// reads): benchmark TOML for `*.toml`, else BicycleParameters text; never over an input.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Print JSON instead of text (its shape: below).
@@ -664,8 +668,8 @@ pub struct RideArgs {
     /// The truth bicycle (BicycleParameters text, benchmark TOML or a lab bicycle).
     #[arg(long)]
     pub bike: PathBuf,
-    /// Speed at release (m/s).
-    #[arg(long)]
+    /// Speed at release (m/s), a riding speed (0.1 to 30 m/s).
+    #[arg(long, value_parser = parse_speed)]
     pub speed: f64,
     /// The effects beyond the Whipple model: `none`; `realistic` (steer damping 0.3 N·m·s/rad,
     /// rolling resistance 0.004, drag area 0.08 m², the sensors' and speedometer's masses, a
@@ -856,6 +860,7 @@ pub fn within(lo: f64, lo_open: bool, hi: f64) -> impl Fn(&str) -> Result<f64, S
         if v.is_finite() && above && v <= hi {
             Ok(v)
         } else {
+            let (v, lo, hi) = (number_text(v), number_text(lo), number_text(hi));
             Err(if lo_open {
                 format!("{v}: expected a number above {lo} and at most {hi}")
             } else {
@@ -877,7 +882,8 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
         .map_err(|_| format!("`{b}` is not a number"))?;
     if let Some(x) = [a, b].into_iter().find(|x| !x.is_finite()) {
         return Err(format!(
-            "{x}: START and END must be finite times in seconds"
+            "{}: START and END must be finite times in seconds",
+            number_text(x)
         ));
     }
     if b > a {

@@ -13,7 +13,7 @@ mod simulate;
 use anyhow::Result;
 use args::{Cli, Command};
 use bikeproc::{fit, inertia, signal};
-use clap::Parser;
+use clap::FromArgMatches as _;
 use io::note;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -22,6 +22,12 @@ use std::process::ExitCode;
 #[derive(Debug, thiserror::Error)]
 #[error("no ride of {} could be analysed (the reasons are listed above)", .0.display())]
 struct NoRideAnalysed(PathBuf);
+
+/// An option the input it was given with does not take (`--window` on a lab log, `--speed`
+/// on a campaign): refused rather than ignored (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub(crate) struct Refused(pub(crate) String);
 
 /// A design whose target range was not reached (exit code 3; the reason was printed).
 #[derive(Debug, thiserror::Error)]
@@ -39,7 +45,10 @@ pub fn main() -> ExitCode {
         );
         return ExitCode::from(1);
     }
-    let cli = match Cli::try_parse() {
+    let cli = match command()
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
         Ok(cli) => cli,
         // `--help` and `--version` go to standard output, checked as every output is.
         Err(e) if !e.use_stderr() => {
@@ -71,6 +80,41 @@ pub fn main() -> ExitCode {
     code
 }
 
+/// The command line's grammar: [`Cli`]'s, every numeric option taking any value that starts
+/// with a hyphen (`-0.5`, `-inf`, `-1:5:1` reach the option's check and are refused for their
+/// value, instead of being taken for an unknown flag), every other option a negative number.
+pub fn command() -> clap::Command {
+    fn negatives(c: clap::Command) -> clap::Command {
+        c.mut_args(|a| {
+            if !a.get_action().takes_values() || a.is_positional() {
+                a
+            } else if is_numeric(&a) {
+                a.allow_hyphen_values(true)
+            } else {
+                a.allow_negative_numbers(true)
+            }
+        })
+        .mut_subcommands(negatives)
+    }
+    negatives(<Cli as clap::CommandFactory>::command())
+}
+
+/// Whether an option's value is a number or a range of numbers (by its parser's type).
+fn is_numeric(a: &clap::Arg) -> bool {
+    use std::any::TypeId;
+    let id = a.get_value_parser().type_id();
+    [
+        TypeId::of::<f64>(),
+        TypeId::of::<(f64, f64)>(),
+        TypeId::of::<(f64, f64, f64)>(),
+        TypeId::of::<u32>(),
+        TypeId::of::<u64>(),
+        TypeId::of::<usize>(),
+    ]
+    .iter()
+    .any(|t| id == *t)
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Period(a) => measure::period(a),
@@ -85,6 +129,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Gap(a) => ride::gap(a),
         Command::Simulate(s) => simulate::simulate(s),
         Command::Report(r) => {
+            bikeproc::output::refuse_folder_over_inputs(&r.out, &[&r.data, &r.reference])?;
             if !r.data.join("rides.toml").is_file() {
                 return Err(bikeproc::kind::WrongKind(format!(
                     "{}: no lab data here (its rides.toml is missing): run `bikeproc report` in \
@@ -118,6 +163,140 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             || c.is::<bikeproc::ride::RideError>()
             || c.is::<bikeproc::model::control::ControlError>()
             || c.is::<NoRideAnalysed>()
+            || c.is::<Refused>()
             || c.is::<bikeproc::kind::WrongKind>()
+            || matches!(
+                c.downcast_ref::<bikeproc::output::OutputError>(),
+                Some(bikeproc::output::OutputError::OverInput { .. })
+            )
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::command;
+    use proptest::prelude::*;
+
+    /// Every numeric option, with the path of subcommands that reaches it.
+    fn value_options() -> Vec<(Vec<String>, String)> {
+        fn walk(c: &clap::Command, path: Vec<String>, out: &mut Vec<(Vec<String>, String)>) {
+            for a in c.get_arguments() {
+                if let Some(long) = a.get_long() {
+                    if a.get_action().takes_values() && super::is_numeric(a) {
+                        out.push((path.clone(), format!("--{long}")));
+                    }
+                }
+            }
+            for s in c.get_subcommands() {
+                let mut p = path.clone();
+                p.push(s.get_name().to_string());
+                walk(s, p, out);
+            }
+        }
+        let mut out = Vec::new();
+        walk(&command(), Vec::new(), &mut out);
+        out
+    }
+
+    /// The values a careless user types where a number is wanted.
+    const AWKWARD: [&str; 16] = [
+        "-1",
+        "-0.5",
+        "0",
+        "-0",
+        "NaN",
+        "nan",
+        "inf",
+        "-inf",
+        "1e308",
+        "-1e308",
+        "1e400",
+        "5:1",
+        "1:1e308",
+        "0:1e308:1e307",
+        "-1:5:1",
+        "nan:1",
+    ];
+
+    /// A refusal of `value` for `option`: names the option and echoes no number as hundreds of
+    /// digits (1e308 was written out as a 309-digit integer).
+    fn check_refusal(option: &str, value: &str, message: &str) {
+        assert!(
+            message.contains(option),
+            "{option} {value}: the refusal does not name the option: {message}"
+        );
+        let longest_digits = message
+            .split(|c: char| !c.is_ascii_digit())
+            .map(str::len)
+            .max()
+            .unwrap_or(0);
+        assert!(
+            longest_digits < 25,
+            "{option} {value}: a {longest_digits}-digit number in: {message}"
+        );
+    }
+
+    fn parse(path: &[String], option: &str, value: &str) -> Result<(), clap::Error> {
+        let mut argv = vec!["bikeproc".to_string()];
+        argv.extend(path.iter().cloned());
+        argv.push(option.to_string());
+        argv.push(value.to_string());
+        command().try_get_matches_from(argv).map(|_| ())
+    }
+
+    /// Every option of every command, given each awkward value: either taken (the command's
+    /// own checks then run), or refused by its value's check with the option named; never a
+    /// value mistaken for a flag (`--max-change -0.5` was "unexpected argument '-0'").
+    #[test]
+    fn every_option_refuses_awkward_numbers_by_name() {
+        let options = value_options();
+        assert!(
+            options.len() > 40,
+            "{} numeric options found",
+            options.len()
+        );
+        for (path, option) in &options {
+            for value in AWKWARD {
+                let Err(e) = parse(path, option, value) else {
+                    continue;
+                };
+                use clap::error::ErrorKind::*;
+                match e.kind() {
+                    // Taken: what is missing is another argument, not this one's value.
+                    MissingRequiredArgument | MissingSubcommand | ArgumentConflict => {}
+                    InvalidValue | ValueValidation => {
+                        check_refusal(option, value, &e.render().to_string())
+                    }
+                    other => panic!(
+                        "{} {option} {value}: {other:?}: {}",
+                        path.join(" "),
+                        e.render()
+                    ),
+                }
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+        /// Any number at all, in plain or exponent form, for any option: the same rules.
+        #[test]
+        fn any_number_for_any_option(
+            pick in 0usize..10_000,
+            mantissa in -1e6f64..1e6,
+            exponent in -320i32..320,
+            range in any::<bool>(),
+        ) {
+            let options = value_options();
+            let (path, option) = &options[pick % options.len()];
+            let x = format!("{mantissa}e{exponent}");
+            let value = if range { format!("{x}:{mantissa}") } else { x };
+            if let Err(e) = parse(path, option, &value) {
+                use clap::error::ErrorKind::*;
+                if matches!(e.kind(), InvalidValue | ValueValidation) {
+                    check_refusal(option, &value, &e.render().to_string());
+                }
+            }
+        }
+    }
 }
