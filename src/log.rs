@@ -762,8 +762,9 @@ impl<'a> Parser<'a> {
             }
         }
 
-        if self.options.header_only {
-            return Ok(Log {
+        // The log from what its header gave and what its rows give.
+        let assemble =
+            |metadata, columns, sensors, data, grid_index, gaps, first_counter, warnings| Log {
                 path: self.path.to_path_buf(),
                 sample_rate_hz,
                 mode,
@@ -771,13 +772,25 @@ impl<'a> Parser<'a> {
                 spanish_locale: separator == ';',
                 columns,
                 column_row_line: col_line_no,
-                data: Vec::new(),
-                grid_index: Vec::new(),
+                data,
+                grid_index,
                 sensors,
-                gaps: GapReport::default(),
-                first_counter: 0,
-                warnings: Vec::new(),
-            });
+                gaps,
+                first_counter,
+                warnings,
+            };
+        if self.options.header_only {
+            let none = GapReport::default();
+            return Ok(assemble(
+                metadata,
+                columns,
+                sensors,
+                Vec::new(),
+                Vec::new(),
+                none,
+                0,
+                Vec::new(),
+            ));
         }
         // One sensor's columns kept, where one is asked for and the log has it.
         let (columns, data_fields, sensors) =
@@ -1051,21 +1064,16 @@ impl<'a> Parser<'a> {
                 .for_each(|(_, column)| unwrap_degrees(column));
         }
 
-        Ok(Log {
-            path: self.path.to_path_buf(),
-            sample_rate_hz,
-            mode,
+        Ok(assemble(
             metadata,
-            spanish_locale: separator == ';',
             columns,
-            column_row_line: col_line_no,
+            sensors,
             data,
             grid_index,
-            sensors,
             gaps,
             first_counter,
             warnings,
-        })
+        ))
     }
 
     /// Samples between two rows: the counter's step (mod 65536) made consistent with the time step.

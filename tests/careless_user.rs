@@ -68,6 +68,14 @@ fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
 }
 
 const REFERENCE_BIKES: &str = "../shared/reference/bicycleparameters";
+/// `design` of the lab bicycle over 3.5–5 m/s, the variables and options to follow.
+const DESIGN_LAB: [&str; 5] = [
+    "design",
+    "--bike",
+    "data/lab_bike.toml",
+    "--stable",
+    "3.5:5",
+];
 const CSV_RIDE: &str = "../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv";
 
 /// A short CSV ride: a weave (σ −0.5, ω 5 rad/s) in roll and steer, and the wheel's speed.
@@ -111,21 +119,25 @@ fn data_loss() {
     let bike = dir.join("X.toml");
     std::fs::copy(root().join("data/lab_bike.toml"), &bike).unwrap();
     let before = std::fs::read(&bike).unwrap();
+    // `design` of the trail over 3.5–5 m/s, written to `out`.
+    let design = |out: &str| -> Vec<String> {
+        let args = [
+            "design",
+            "--bike",
+            s(&bike),
+            "--stable",
+            "3.5:5",
+            "--vary",
+            "trail",
+        ];
+        let mut args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+        args.extend(["--out".to_string(), out.to_string()]);
+        args
+    };
     for out in [s(&bike).to_string(), format!("{}/./X.toml", s(&dir))] {
-        refused(
-            &[
-                "design",
-                "--bike",
-                s(&bike),
-                "--stable",
-                "3.5:5",
-                "--vary",
-                "trail",
-                "--out",
-                &out,
-            ],
-            "refused as the output",
-        );
+        let args = design(&out);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        refused(&args, "refused as the output");
     }
     assert_eq!(
         std::fs::read(&bike).unwrap(),
@@ -155,18 +167,10 @@ fn data_loss() {
     // Written in the format its name says, and read back by `stability` whatever the name.
     for name in ["Y.toml", "YBenchmark.txt", "y.params"] {
         let out = dir.join(name);
-        let (code, json, err) = bikeproc(&[
-            "design",
-            "--bike",
-            s(&bike),
-            "--stable",
-            "3.5:5",
-            "--vary",
-            "trail",
-            "--out",
-            s(&out),
-            "--json",
-        ]);
+        let mut args = design(s(&out));
+        args.push("--json".into());
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, json, err) = bikeproc(&args);
         assert_eq!(code, 0, "{name}: {err}");
         let d: serde_json::Value = serde_json::from_str(&json).unwrap();
         let (code, back, err) = bikeproc(&["stability", "--bike", s(&out), "--json"]);
@@ -267,18 +271,7 @@ fn silently_wrong() {
         "head_angle,lam",
         "wheelbase,w",
     ] {
-        refused(
-            &[
-                "design",
-                "--bike",
-                "data/lab_bike.toml",
-                "--stable",
-                "3.5:5",
-                "--vary",
-                vary,
-            ],
-            "twice",
-        );
+        refused(&[&DESIGN_LAB[..], &["--vary", vary]].concat(), "twice");
     }
     refused(
         &[
@@ -383,17 +376,7 @@ fn ignored_flags() {
 fn messages() {
     for value in ["-0.5", "1e308", "-inf"] {
         let err = refused(
-            &[
-                "design",
-                "--bike",
-                "data/lab_bike.toml",
-                "--stable",
-                "3.5:5",
-                "--vary",
-                "trail",
-                "--max-change",
-                value,
-            ],
+            &[&DESIGN_LAB[..], &["--vary", "trail", "--max-change", value]].concat(),
             "--max-change",
         );
         assert!(!err.contains("unexpected argument"), "{err}");
