@@ -264,8 +264,8 @@ fn a_kinematic_speed_beyond_any_ride_is_left_out() {
 #[test]
 fn the_model_mode_beside_a_measurement_is_the_nearest_oscillatory_one() {
     use bikeproc::model::control::SteerControl;
-    use bikeproc::ride::dynamic::{model_weave_at, ModelMode};
     use bikeproc::ride::modal::Eigenvalue;
+    use bikeproc::ride::model_weave::{model_weave_at, ModelMode};
     let reference =
         root().join("../shared/reference/bicycleparameters/Balanceassistv1Benchmark.txt");
     let (control, _) =

@@ -201,7 +201,8 @@ fn the_uncontrolled_rides_free_decays_give_weave_eigenvalues() {
 /// marked by hand (141.28–142.71, 148.53–149.94, 153.98–155.50 s), each with its reason.
 #[test]
 fn the_found_windows_are_the_marked_ones() {
-    use bikeproc::ride::csv::{find_kicks, read_csv_ride, Columns, DecayEnd, DecayStart};
+    use bikeproc::ride::csv::{find_kicks, read_csv_ride, Columns};
+    use bikeproc::ride::kicks::{DecayEnd, DecayStart};
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv");
     let ride = read_csv_ride(&path, &Columns::default(), None).unwrap();
@@ -1155,7 +1156,8 @@ fn a_controlled_treadmill_recording_meets_the_held_out_bars() {
 /// 63 segments: 58 found, 60 now).
 #[test]
 fn a_push_that_lasts_past_its_peak_starts_the_decay_at_the_swing_back() {
-    use bikeproc::ride::csv::{read_csv_ride, ride_decays, Columns, DecayStart};
+    use bikeproc::ride::csv::{read_csv_ride, ride_decays, Columns};
+    use bikeproc::ride::kicks::DecayStart;
     use bikeproc::ride::modal::ModalOptions;
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/reference/rides/balanceassist_controlled");

@@ -187,7 +187,8 @@ fn csv_ride(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
         modal,
     )?;
     // One decay of a window or a short record, given: the decay alone.
-    let long = !matches!(&kicks[..], [k] if k.kick.starts == csv::DecayStart::Given);
+    let long =
+        !matches!(&kicks[..], [k] if k.kick.starts == bikeproc::ride::kicks::DecayStart::Given);
     if !long {
         if let Some(summary) = kicks.pop().and_then(|k| k.decay) {
             return emit(a.json, &summary, || summary.to_text());

@@ -313,7 +313,7 @@ fn nearest_oscillatory(
         .min_by(|a, b| (a - guess).norm().total_cmp(&(b - guess).norm()))
 }
 
-impl crate::ride::dynamic::LinearWeave for LinearBike {
+impl crate::model::weave::LinearWeave for LinearBike {
     /// Rigid wheels: the Whipple model's `v̇ K_a` ([`Canonical::ka`]). With compliant tyres the
     /// state matrix stays the constant-speed one (their v̇ terms are not derived here); a
     /// replay ([`crate::ride::dynamic::replay_coasting`]) still runs it at the changing speed.

@@ -19,6 +19,7 @@ pub mod params;
 pub mod report;
 pub mod sensitivity;
 pub mod uncertain;
+pub mod weave;
 
 use crate::jet::Scalar;
 pub use control::SteerControl;

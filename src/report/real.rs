@@ -190,7 +190,7 @@ pub(super) fn uncontrolled_section(
             anyhow::bail!("{}: no wheel-speed column", path.display());
         };
         let e = &d.weave;
-        let m = crate::ride::dynamic::model_weave_at(&path, &model, v.value, v.se, e)?;
+        let m = crate::ride::model_weave::model_weave_at(&path, &model, v.value, v.se, e)?;
         let (ratio, phase) = d.shape.map_or(("—".to_string(), "—".to_string()), |s| {
             (
                 pm(s.ratio.value, s.ratio.se, 3),
@@ -258,11 +258,11 @@ pub(super) fn uncontrolled_section(
          | kick (s) | window (s) | starts, ends | speed (m/s) | weave σ (1/s) | weave ω (rad/s) | roll and steer: σ, ω | VAF | z σ | z ω |\n\
          |---|---|---|---|---|---|---|---|---|---|\n",
         kicks.len(),
-        crate::ride::csv::KICK_OVER_BACKGROUND,
-        crate::ride::csv::KICK_OVER_SWING,
-        crate::ride::csv::FORCED_RISE_QUARTERS,
-        crate::ride::csv::STALL_RATIO,
-        crate::ride::csv::DECAY_MAX_S
+        crate::ride::kicks::KICK_OVER_BACKGROUND,
+        crate::ride::kicks::KICK_OVER_SWING,
+        crate::ride::kicks::FORCED_RISE_QUARTERS,
+        crate::ride::kicks::STALL_RATIO,
+        crate::ride::kicks::DECAY_MAX_S
     );
     for k in &kicks {
         let (a, b) = k.kick.window_s;
@@ -562,6 +562,6 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
 }
 
 /// A found window's start and end in two words each.
-fn why_window(k: &crate::ride::csv::Kick) -> String {
+fn why_window(k: &crate::ride::kicks::Kick) -> String {
     format!("{}; {}", k.starts.short(), k.ends.short())
 }

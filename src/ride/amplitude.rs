@@ -30,9 +30,9 @@
 //! 6 of 200 and 100 coasting rides' ω errors came out a mean +0.34 of their SE with a spread
 //! of 0.79 (the drag-free replay of a slowing ride is not that ride).
 
-use super::dynamic::LinearWeave;
 use super::modal::{refit_as, ModalFit, Start};
 use crate::model::nonlinear::NonlinearBicycle;
+use crate::model::weave::LinearWeave;
 use crate::model::Canonical;
 use nalgebra::Complex;
 

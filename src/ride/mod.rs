@@ -10,14 +10,19 @@
 //!   the measured slowing, the reed switch, and the rolling kinematics, compared.
 //! - [`csv`]: rides from other instruments, a CSV of named time series → one free decay
 //!   fitted, the speed from the wheel-speed column.
+//! - [`kicks`]: a long recording's kicks and the free decay after each, from its roll rate.
 //! - [`study`]: several campaigns of one bicycle, each a condition (controller off, gains).
+//! - [`model_weave`]: the model's oscillatory mode nearest a measured weave at the ride's
+//!   speed, with its errors and shape: every instrument's ride set beside the model.
 //! - [`modal`]: θ and γ over the free motion → the modes they share (weave σ ± iω, real
 //!   modes), standard errors, mode shape.
 
 pub mod amplitude;
 pub mod csv;
 pub mod dynamic;
+pub mod kicks;
 pub mod modal;
+pub mod model_weave;
 pub mod read;
 pub mod speed;
 pub mod study;

@@ -27,10 +27,14 @@ use crate::fit::{levenberg_marquardt, Estimate, LeastSquares};
 use nalgebra::{Complex, DMatrix, DVector};
 use std::ops::ControlFlow;
 
-/// Errors of the modal fit.
+/// The fewest samples a window may hold: below it the fit is refused ([`ModalError::TooShort`]),
+/// and no reader hands it such a window.
+pub const MIN_SAMPLES: usize = 40;
+
 /// The most real modes a fit carries beside the weave.
 pub const MAX_REAL_MODES: usize = 2;
 
+/// Errors of the modal fit.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ModalError {
     #[error("the window holds {0} samples: too few to fit the modes")]
@@ -802,7 +806,7 @@ pub fn fit_modes(
     options: &ModalOptions,
 ) -> Result<ModalFit, ModalError> {
     let n = t_s.len();
-    if n < 40 || roll_rad.len() != n || steer_rad.len() != n {
+    if n < MIN_SAMPLES || roll_rad.len() != n || steer_rad.len() != n {
         return Err(ModalError::TooShort(n));
     }
     let x = [roll_rad, steer_rad];
@@ -936,7 +940,11 @@ pub fn vaf_with_modes(
     real_rates: &[f64],
 ) -> Option<[f64; 2]> {
     let n = t_s.len();
-    if n < 40 || roll_rad.len() != n || steer_rad.len() != n || real_rates.len() > MAX_REAL_MODES {
+    if n < MIN_SAMPLES
+        || roll_rad.len() != n
+        || steer_rad.len() != n
+        || real_rates.len() > MAX_REAL_MODES
+    {
         return None;
     }
     let problem = Problem {
