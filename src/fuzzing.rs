@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub type Target = fn(&[u8]);
 
 /// The fuzz targets by name: the folder names under `fuzz/seeds/` and `fuzz/fuzz_targets/`.
-pub const TARGETS: [(&str, Target); 10] = [
+pub const TARGETS: [(&str, Target); 11] = [
     ("log_file", log_file),
     ("csv_signal", csv_signal),
     ("bicycle_text", bicycle_text),
@@ -24,6 +24,7 @@ pub const TARGETS: [(&str, Target); 10] = [
     ("measured_file", measured_file),
     ("controller_file", controller_file),
     ("study_manifest", study_manifest),
+    ("controller_from_file", controller_from_file),
 ];
 
 /// Writes `bytes` to `name` in this process's fuzzing folder and gives its path.
@@ -87,8 +88,13 @@ pub fn pendulum_manifest(bytes: &[u8]) {
     }
 }
 
-/// A ride campaign's `rides.toml`, its controller table included.
+/// A ride campaign's `rides.toml`, its controller table or file included (beside it: a log,
+/// the benchmark bicycle and `ctl.toml`).
 pub fn ride_manifest(bytes: &[u8]) {
+    // What a manifest may name beside it: a log, a bicycle, a controller file.
+    if !beside_manifests() {
+        return;
+    }
     if let Some(path) = as_file(bytes, "rides.toml") {
         let _ = crate::ride::dynamic::RideManifest::load(&path);
     }
@@ -132,19 +138,64 @@ pub fn controller_file(bytes: &[u8]) {
     }
 }
 
-/// A study manifest (`conditions = [...]`): read, with two campaign manifests beside it
-/// (`off.toml`, and `gain.toml` with a controller table) that its conditions may name.
+/// A study manifest (`conditions = [...]`): read, with three campaign manifests beside it that
+/// its conditions may name (`off.toml`; `gain.toml` with a controller table; `file.toml` with
+/// a controller file), and each condition's model made.
 pub fn study_manifest(bytes: &[u8]) {
-    const OFF: &str = "version = 1\nbike = \"bike.txt\"\n\n[[ride]]\nlog = \"r.log\"\n";
-    const GAIN: &str =
-        "version = 1\nbike = \"bike.txt\"\n\n[controller]\nspeeds_mps = [0.0, 4.7]\n\
-        roll_rate_nms_per_rad = [28.2, 0.0]\n\n[[ride]]\nlog = \"r.log\"\n";
-    if as_file(OFF.as_bytes(), "off.toml").is_none()
-        || as_file(GAIN.as_bytes(), "gain.toml").is_none()
-    {
+    if !beside_manifests() {
         return;
     }
     if let Some(path) = as_file(bytes, "study.toml") {
-        let _ = crate::ride::study::Study::load(&path);
+        if let Ok(study) = crate::ride::study::Study::load(&path) {
+            for (_, m) in &study.conditions {
+                let _ = m.model(None);
+            }
+        }
     }
+}
+
+/// A controller file a campaign manifest names (`controller = "ctl.toml"`): the manifest
+/// read with it, and its model's eigenvalues across the table.
+pub fn controller_from_file(bytes: &[u8]) {
+    if !beside_manifests() || as_file(bytes, "ctl.toml").is_none() {
+        return;
+    }
+    if let Some(path) = as_file(FILE.as_bytes(), "file.toml") {
+        if let Ok(m) = crate::ride::dynamic::RideManifest::load(&path) {
+            if let Ok(model) = m.model(None) {
+                for v in [0.0, 1.0, 4.7, 10.0, 40.0] {
+                    let _ = model.nominal_canonical().eigenvalues(v);
+                }
+            }
+        }
+    }
+}
+
+/// A campaign without a controller (`off.toml`).
+const OFF: &str = "version = 1\nbike = \"bike.txt\"\n\n[[ride]]\nlog = \"r.log\"\n\
+    noted_speed_mps = 3.0\n";
+/// A campaign with its controller's table (`gain.toml`).
+const GAIN: &str = "version = 1\nbike = \"bike.txt\"\n\n[controller]\nspeeds_mps = [0.0, 4.7]\n\
+    roll_rate_nms_per_rad = [28.2, 0.0]\n\n[[ride]]\nlog = \"r.log\"\nnoted_speed_mps = 3.0\n";
+/// A campaign whose controller is a file (`file.toml`, naming `ctl.toml`).
+const FILE: &str = "version = 1\nbike = \"bike.txt\"\ncontroller = \"ctl.toml\"\n\n[[ride]]\n\
+    log = \"r.log\"\nnoted_speed_mps = 3.0\n";
+/// The controller file `file.toml` names, until a target writes its own.
+const CONTROLLER: &str = "[controller]\nspeeds_mps = [0.0, 4.7, 20.0]\n\
+    roll_rate_nms_per_rad = [28.2, 0.0, 0.0]\n";
+
+/// Writes what manifests name beside them (the benchmark bicycle, an empty log, the three
+/// campaigns and a controller file); `false` when the folder cannot be written.
+fn beside_manifests() -> bool {
+    let bike = crate::model::Benchmark::meijaard_2007().to_text();
+    [
+        (bike.as_str(), "bike.txt"),
+        ("", "r.log"),
+        (OFF, "off.toml"),
+        (GAIN, "gain.toml"),
+        (FILE, "file.toml"),
+        (CONTROLLER, "ctl.toml"),
+    ]
+    .iter()
+    .all(|(text, name)| as_file(text.as_bytes(), name).is_some())
 }

@@ -310,3 +310,84 @@ fn a_malformed_study_is_refused_with_its_file() {
         assert!(err.contains(words), "{args:?}: {err}");
     }
 }
+
+/// A controller kept in a file of its own (`controller = "gains.toml"`, as another lab keeps
+/// one controller for several campaigns) is the same controller as the table written inline:
+/// the model's eigenvalues bit for bit. A missing, malformed or outside file is refused with
+/// the manifest and the controller file named.
+#[test]
+fn a_controller_from_a_file_is_the_inline_one() {
+    use bikeproc::ride::dynamic::RideManifest;
+    let dir = std::env::temp_dir().join(format!("bikeproc_controller_file_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let real = root().join("fixtures/real");
+    let inline = std::fs::read_to_string(real.join("balanceassist_gain6.toml")).unwrap();
+    // The same manifest beside the fixtures' (its relative paths kept), its table in a file.
+    let start = inline.find("[controller]").unwrap();
+    let end = start + inline[start..].find("\n\n").unwrap();
+    let table = &inline[start..end];
+    let gains = real.join(format!("gains_{}.toml", std::process::id()));
+    let from_file = real.join(format!("from_file_{}.toml", std::process::id()));
+    let name = gains.file_name().unwrap().to_str().unwrap().to_string();
+    std::fs::write(&gains, format!("{table}\n")).unwrap();
+    // The table out; `controller = …`, a key of the top table, before the first table.
+    let manifest = inline.replacen(table, "", 1).replacen(
+        "allow_outside_folder = true",
+        &format!("allow_outside_folder = true\ncontroller = \"{name}\""),
+        1,
+    );
+    std::fs::write(&from_file, &manifest).unwrap();
+    let loaded = RideManifest::load(&from_file);
+    let expected = RideManifest::load(&real.join("balanceassist_gain6.toml")).unwrap();
+    let cleanup = || {
+        let _ = std::fs::remove_file(&gains);
+        let _ = std::fs::remove_file(&from_file);
+    };
+    let loaded = match loaded {
+        Ok(m) => m,
+        Err(e) => {
+            cleanup();
+            panic!("{e}");
+        }
+    };
+    let (a, b) = (loaded.model(None).unwrap(), expected.model(None).unwrap());
+    for v in [1.0, 2.5, 4.0, 6.0] {
+        let (ea, eb) = (
+            a.nominal_canonical().eigenvalues(v),
+            b.nominal_canonical().eigenvalues(v),
+        );
+        assert_eq!(format!("{ea:?}"), format!("{eb:?}"), "at {v} m/s");
+    }
+    // A malformed controller file: its own name and line in the manifest's error.
+    std::fs::write(
+        &gains,
+        "[controller]\nspeeds_mps = [0.0, 4.7]\nroll_gain = [1.0, 2.0]\n",
+    )
+    .unwrap();
+    let err = RideManifest::load(&from_file).unwrap_err().to_string();
+    let missing = {
+        std::fs::remove_file(&gains).unwrap();
+        RideManifest::load(&from_file).unwrap_err().to_string()
+    };
+    cleanup();
+    assert!(err.contains(&name) && err.contains("roll_gain"), "{err}");
+    assert!(
+        err.contains(from_file.file_name().unwrap().to_str().unwrap()),
+        "{err}"
+    );
+    assert!(
+        missing.contains(&name) && missing.contains("cannot read"),
+        "{missing}"
+    );
+    // Outside the manifest's folder without allow_outside_folder: refused.
+    let outside = dir.join("outside.toml");
+    std::fs::write(dir.join("r.log"), "").unwrap();
+    std::fs::write(
+        &outside,
+        "version = 1\nbike = \"b.txt\"\ncontroller = \"../gains.toml\"\n\n[[ride]]\nlog = \"r.log\"\nnoted_speed_mps = 3.0\n",
+    )
+    .unwrap();
+    let err = RideManifest::load(&outside).unwrap_err().to_string();
+    assert!(err.contains("outside the manifest's folder"), "{err}");
+}

@@ -88,6 +88,43 @@ pub struct ControllerSpec {
     pub steer_rate_nms_per_rad: Option<Vec<f64>>,
 }
 
+/// A campaign manifest's controller: its own `[controller]` table, or the path of a TOML file
+/// holding one (`controller = "gains.toml"`, relative to the manifest), as a lab keeps one
+/// controller's gains for several campaigns.
+#[derive(Debug, Clone)]
+pub enum ControllerEntry {
+    /// `controller = "FILE"`.
+    File(std::path::PathBuf),
+    /// A `[controller]` table in the manifest.
+    Table(ControllerSpec),
+}
+
+impl<'de> serde::Deserialize<'de> for ControllerEntry {
+    /// A string is a file's path; a table is read as [`ControllerSpec`], its own errors (an
+    /// unknown key, a missing list) kept as they are.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Entry;
+        impl<'de> serde::de::Visitor<'de> for Entry {
+            type Value = ControllerEntry;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a [controller] table, or the path of a TOML file holding one")
+            }
+            fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<ControllerEntry, E> {
+                Ok(ControllerEntry::File(s.into()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<ControllerEntry, A::Error> {
+                use serde::Deserialize as _;
+                ControllerSpec::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(ControllerEntry::Table)
+            }
+        }
+        d.deserialize_any(Entry)
+    }
+}
+
 /// A TOML file holding a `[controller]` table: a file of its own, or a campaign manifest that
 /// carries one (its other keys are the manifest's business; the table's own are checked).
 #[derive(Debug, Clone, serde::Deserialize)]

@@ -18,9 +18,10 @@ use super::read::{read_ride, RideError, RideSignals};
 pub use super::speed::SpeedSource;
 use super::speed::{Geometry, NotedReading, SpeedSources};
 use crate::inertia::manifest::{from_toml, ManifestError};
+use crate::model::control::{ControlError, ControllerEntry};
 use crate::model::uncertain::Parametrized;
 use crate::model::weave::{weave_near, LinearWeave};
-use crate::model::{control::ControlError, Canonical, SteerControl};
+use crate::model::{Canonical, SteerControl};
 use nalgebra::Complex;
 use std::path::{Path, PathBuf};
 
@@ -948,6 +949,9 @@ fn model_weave(
 /// speeds_mps = [0.0, 4.7, 20.0]
 /// roll_rate_nms_per_rad = [28.2, 0.0, 0.0]
 /// ```
+///
+/// Instead of the table, `controller = "gains.toml"` (before the first table) names a file
+/// holding one, relative to the manifest: a lab's controller kept once for its campaigns.
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RideManifest {
@@ -963,7 +967,7 @@ pub struct RideManifest {
     pub rides: Vec<RideEntry>,
     /// The bicycle's steer controller, if it carries one.
     #[serde(default)]
-    pub controller: Option<crate::model::control::ControllerSpec>,
+    pub controller: Option<crate::model::control::ControllerEntry>,
     /// Known changes of this campaign's bicycle from the bicycle file: point masses at stated
     /// places (`[[known_mass]]`: `frame = "rear"` or `"front"`, `mass_kg`, `x_m`, `z_m` in the
     /// benchmark's axes, x forward and z down from the rear contact).
@@ -1151,15 +1155,34 @@ impl RideManifest {
                 ));
             }
         }
-        if let Some(spec) = &m.controller {
-            m.control = SteerControl::from_spec(spec, path).map_err(|e| ManifestError {
-                path: path.to_path_buf(),
-                line: line_of("[controller]"),
-                message: match e {
-                    ControlError::Invalid { message, .. } => message,
-                    other => other.to_string(),
-                },
-            })?;
+        match &m.controller {
+            Some(ControllerEntry::Table(spec)) => {
+                m.control = SteerControl::from_spec(spec, path).map_err(|e| ManifestError {
+                    path: path.to_path_buf(),
+                    line: line_of("[controller]"),
+                    message: match e {
+                        ControlError::Invalid { message, .. } => message,
+                        other => other.to_string(),
+                    },
+                })?;
+            }
+            Some(ControllerEntry::File(file)) => {
+                let named = format!("controller = \"{}\"", file.display());
+                if !m.allow_outside_folder && !crate::inertia::manifest::within_folder(file) {
+                    return Err(err(
+                        "controller",
+                        format!(
+                            "{named}: the controller lies outside the manifest's folder (set \
+                             `allow_outside_folder = true` if that is meant)"
+                        ),
+                    ));
+                }
+                // The controller file's own error names it, with its line.
+                m.control = SteerControl::load(&m.dir.join(file))
+                    .map_err(|e| err("controller", format!("{named}: {e}")))?
+                    .0;
+            }
+            None => {}
         }
         Ok(m)
     }
