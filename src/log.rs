@@ -430,8 +430,8 @@ impl Log {
         let mut prev: Option<UnitQuaternion<f64>> = None;
         for i in 0..n {
             let mut q = orientation(self.mode, |c| self.data[sensor.channel_columns[c]][i]).ok()?;
-            if prev.is_some_and(|p| p.coords.dot(&q.coords) < 0.0) {
-                q = UnitQuaternion::new_unchecked(-q.into_inner());
+            if let Some(p) = &prev {
+                q = continuing(p, q);
             }
             if visit(&q).is_break() {
                 return Some(n);
@@ -1647,11 +1647,18 @@ fn orientations(
         return Err(e);
     }
     for i in 1..n {
-        if out[i - 1].coords.dot(&out[i].coords) < 0.0 {
-            out[i] = UnitQuaternion::new_unchecked(-out[i].into_inner());
-        }
+        out[i] = continuing(&out[i - 1], out[i]);
     }
     Ok(out)
+}
+
+/// `q` or `−q` (one rotation), whichever continues `prev`: a non-negative dot product.
+fn continuing(prev: &UnitQuaternion<f64>, q: UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    if prev.coords.dot(&q.coords) < 0.0 {
+        UnitQuaternion::new_unchecked(-q.into_inner())
+    } else {
+        q
+    }
 }
 
 /// One sample's orientation from its channel values (`v(k)`: the sensor's k-th channel).

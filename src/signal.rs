@@ -851,8 +851,9 @@ pub fn dominant_rotation(log: &Log, sensor: Option<&str>) -> Result<Signal, Sign
         });
     }
     let s = pick_sensor(log, sensor)?;
-    // The orientations are streamed, four passes, never held (a 92 MB log's quaternions and
-    // rotation vectors were 140 MB): the same numbers in the same order as held ones.
+    // The orientations are streamed in passes (the rest, the mean, the spread, the values),
+    // never held (a 92 MB log's quaternions and rotation vectors were 140 MB): the same
+    // numbers in the same order as held ones.
     let too_few = |n: usize| SignalError::Invalid {
         path: log.path.clone(),
         line: log.column_row_line,

@@ -38,6 +38,10 @@ pub fn gap(a: GapArgs) -> Result<()> {
     let d = if let (None, [file]) = (&study_file, &a.files[..]) {
         let manifest = RideManifest::load(file)?;
         let model = manifest.model(a.bike.as_deref())?;
+        warn_if_exact(
+            &model,
+            &a.bike.clone().unwrap_or_else(|| manifest.bike_path()),
+        );
         bikeproc::gap::diagnose_campaign(&manifest, &model, &|what, done, total| {
             advance(&bar, what, done, total)
         })?
@@ -51,29 +55,31 @@ pub fn gap(a: GapArgs) -> Result<()> {
             None => study.bike_path()?,
         };
         let model = bikeproc::model::uncertain::load(&bike)?;
+        warn_if_exact(&model, &bike);
         bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|what, done, total| {
             advance(&bar, what, done, total)
         })?
     };
     bar.finish_and_clear();
-    if let Some(b) = &a.bike {
-        if let Ok(m) = bikeproc::model::uncertain::load(b) {
-            let cov = m.inputs.covariance();
-            if (0..cov.nrows()).all(|i| cov[(i, i)] == 0.0) {
-                note!(
-                    "warning: {}: no standard errors in the bicycle file: its parameters are \
-                     taken as exact, and the tests carry the rides' errors alone",
-                    b.display()
-                );
-            }
-        }
-    }
     emit(a.json, &d, || d.to_text())?;
     if d.rides_used == 0 {
         let file = study_file.unwrap_or_else(|| a.files[0].clone());
         return Err(NoRideAnalysed(file).into());
     }
     Ok(())
+}
+
+/// A bicycle file without a standard error anywhere: its model is taken as exact, which the
+/// gap's tests then assume; said, since they read as if the measurement's errors were in.
+fn warn_if_exact(model: &bikeproc::model::uncertain::Parametrized, bike: &std::path::Path) {
+    let cov = model.inputs.covariance();
+    if (0..cov.nrows()).all(|i| cov[(i, i)] == 0.0) {
+        note!(
+            "warning: {}: no standard errors in the bicycle file: its parameters are taken as \
+             exact, and the tests carry the rides' errors alone",
+            bike.display()
+        );
+    }
 }
 
 pub fn dynamic(a: DynamicArgs) -> Result<()> {

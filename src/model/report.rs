@@ -99,16 +99,22 @@ impl StabilityReport {
         let speeds = speed_grid((lo, hi, step));
         let s = p.speeds(hi, 0.01)?;
         let bands = p.bands(&speeds)?;
-        let mut report = StabilityReport::new(&p.name, &s, &bands, &p.nominal_canonical());
-        report.searched_to_mps = hi;
-        Ok(report)
+        Ok(StabilityReport::new(
+            &p.name,
+            &s,
+            &bands,
+            &p.nominal_canonical(),
+            hi,
+        ))
     }
 
+    /// The report of the speeds `s` (searched from 0 to `searched_to_mps`) and the bands `b`.
     pub fn new(
         name: &str,
         s: &SpeedsWithSe,
         b: &Bands,
         model: &super::Canonical,
+        searched_to_mps: f64,
     ) -> StabilityReport {
         let part = |i: usize, k: usize| {
             let z = b.sweep.eigenvalues[i][k];
@@ -127,7 +133,7 @@ impl StabilityReport {
             capsize_speed_se_mps: s.capsize_speed_se_mps,
             weave_merge_speed_mps: s.stability.weave_merge_speed_mps,
             stable_ranges_mps: s.stability.stable_ranges_mps.clone(),
-            searched_to_mps: b.sweep.speeds_mps.last().copied().unwrap_or(0.0),
+            searched_to_mps,
             eigenvalues: (0..b.sweep.speeds_mps.len())
                 .map(|i| {
                     let (v, w) = (b.sweep.speeds_mps[i], b.sweep.eigenvalues[i][0]);
