@@ -131,6 +131,8 @@ pub struct ModalFit {
     pub residual_rms_rad: [f64; 2],
     pub samples: usize,
     pub bic: f64,
+    /// How the fit's solves ended: converged or at their iteration limit.
+    pub solver: Solver,
     params: Vec<f64>,
 }
 
@@ -825,6 +827,7 @@ pub fn fit_modes(
             trend: true,
         },
     };
+    let mut solver = Solver::default();
     // Starting point: ω from the periodogram, σ by a search (variable projection); or the
     // eigenvalue given.
     let (sigma, omega) = match options.start {
@@ -843,7 +846,7 @@ pub fn fit_modes(
                 .min_by(|a, b| a.0.total_cmp(&b.0))
                 .ok_or(ModalError::NoWeave)?
                 .1;
-            let base = solve(&problem, base).ok_or(ModalError::NoWeave)?;
+            let base = solve(&problem, base, &mut solver).ok_or(ModalError::NoWeave)?;
             if plausible(&base) {
                 (base[0], base[1])
             } else {
@@ -872,8 +875,14 @@ pub fn fit_modes(
     for st in structures {
         problem.st = st;
         let rates = options.start.map(|s| s.real_rates);
-        let Some(c) = fit_structure(&problem, sigma, omega, rates, options.search_iterations)
-        else {
+        let Some(c) = fit_structure(
+            &problem,
+            sigma,
+            omega,
+            rates,
+            options.search_iterations,
+            &mut solver,
+        ) else {
             continue;
         };
         if best.as_ref().is_none_or(|b| c.bic < b.bic) {
@@ -885,23 +894,47 @@ pub fn fit_modes(
     // Re-weight by the residual levels; then τ is measured from where the eigenvalue applies
     // (the curve, σ and ω do not depend on t_ref; the amplitudes are solved afresh).
     problem.weight = best.rss.map(|r| 1.0 / (r / n as f64).sqrt().max(1e-12));
-    let params = solve(&problem, best.params).ok_or(ModalError::NoWeave)?;
+    let params = solve(&problem, best.params, &mut solver).ok_or(ModalError::NoWeave)?;
     problem.t_ref = eigenvalue_time(&problem, &params).ok_or(ModalError::NoWeave)?;
     let params = problem
         .project(&params[..problem.st.nonlinear()])
         .ok_or(ModalError::NoWeave)?;
     let drift = if options.only.is_none() {
-        fit_drift(&problem, &params)
+        fit_drift(&problem, &params, &mut solver)
     } else {
         None
     };
-    finish(&problem, params, drift, options)
+    finish(&problem, params, drift, solver, options)
+}
+
+/// How the solves of a modal fit ended ([`ModalFit::solver`]): the structures' searches, the
+/// chosen one's final fit and the eigenvalue drift's check.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Solver {
+    /// Iterations of the longest solve.
+    pub iterations: usize,
+    /// Every solve stopped with the Gauss–Newton step left below
+    /// a thousandth of the errors (`fit::CONVERGED_STEP_SE`; not at its iteration limit).
+    pub converged: bool,
+    /// Solves counted (0: none yet).
+    pub solves: usize,
+    /// Of those, the ones that did not converge.
+    pub unconverged: usize,
+}
+
+impl Solver {
+    fn record(&mut self, iterations: usize, converged: bool) {
+        self.converged = converged && (self.solves == 0 || self.converged);
+        self.iterations = self.iterations.max(iterations);
+        self.solves += 1;
+        self.unconverged += usize::from(!converged);
+    }
 }
 
 /// The drift's check: the constant fit's structure with σ̇ and ω̇ added, from the constant fit
 /// with no drift, τ from the same `t_ref`. `None` when that fit fails or lands elsewhere (ω
 /// implausible).
-fn fit_drift(constant: &Problem<'_>, params: &[f64]) -> Option<Drift> {
+fn fit_drift(constant: &Problem<'_>, params: &[f64], solver: &mut Solver) -> Option<Drift> {
     let problem = Problem {
         st: Structure {
             drift: true,
@@ -912,7 +945,7 @@ fn fit_drift(constant: &Problem<'_>, params: &[f64]) -> Option<Drift> {
     let mut p0 = params[..2].to_vec();
     p0.extend([0.0, 0.0]);
     p0.extend(&params[2..]);
-    let p = solve(&problem, p0)?;
+    let p = solve(&problem, p0, solver)?;
     if !plausible(&p) {
         return None;
     }
@@ -981,6 +1014,7 @@ fn fit_structure(
     omega: f64,
     rates: Option<[f64; MAX_REAL_MODES]>,
     iterations: usize,
+    solver: &mut Solver,
 ) -> Option<Candidate> {
     const RATES: [f64; 5] = [-0.3, -1.0, -3.0, -8.0, -20.0];
     let st = problem.st;
@@ -1009,7 +1043,7 @@ fn fit_structure(
         })
         .min_by(|a, b| a.0.total_cmp(&b.0))?
         .1;
-    let mut p = solve_within(problem, p0, iterations)?;
+    let mut p = solve_within(problem, p0, iterations, solver)?;
     if !plausible(&p) {
         return None;
     }
@@ -1052,13 +1086,19 @@ fn fit_structure(
 /// 0.92 → 1.22; with tyres and damping 0.95 → 1.35, two rides lost); 3,000 iterations lost
 /// three rides; refusing the structures whose fit reached the cap moved ω's mean error +0.48
 /// → +0.71.
-fn solve(problem: &Problem<'_>, p0: Vec<f64>) -> Option<Vec<f64>> {
-    solve_within(problem, p0, SOLVE_ITERATIONS)
+fn solve(problem: &Problem<'_>, p0: Vec<f64>, solver: &mut Solver) -> Option<Vec<f64>> {
+    solve_within(problem, p0, SOLVE_ITERATIONS, solver)
 }
 
-/// [`solve`] in at most `iterations`.
-fn solve_within(problem: &Problem<'_>, p0: Vec<f64>, iterations: usize) -> Option<Vec<f64>> {
-    let sol = levenberg_marquardt(problem, 2 * problem.n(), p0, iterations);
+/// [`solve`] in at most `iterations`, how it ended added to `solver`.
+fn solve_within(
+    problem: &Problem<'_>,
+    p0: Vec<f64>,
+    iterations: usize,
+    solver: &mut Solver,
+) -> Option<Vec<f64>> {
+    let sol = levenberg_marquardt(problem, 2 * problem.n(), p0, iterations, 0.0);
+    solver.record(sol.iterations, sol.converged);
     let mut p = sol.params;
     if p[1] < 0.0 {
         // ω → −ω (and ω̇, b) is the same curve.
@@ -1143,6 +1183,7 @@ fn finish(
     problem: &Problem<'_>,
     params: Vec<f64>,
     drift: Option<Drift>,
+    solver: Solver,
     options: &ModalOptions,
 ) -> Result<ModalFit, ModalError> {
     let st = problem.st;
@@ -1193,6 +1234,7 @@ fn finish(
         residual_rms_rad: rss.map(|r| (r / n as f64).sqrt()),
         samples: n,
         bic: bic(rss, n, np),
+        solver,
         params,
     })
 }
@@ -1321,6 +1363,54 @@ mod tests {
     /// The recurrences of [`Problem::basis`] against `exp` and `sin_cos` at every sample, on a
     /// 100 Hz window of 600 samples with dropped packets (single and in bursts), a drifting
     /// eigenvalue and two real modes: equal to 1e-13 of the largest value.
+    /// The solver's record tells how the fit ended: a weave with offsets and trends only (no
+    /// real mode, whose rate and amplitude make a valley) converges in a few iterations, at the
+    /// truth within its errors; the same fit from a start far off, allowed one iteration for
+    /// its structure, says it did not.
+    #[test]
+    fn a_fits_solver_record_says_whether_it_converged() {
+        let (t, roll, steer) =
+            drifting_weave(Complex::new(-0.9, 5.1), Complex::new(0.0, 0.0), 0.002, 11);
+        let only = Structure {
+            real_modes: 0,
+            drift: false,
+            trend: true,
+        };
+        let options = ModalOptions {
+            resamples: 0,
+            only: Some(only),
+            ..ModalOptions::default()
+        };
+        let fit = fit_modes(&t, &roll, &steer, &options).expect("a weave");
+        assert!(fit.solver.converged, "{:?}", fit.solver);
+        assert!(fit.solver.iterations < 50, "{:?}", fit.solver);
+        assert!(
+            (fit.weave.re + 0.9).abs() < 3.0 * fit.weave.re_se,
+            "{:?}",
+            fit.weave
+        );
+        assert!(
+            (fit.weave.im - 5.1).abs() < 3.0 * fit.weave.im_se,
+            "{:?}",
+            fit.weave
+        );
+        // From a start far from the truth (no search), one iteration cannot get there.
+        let cut = ModalOptions {
+            search_iterations: 1,
+            start: Some(Start {
+                weave: [-0.3, 4.6],
+                real_rates: [0.0; MAX_REAL_MODES],
+            }),
+            ..options
+        };
+        let fit = fit_modes(&t, &roll, &steer, &cut).expect("a weave");
+        assert!(
+            !fit.solver.converged && fit.solver.unconverged >= 1,
+            "{:?}",
+            fit.solver
+        );
+    }
+
     #[test]
     fn the_basis_recurrences_are_the_direct_evaluation() {
         let t: Vec<f64> = (0..700)
