@@ -1249,3 +1249,30 @@ fn a_push_that_lasts_past_its_peak_starts_the_decay_at_the_swing_back() {
         }
     }
 }
+
+/// Issue 75: the balance-assist study's repeated kicks, Cochran's Q per condition. Each
+/// condition's Q and degrees of freedom are its own set-ups' share of the pooled ones, so
+/// they add up to them exactly; every condition with repeats has one, a controlled condition's
+/// 7 set-ups of 3 kicks give 2 × 7 × 2 = 28 degrees of freedom (σ and ω), and each Q/dof is
+/// above 1 (the repeats scatter beyond their fits' errors: 1,118 on 88 pooled).
+#[test]
+fn the_studys_repeated_kicks_scatter_per_condition() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let study =
+        bikeproc::ride::study::Study::load(&root.join("fixtures/real/balanceassist_study.toml"))
+            .unwrap();
+    let model = bikeproc::model::uncertain::load(&study.bike_path().unwrap()).unwrap();
+    let d = bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {}).unwrap();
+    let s = d.between_kick_scatter.expect("repeated kicks");
+    let q: f64 = s.by_condition.iter().map(|c| c.q).sum();
+    let dof: usize = s.by_condition.iter().map(|c| c.q_dof).sum();
+    assert!((q - s.q).abs() <= 1e-9 * s.q, "{q} against {}", s.q);
+    assert_eq!(dof, s.q_dof);
+    assert_eq!(s.by_condition.len(), d.conditions.len());
+    for c in &s.by_condition {
+        if d.conditions[c.condition].controlled {
+            assert_eq!(c.q_dof, 28, "{}", d.conditions[c.condition].name);
+        }
+        assert!(c.q / c.q_dof as f64 > 1.0, "{c:?}");
+    }
+}

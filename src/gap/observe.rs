@@ -259,6 +259,18 @@ pub struct BetweenKickScatter {
     pub q: f64,
     pub q_dof: usize,
     pub p_value: f64,
+    /// The same Q and its degrees of freedom per condition with a repeated set-up (by the
+    /// condition's index): how far each condition's repeats scatter beyond their fits'
+    /// errors (Q/dof near 1 when they do not).
+    pub by_condition: Vec<ConditionScatter>,
+}
+
+/// Cochran's Q of one condition's repeated kicks ([`BetweenKickScatter::by_condition`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ConditionScatter {
+    pub condition: usize,
+    pub q: f64,
+    pub q_dof: usize,
 }
 
 /// The between-kick scatter of a campaign's (or study's) repeated kicks: rides of one condition
@@ -300,6 +312,7 @@ pub fn between_kick_scatter(
         }
     };
     let (mut q_eig, mut dof) = (0.0, 0usize);
+    let mut by_condition: Vec<ConditionScatter> = Vec::new();
     let per_part: Vec<f64> = (0..parts)
         .map(|a| {
             let (mut q, mut df, mut c) = (0.0, 0usize, 0.0);
@@ -324,7 +337,7 @@ pub fn between_kick_scatter(
                     .map(|(&i, wi)| wi * value(&rides[i], a))
                     .sum::<f64>()
                     / sw;
-                q += s
+                let q_setup = s
                     .iter()
                     .zip(&w)
                     .map(|(&i, wi)| {
@@ -335,7 +348,22 @@ pub fn between_kick_scatter(
                         wi * dx * dx
                     })
                     .sum::<f64>();
+                q += q_setup;
                 df += s.len() - 1;
+                if a < 2 {
+                    let condition = ride_condition[s[0]];
+                    match by_condition.iter_mut().find(|c| c.condition == condition) {
+                        Some(c) => {
+                            c.q += q_setup;
+                            c.q_dof += s.len() - 1;
+                        }
+                        None => by_condition.push(ConditionScatter {
+                            condition,
+                            q: q_setup,
+                            q_dof: s.len() - 1,
+                        }),
+                    }
+                }
                 c += sw - w.iter().map(|x| x * x).sum::<f64>() / sw;
             }
             if a < 2 {
@@ -360,6 +388,7 @@ pub fn between_kick_scatter(
         q_dof: dof,
         p_value: crate::stats::chi2_sf(q_eig, dof),
         per_part,
+        by_condition,
     })
 }
 

@@ -514,7 +514,7 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
          segments enter by their eigenvalue (the roll rate alone), the uncontrolled decays by their\n\
          eigenvalue (the roll rate) and mode shape (roll and steer), in one likelihood. Repeated kicks of one set-up\n\
          enter with the scatter between them estimated from the repeats{}.\n\n\
-         | condition | controller | rides | χ² against the model (dof) |\n|---|---|---|---|\n",
+         | condition | controller | rides | χ² against the model (dof) | repeated kicks: Cochran's Q/dof of σ and ω |\n|---|---|---|---|---|\n",
         d.between_kick_scatter.as_ref().map_or(String::new(), |s| format!(
             " ({} set-ups, {} kicks: σ {:.3} 1/s, ω {:.3} rad/s between kicks; Cochran's Q {:.0} for {} dof)",
             s.setups,
@@ -525,15 +525,24 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
             s.q_dof
         ))
     );
-    for c in &d.conditions {
+    for (i, c) in d.conditions.iter().enumerate() {
+        // How far this condition's repeats scatter beyond their fits' errors (1 when not).
+        let repeats = d
+            .between_kick_scatter
+            .as_ref()
+            .and_then(|s| s.by_condition.iter().find(|r| r.condition == i))
+            .map_or("—".to_string(), |r| {
+                format!("{:.1} ({:.0} on {})", r.q / r.q_dof as f64, r.q, r.q_dof)
+            });
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.0} ({}) |",
+            "| {} | {} | {} | {:.0} ({}) | {} |",
             c.name,
             if c.controlled { "on" } else { "off" },
             c.rides_used,
             c.chi2,
-            c.dof
+            c.dof,
+            repeats
         );
     }
     let _ = write!(
