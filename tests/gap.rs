@@ -611,8 +611,9 @@ fn eigenvalue_only_rides_take_their_own_coasting_errors() {
     )
     .unwrap();
     let d = bikeproc::sim::calibration::in_scratch("eigenvalue_only", &files, &text, &|dir| {
-        let manifest = RideManifest::load(&dir.join("rides.toml")).map_err(|e| e.to_string())?;
-        let model = uncertain::load(&dir.join("bike.toml")).map_err(|e| e.to_string())?;
+        use bikeproc::sim::calibration::stage;
+        let manifest = RideManifest::load(&dir.join("rides.toml")).map_err(stage)?;
+        let model = uncertain::load(&dir.join("bike.toml")).map_err(stage)?;
         let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
         let (rides, failed) = observations(&results);
         diagnose(
@@ -625,7 +626,7 @@ fn eigenvalue_only_rides_take_their_own_coasting_errors() {
             },
             &|_, _| {},
         )
-        .map_err(|e| e.to_string())
+        .map_err(stage)
     })
     .unwrap();
     assert_eq!(d.parts_per_ride, 2);

@@ -478,7 +478,7 @@ pub struct DesignArgs {
 }
 
 /// `A:B` in m/s, 0 < A < B ≤ 100.
-fn parse_speed_range(s: &str) -> Result<(f64, f64), String> {
+fn parse_speed_range(s: &str) -> Result<(f64, f64), ArgError> {
     let (a, b) = s
         .split_once(':')
         .ok_or_else(|| format!("`{s}`: expected A:B (m/s)"))?;
@@ -487,11 +487,11 @@ fn parse_speed_range(s: &str) -> Result<(f64, f64), String> {
     if a < b {
         Ok((a, b))
     } else {
-        Err(format!("`{s}`: A below B (m/s)"))
+        Err(format!("`{s}`: A below B (m/s)").into())
     }
 }
 
-pub fn parse_speeds(s: &str) -> Result<(f64, f64, f64), String> {
+pub fn parse_speeds(s: &str) -> Result<(f64, f64, f64), ArgError> {
     let parts: Vec<f64> = s
         .split(':')
         .map(|p| {
@@ -829,28 +829,49 @@ pub struct ReportArgs {
     pub data: PathBuf,
 }
 
+/// A value an option does not take, as clap shows it after the option's name: what was
+/// given and what the option takes.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ArgError(pub String);
+
+impl From<String> for ArgError {
+    fn from(message: String) -> ArgError {
+        ArgError(message)
+    }
+}
+
+impl From<&str> for ArgError {
+    fn from(message: &str) -> ArgError {
+        ArgError(message.to_string())
+    }
+}
+
 /// A number, then `check`ed (the library's check of that quantity, with its message).
-fn number_checked(s: &str, check: fn(f64) -> Result<f64, String>) -> Result<f64, String> {
+fn number_checked<E: std::fmt::Display>(
+    s: &str,
+    check: fn(f64) -> Result<f64, E>,
+) -> Result<f64, ArgError> {
     let v: f64 = s
         .trim()
         .parse()
         .map_err(|_| format!("`{s}` is not a number"))?;
-    check(v)
+    check(v).map_err(|e| ArgError(e.to_string()))
 }
 
 /// `--speed`: a riding speed (m/s).
-pub fn parse_speed(s: &str) -> Result<f64, String> {
+pub fn parse_speed(s: &str) -> Result<f64, ArgError> {
     number_checked(s, bikeproc::ride::speed::check_reading_mps)
 }
 
 /// `--rate`: a sampling rate (Hz) for a table without a time column.
-pub fn parse_rate(s: &str) -> Result<f64, String> {
+pub fn parse_rate(s: &str) -> Result<f64, ArgError> {
     number_checked(s, bikeproc::ride::csv::check_rate_hz)
 }
 
 /// A number in `lo..=hi` (finite), for a physical argument: `lo_open` excludes `lo` itself (a
 /// mass, an inertia, a stiffness, a duration must be above zero).
-pub fn within(lo: f64, lo_open: bool, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+pub fn within(lo: f64, lo_open: bool, hi: f64) -> impl Fn(&str) -> Result<f64, ArgError> + Clone {
     move |s: &str| {
         let v: f64 = s
             .trim()
@@ -861,16 +882,16 @@ pub fn within(lo: f64, lo_open: bool, hi: f64) -> impl Fn(&str) -> Result<f64, S
             Ok(v)
         } else {
             let (v, lo, hi) = (number_text(v), number_text(lo), number_text(hi));
-            Err(if lo_open {
+            Err(ArgError(if lo_open {
                 format!("{v}: expected a number above {lo} and at most {hi}")
             } else {
                 format!("{v}: expected a number from {lo} to {hi}")
-            })
+            }))
         }
     }
 }
 
-pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
+pub fn parse_range(s: &str) -> Result<(f64, f64), ArgError> {
     let (a, b) = s.split_once(':').ok_or("expected START:END in seconds")?;
     let a: f64 = a
         .trim()
@@ -884,7 +905,8 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
         return Err(format!(
             "{}: START and END must be finite times in seconds",
             number_text(x)
-        ));
+        )
+        .into());
     }
     if b > a {
         Ok((a, b))

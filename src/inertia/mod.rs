@@ -42,6 +42,18 @@ pub enum InertiaError {
     Invalid { path: PathBuf, message: String },
 }
 
+/// Why a set of orientations gives no tensor ([`TorsionResult::tensor_for`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TensorError {
+    #[error("no orientation \"{0}\"")]
+    NoOrientation(String),
+    #[error("{0} orientation(s): the tensor needs three, or two with I_xz = −I_zz (eq. 74)")]
+    TooFew(usize),
+    /// The orientations' names, joined.
+    #[error("the axes of orientations {0} do not determine the tensor")]
+    Undetermined(String),
+}
+
 // ---------------------------------------------------------------------------------------------
 // The physics, one equation each.
 
@@ -915,9 +927,9 @@ pub fn torsion_from_frequencies(
             .collect::<Result<_, _>>()?
     };
     let tensor =
-        tensor_from(&inputs, &orientations, &chosen).map_err(|message| InertiaError::Invalid {
+        tensor_from(&inputs, &orientations, &chosen).map_err(|e| InertiaError::Invalid {
             path: mpath.clone(),
-            message,
+            message: e.to_string(),
         })?;
     Ok(TorsionResult {
         body: m.body.clone().unwrap_or_default(),
@@ -935,7 +947,7 @@ pub fn torsion_from_frequencies(
 
 impl TorsionResult {
     /// The tensor from another set of orientations (the report shows (1,2,4), (1,3,4), all).
-    pub fn tensor_for(&self, names: &[&str]) -> Result<TensorXz, String> {
+    pub fn tensor_for(&self, names: &[&str]) -> Result<TensorXz, TensorError> {
         let inputs = torsion_inputs(&self.manifest, &self.calibration, &self.frequencies);
         let chosen: Vec<usize> = names
             .iter()
@@ -943,7 +955,7 @@ impl TorsionResult {
                 self.orientations
                     .iter()
                     .position(|o| o.name == *n)
-                    .ok_or_else(|| format!("no orientation \"{n}\""))
+                    .ok_or_else(|| TensorError::NoOrientation(n.to_string()))
             })
             .collect::<Result<_, _>>()?;
         tensor_from(&inputs, &self.orientations, &chosen)
@@ -954,13 +966,10 @@ fn tensor_from(
     inputs: &Inputs,
     orientations: &[Orientation],
     chosen: &[usize],
-) -> Result<TensorXz, String> {
+) -> Result<TensorXz, TensorError> {
     let constraint = chosen.len() == 2;
     if chosen.len() < 2 {
-        return Err(format!(
-            "{} orientation(s): the tensor needs three, or two with I_xz = −I_zz (eq. 74)",
-            chosen.len()
-        ));
+        return Err(TensorError::TooFew(chosen.len()));
     }
     let weights: Vec<f64> = chosen
         .iter()
@@ -980,13 +989,12 @@ fn tensor_from(
     };
     let (t, cov) = propagate(inputs, solve);
     if t.iter().any(|v| !v.is_finite()) {
-        return Err(format!(
-            "the axes of orientations {} do not determine the tensor",
+        return Err(TensorError::Undetermined(
             chosen
                 .iter()
                 .map(|&i| orientations[i].name.clone())
                 .collect::<Vec<_>>()
-                .join(", ")
+                .join(", "),
         ));
     }
     let se = standard_errors(&cov);

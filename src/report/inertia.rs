@@ -136,7 +136,7 @@ pub(super) fn inertia_report(
         &["1", "3", "4"][..],
         &["1", "2", "3", "4"][..],
     ] {
-        let t = frame.tensor_for(names).map_err(|m| anyhow::anyhow!(m))?;
+        let t = frame.tensor_for(names)?;
         if names.len() == 3 && names[1] == "3" {
             md.push_str("| 1, 3, 4: published (Table 3) | 0.3215 | 0.1131 | 0.9538 | | |\n| 1, 3, 4: exact solve of Table 2 with eq. 73 | 0.3449 | −0.1408 | 0.9351 | | |\n");
         }

@@ -107,22 +107,38 @@ impl Quantity {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Columns(pub Vec<(Quantity, String)>);
 
-impl std::str::FromStr for Columns {
-    type Err = String;
+/// What is wrong with a column mapping ([`Columns`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ColumnsError {
+    #[error("`{0}`: expected QUANTITY=COLUMN")]
+    NotAPair(String),
+    /// The key, and the quantities known (joined).
+    #[error("`{0}`: not a quantity (one of {1})")]
+    NotAQuantity(String, String),
+    /// The unit, its quantity's key, and the units it knows (joined).
+    #[error("`{0}`: not a unit of {1} (one of {2})")]
+    NotAUnit(String, &'static str, String),
+    /// The quantity's key and the two columns given for it.
+    #[error("`{0}` is given twice (`{1}` and `{2}`): one column a quantity")]
+    Twice(&'static str, String, String),
+}
 
-    fn from_str(spec: &str) -> Result<Columns, String> {
-        let mut out = Vec::new();
+impl std::str::FromStr for Columns {
+    type Err = ColumnsError;
+
+    fn from_str(spec: &str) -> Result<Columns, ColumnsError> {
+        let mut out: Vec<(Quantity, String)> = Vec::new();
         for part in spec.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             let (key, name) = part
                 .split_once('=')
-                .ok_or_else(|| format!("`{part}`: expected QUANTITY=COLUMN"))?;
+                .ok_or_else(|| ColumnsError::NotAPair(part.to_string()))?;
             let q = Quantity::ALL
                 .into_iter()
                 .find(|q| q.key() == key.trim())
                 .ok_or_else(|| {
-                    format!(
-                        "`{key}`: not a quantity (one of {})",
-                        Quantity::ALL.map(Quantity::key).join(", ")
+                    ColumnsError::NotAQuantity(
+                        key.to_string(),
+                        Quantity::ALL.map(Quantity::key).join(", "),
                     )
                 })?;
             let name = name.trim();
@@ -130,9 +146,10 @@ impl std::str::FromStr for Columns {
                 unit_factor(q, unit)?;
             }
             if let Some((_, first)) = out.iter().find(|(g, _)| *g == q) {
-                return Err(format!(
-                    "`{}` is given twice (`{first}` and `{name}`): one column a quantity",
-                    q.key()
+                return Err(ColumnsError::Twice(
+                    q.key(),
+                    first.clone(),
+                    name.to_string(),
                 ));
             }
             out.push((q, name.to_string()));
@@ -143,17 +160,17 @@ impl std::str::FromStr for Columns {
 
 /// The factor to SI of `unit` written after a column's name for quantity `q`
 /// (`roll=lean_angle:deg`): [`Quantity::units`].
-fn unit_factor(q: Quantity, unit: &str) -> Result<f64, String> {
+fn unit_factor(q: Quantity, unit: &str) -> Result<f64, ColumnsError> {
     let units = q.units();
     units
         .iter()
         .find(|(u, _)| *u == unit.trim())
         .map(|(_, f)| *f)
         .ok_or_else(|| {
-            format!(
-                "`{unit}`: not a unit of {} (one of {})",
+            ColumnsError::NotAUnit(
+                unit.to_string(),
                 q.key(),
-                units.iter().map(|(u, _)| *u).collect::<Vec<_>>().join(", ")
+                units.iter().map(|(u, _)| *u).collect::<Vec<_>>().join(", "),
             )
         })
 }
@@ -162,16 +179,8 @@ fn unit_factor(q: Quantity, unit: &str) -> Result<f64, String> {
 pub const RATE_RANGE_HZ: (f64, f64) = (1.0, 100_000.0);
 
 /// Checks a sampling rate given for a table without a time column (`--rate`, `rate_hz`).
-pub fn check_rate_hz(rate: f64) -> Result<f64, String> {
-    let (lo, hi) = RATE_RANGE_HZ;
-    if rate.is_finite() && (lo..=hi).contains(&rate) {
-        Ok(rate)
-    } else {
-        Err(format!(
-            "{} Hz is not a sampling rate (expected from {lo} to {hi} Hz)",
-            crate::inertia::manifest::number_text(rate)
-        ))
-    }
+pub fn check_rate_hz(rate: f64) -> Result<f64, super::OutOfRange> {
+    super::OutOfRange::check(rate, RATE_RANGE_HZ, "Hz", "a sampling rate")
 }
 
 /// A ride read from a CSV: the time stamps (s) and whichever quantities the file has, in SI
@@ -253,7 +262,7 @@ fn plan(
                 let lower = name.to_ascii_lowercase();
                 let deg = lower.ends_with("_deg") || lower.ends_with("_deg_per_s");
                 let factor = match unit {
-                    Some(u) => unit_factor(q, u).map_err(|e| err(path, e))?,
+                    Some(u) => unit_factor(q, u).map_err(|e| err(path, e.to_string()))?,
                     None if deg => std::f64::consts::PI / 180.0,
                     None => 1.0,
                 };

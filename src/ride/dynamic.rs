@@ -285,7 +285,8 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
             format!("the roll passes {MAX_ROLL_RAD} rad")
         }
     };
-    let fit_between = |a: f64, b: f64| fit_span(s, options, a, b).map_err(|e| ride_err(path, e));
+    let fit_between =
+        |a: f64, b: f64| fit_span(s, options, a, b).map_err(|e| ride_err(path, e.to_string()));
     // What the window after the castor's tail cannot give (`why`), a window from just after
     // the kick may: a weave that grows, or a slow one, has its cycle there.
     let early = |why: String| {
@@ -303,7 +304,7 @@ fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<Mo
     }
     let mut fit = match run_on.map_or_else(|| fit_span(s, options, start, end), Ok) {
         Ok(fit) => fit,
-        Err(no_weave) => return early(no_weave),
+        Err(no_weave) => return early(no_weave.to_string()),
     };
     // A slow weave gets two cycles, even if that takes longer than MAX_WINDOW_S (when they
     // fit).
@@ -373,25 +374,15 @@ fn weave_in_noise_at(fit: &ModalFit, t: f64) -> bool {
 /// information criterion would leave the castor's tail out (30 rides at 4.5 m/s kicked at 15 N
 /// and caught 1.6 s later: ω's mean normalized error −0.80 with the criterion's choice, −0.25
 /// with a real mode; σ's +0.77 and +0.69).
-fn early_window(s: &RideSignals, options: &ModalOptions) -> Result<ModalFit, String> {
+fn early_window(s: &RideSignals, options: &ModalOptions) -> Result<ModalFit, WindowError> {
     let start = s.kick_s + EARLY_AFTER_KICK_S;
     let limit = first_roll_beyond(s, start, EARLY_MAX_ROLL_RAD)
         .map_or(s.catch_s, |t| t.min(s.catch_s))
         - 0.05;
     let end = limit.min(start + MAX_WINDOW_S);
-    let short = |end: f64, omega: Option<f64>| {
-        let cycles = omega.map_or(String::new(), |w| {
-            format!(
-                " ({:.1} weave cycles)",
-                (end - start).max(0.0) * w / std::f64::consts::TAU
-            )
-        });
-        format!(
-            "its roll passes {EARLY_MAX_ROLL_RAD} rad, where the linear model no longer holds, \
-             {:.2} s after the kick's tail{cycles}; that window needs at least \
-             {MIN_WINDOW_S} s and {EARLY_MIN_CYCLES} cycle",
-            (end - start).max(0.0)
-        )
+    let short = |end: f64, omega: Option<f64>| WindowError::EarlyTooShort {
+        span_s: (end - start).max(0.0),
+        cycles: omega.map(|w| (end - start).max(0.0) * w / std::f64::consts::TAU),
     };
     if end - start < MIN_WINDOW_S {
         return Err(short(end, None));
@@ -432,7 +423,12 @@ fn two_cycles(
 }
 
 /// The modal fit of θ and γ between `a` and `b` (s); `Err` says why there is none.
-fn fit_span(s: &RideSignals, options: &ModalOptions, a: f64, b: f64) -> Result<ModalFit, String> {
+fn fit_span(
+    s: &RideSignals,
+    options: &ModalOptions,
+    a: f64,
+    b: f64,
+) -> Result<ModalFit, WindowError> {
     let rate = s.sample_rate_hz;
     let (mut t, mut roll, mut steer) = (Vec::new(), Vec::new(), Vec::new());
     for (k, &i) in s.index.iter().enumerate() {
@@ -444,13 +440,40 @@ fn fit_span(s: &RideSignals, options: &ModalOptions, a: f64, b: f64) -> Result<M
         }
     }
     fit_modes(&t, &roll, &steer, options).map_err(|e| match e {
-        ModalError::TooShort(n) => {
-            format!("too short: only {n} samples between {a:.2} and {b:.2} s after the gaps")
-        }
-        ModalError::NoWeave => format!(
-            "no weave: roll and steer between {a:.2} and {b:.2} s show no oscillation that fits"
-        ),
+        ModalError::TooShort(samples) => WindowError::TooFewSamples {
+            samples,
+            from_s: a,
+            to_s: b,
+        },
+        ModalError::NoWeave => WindowError::NoWeave { from_s: a, to_s: b },
     })
+}
+
+/// Why a window of a ride gives no fit: said in the ride's error.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum WindowError {
+    #[error(
+        "too short: only {samples} samples between {from_s:.2} and {to_s:.2} s after the gaps"
+    )]
+    TooFewSamples {
+        samples: usize,
+        from_s: f64,
+        to_s: f64,
+    },
+    #[error(
+        "no weave: roll and steer between {from_s:.2} and {to_s:.2} s show no oscillation that \
+         fits"
+    )]
+    NoWeave { from_s: f64, to_s: f64 },
+    /// The early window ([`early_window`]): its length (s) and, where a fit gave ω, its
+    /// weave cycles.
+    #[error(
+        "its roll passes {EARLY_MAX_ROLL_RAD} rad, where the linear model no longer holds, \
+         {span_s:.2} s after the kick's tail{}; that window needs at least {MIN_WINDOW_S} s \
+         and {EARLY_MIN_CYCLES} cycle",
+        cycles.map_or(String::new(), |c| format!(" ({c:.1} weave cycles)"))
+    )]
+    EarlyTooShort { span_s: f64, cycles: Option<f64> },
 }
 
 /// What the speed's own error `speed_se_mps` makes of a coasting ride's correction

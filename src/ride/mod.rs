@@ -28,3 +28,38 @@ pub mod speed;
 pub mod study;
 
 pub use read::*;
+
+/// A number given from outside (a speed reading, a sampling rate) outside the range its
+/// quantity takes: "0.05 m/s is not a riding speed (expected from 0.1 to 30 m/s)".
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{} {unit} is not {what} (expected from {lo} to {hi} {unit})", crate::inertia::manifest::number_text(*.value))]
+pub struct OutOfRange {
+    pub value: f64,
+    pub unit: &'static str,
+    /// What a number in range is ("a riding speed").
+    pub what: &'static str,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl OutOfRange {
+    /// `value` when finite and within `lo..=hi`, else the error naming `what` it is not.
+    pub fn check(
+        value: f64,
+        (lo, hi): (f64, f64),
+        unit: &'static str,
+        what: &'static str,
+    ) -> Result<f64, OutOfRange> {
+        if value.is_finite() && (lo..=hi).contains(&value) {
+            Ok(value)
+        } else {
+            Err(OutOfRange {
+                value,
+                unit,
+                what,
+                lo,
+                hi,
+            })
+        }
+    }
+}

@@ -1360,9 +1360,6 @@ mod tests {
         (t, roll, steer)
     }
 
-    /// The recurrences of [`Problem::basis`] against `exp` and `sin_cos` at every sample, on a
-    /// 100 Hz window of 600 samples with dropped packets (single and in bursts), a drifting
-    /// eigenvalue and two real modes: equal to 1e-13 of the largest value.
     /// The solver's record tells how the fit ended: a weave with offsets and trends only (no
     /// real mode, whose rate and amplitude make a valley) converges in a few iterations, at the
     /// truth within its errors; the same fit from a start far off, allowed one iteration for
@@ -1411,6 +1408,9 @@ mod tests {
         );
     }
 
+    /// The recurrences of [`Problem::basis`] against `exp` and `sin_cos` at every sample, on a
+    /// 100 Hz window of 600 samples with dropped packets (single and in bursts), a drifting
+    /// eigenvalue and two real modes: equal to 1e-13 of the largest value.
     #[test]
     fn the_basis_recurrences_are_the_direct_evaluation() {
         let t: Vec<f64> = (0..700)

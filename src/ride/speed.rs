@@ -60,16 +60,13 @@ pub const MAX_READING_MPS: f64 = 30.0;
 pub const MIN_READING_MPS: f64 = 0.1;
 
 /// Checks a speedometer reading: a number from [`MIN_READING_MPS`] to [`MAX_READING_MPS`].
-pub fn check_reading_mps(v: f64) -> Result<f64, String> {
-    if v.is_finite() && (MIN_READING_MPS..=MAX_READING_MPS).contains(&v) {
-        Ok(v)
-    } else {
-        Err(format!(
-            "{} m/s is not a riding speed (expected from {MIN_READING_MPS} to \
-             {MAX_READING_MPS} m/s)",
-            crate::inertia::manifest::number_text(v)
-        ))
-    }
+pub fn check_reading_mps(v: f64) -> Result<f64, super::OutOfRange> {
+    super::OutOfRange::check(
+        v,
+        (MIN_READING_MPS, MAX_READING_MPS),
+        "m/s",
+        "a riding speed",
+    )
 }
 
 /// The speedometer's reading as noted by the lab, with what limits it.

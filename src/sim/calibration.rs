@@ -151,7 +151,7 @@ pub fn diagnose_blind(
     case: Case,
     extra_speeds_mps: &[f64],
     draws: Draws,
-) -> Result<(Diagnosis, BlindTruth), String> {
+) -> Result<(Diagnosis, BlindTruth), BlindError> {
     let (files, truth) = blind_campaign_plus(
         lab,
         "bike.toml",
@@ -161,7 +161,7 @@ pub fn diagnose_blind(
         extra_speeds_mps,
         draws,
     )
-    .map_err(|e| e.to_string())?;
+    .map_err(stage)?;
     let name = format!(
         "blind_{}_{:?}_{}_{}_{draws:?}",
         case.withheld.label(),
@@ -170,13 +170,31 @@ pub fn diagnose_blind(
         extra_speeds_mps.len()
     );
     let diagnosis = in_scratch(&name, &files, bike_text, &|dir| {
-        let manifest = crate::ride::dynamic::RideManifest::load(&dir.join("rides.toml"))
-            .map_err(|e| e.to_string())?;
-        let model =
-            crate::model::uncertain::load(&dir.join("bike.toml")).map_err(|e| e.to_string())?;
-        crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}).map_err(|e| e.to_string())
+        let manifest =
+            crate::ride::dynamic::RideManifest::load(&dir.join("rides.toml")).map_err(stage)?;
+        let model = crate::model::uncertain::load(&dir.join("bike.toml")).map_err(stage)?;
+        crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}).map_err(stage)
     })?;
     Ok((diagnosis, truth))
+}
+
+/// Why a blind campaign or study could not be simulated into its scratch folder or diagnosed
+/// from it.
+#[derive(Debug, thiserror::Error)]
+pub enum BlindError {
+    #[error("{}: {source}", path.display())]
+    Scratch {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    /// A stage's own error (the simulator's, a reader's, the gap's), as it says it.
+    #[error(transparent)]
+    Stage(Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// A stage's error as a [`BlindError`].
+pub fn stage(e: impl std::error::Error + Send + Sync + 'static) -> BlindError {
+    BlindError::Stage(Box::new(e))
 }
 
 /// Runs `analyse` on a scratch folder (`name`, made unique to the process) holding a blind
@@ -186,17 +204,21 @@ pub fn in_scratch<T>(
     name: &str,
     files: &super::campaign::Files,
     bike_text: &str,
-    analyse: &dyn Fn(&std::path::Path) -> Result<T, String>,
-) -> Result<T, String> {
+    analyse: &dyn Fn(&std::path::Path) -> Result<T, BlindError>,
+) -> Result<T, BlindError> {
     let dir = std::env::temp_dir().join(format!("bikeproc_{name}_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let scratch = |path: std::path::PathBuf| {
+        move |source: std::io::Error| BlindError::Scratch { path, source }
+    };
+    std::fs::create_dir_all(&dir).map_err(scratch(dir.clone()))?;
     let result = (|| {
         for (p, text) in files {
             if p.as_os_str() != "truth.json" {
-                std::fs::write(dir.join(p), text).map_err(|e| e.to_string())?;
+                std::fs::write(dir.join(p), text).map_err(scratch(dir.join(p)))?;
             }
         }
-        std::fs::write(dir.join("bike.toml"), bike_text).map_err(|e| e.to_string())?;
+        let bike = dir.join("bike.toml");
+        std::fs::write(&bike, bike_text).map_err(scratch(bike.clone()))?;
         analyse(&dir)
     })();
     std::fs::remove_dir_all(&dir).ok();
@@ -204,7 +226,7 @@ pub fn in_scratch<T>(
 }
 
 /// One campaign of the calibration: simulated with [`Draws::Broad`], diagnosed, compared.
-pub fn run_case(lab: &LabBike, bike_text: &str, case: Case) -> Result<CaseResult, String> {
+pub fn run_case(lab: &LabBike, bike_text: &str, case: Case) -> Result<CaseResult, BlindError> {
     let (d, truth) = diagnose_blind(lab, bike_text, case, &[], Draws::Broad)?;
     Ok(compare(&d, case, truth.params))
 }

@@ -236,7 +236,7 @@ pub fn run_study(
     bike_text: &str,
     seed: u64,
     kind: StudyKind,
-) -> Result<StudyResult, String> {
+) -> Result<StudyResult, super::calibration::BlindError> {
     let effect_free = kind == StudyKind::EffectFree;
     let motor = match kind {
         StudyKind::Blind => None,
@@ -244,15 +244,15 @@ pub fn run_study(
         StudyKind::EffectFree => Some((0.0, 1.0)),
     };
     let (files, truth) =
-        blind_study_with(measured, "bike.toml", seed, motor).map_err(|e| e.to_string())?;
+        blind_study_with(measured, "bike.toml", seed, motor).map_err(super::calibration::stage)?;
     let name = format!("study_calibration_{seed}_{kind:?}");
     super::calibration::in_scratch(&name, &files, bike_text, &|dir| {
-        let study =
-            crate::ride::study::Study::load(&dir.join("study.toml")).map_err(|e| e.to_string())?;
-        let bike = study.bike_path().map_err(|e| e.to_string())?;
-        let model = crate::model::uncertain::load(&bike).map_err(|e| e.to_string())?;
+        let study = crate::ride::study::Study::load(&dir.join("study.toml"))
+            .map_err(super::calibration::stage)?;
+        let bike = study.bike_path().map_err(super::calibration::stage)?;
+        let model = crate::model::uncertain::load(&bike).map_err(super::calibration::stage)?;
         let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})
-            .map_err(|e| e.to_string())?;
+            .map_err(super::calibration::stage)?;
         // `effect` named: first, or tied at the top, with a significant gap.
         let names = |d: &crate::gap::Diagnosis, effect: &str| {
             d.significant
@@ -271,9 +271,9 @@ pub fn run_study(
             .iter()
             .filter(|(_, m)| kind == StudyKind::Blind && !m.control.is_none())
         {
-            let one = m.model(None).map_err(|e| e.to_string())?;
-            let s =
-                crate::gap::diagnose_campaign(m, &one, &|_, _, _| {}).map_err(|e| e.to_string())?;
+            let one = m.model(None).map_err(super::calibration::stage)?;
+            let s = crate::gap::diagnose_campaign(m, &one, &|_, _, _| {})
+                .map_err(super::calibration::stage)?;
             if names(&s, PAIR) {
                 singles_named += 1;
                 if let Some(r) = s.ranking.iter().find(|r| r.effect == PAIR) {
