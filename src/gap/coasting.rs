@@ -9,23 +9,12 @@
 //!
 //! The ride stage corrects a coasting ride's mode shape by a replay of the measured, undamped
 //! bicycle and carries the replay's eigenvalue as an error
-//! ([`crate::ride::dynamic::COASTING_BIAS_ERROR_SCALE`]). A damped bicycle's bias is another. On 80
-//! simulated coasting rides (0.5 N·m·s/rad, released at 4.3–5.2 m/s) the corrected σ lay 0.08
-//! 1/s below the damped bicycle's Whipple weave at the true speed (mean normalized error
-//! −0.83; −0.01 and +0.01 without damping), all of it on the rides whose fit holds real modes
-//! (−0.15 1/s on the 26 with one, −0.02 on the 42 with none). The linear bicycle slowing with
-//! the ride, started from the simulator's true state, reproduces it (−0.134 1/s against
-//! −0.151 from a fit of the true angles): it is the fit's constant real modes and weave on a
-//! motion whose modes change with the speed, which a replay started on the weave alone does
-//! not show. So the replays here start where the ride's fit says the motion began
-//! ([`ReplayStart::Fitted`]: its weave in the model's own mode shape, its real modes as
-//! fitted), and a damped candidate's prediction carries its own replay less the measured
-//! bicycle's, in the eigenvalue and the mode shape: on those rides σ's error went from −0.15
-//! to −0.004 1/s. The shape carries most of it: on 30 noted blind campaigns the damping's
-//! median normalized error went from +1.67 to +1.15 with the eigenvalue's part alone, to
-//! +0.35 with the shape's too. Over the 50 noted campaigns of docs/gap-calibration.md, as
-//! built here: median +1.37 → +0.24, within 1 SE 40 → 66 %, within 2 SE 72 → 96 %; every
-//! other row and the controls as before.
+//! ([`crate::ride::dynamic::COASTING_BIAS_ERROR_SCALE`]). A damped bicycle's bias is another,
+//! and it sits in the fit's real modes, which a replay from the weave alone does not show. So
+//! the replays here start where the ride's fit says the motion began
+//! ([`ReplayStart::Fitted`]), and a damped candidate's prediction carries its own replay less
+//! the measured bicycle's, in the eigenvalue and the mode shape. The rides and campaigns that
+//! showed it: [docs/decisions/constants.md](../../docs/decisions/constants.md#gapcoasting-a-damped-candidates-replay).
 //!
 //! Each change also carries what the ride's acceleration does to the candidate's own mode
 //! shape ([`accel_shape_shift`]), as the ride stage's correction carries the measured

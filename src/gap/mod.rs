@@ -158,90 +158,13 @@ pub const PLAUSIBLE_SE: f64 = 2.0;
 /// The significance level of the campaign's test.
 pub const SIGNIFICANCE: f64 = 0.01;
 
-/// The standard deviation of the coefficients κ, one per condition (a campaign is one) and
-/// part (σ, ω, |γ/θ|, arg γ/θ), by which a ride's fit differs from the small motion's in
-/// proportion to its motion's size ([`observe::Observation::motion_sq_rad2`]), as a multiple
-/// of the ride stage's own error for it ([`crate::ride::dynamic::NONLINEAR_SE_PER_RAD2`]).
-/// That difference is of one sign for the rides of a bicycle near one speed: a shared error,
-/// which a ride's own standard error, averaged over the rides, does not cover. Over the 50
-/// blind studies of docs/study-calibration.md the gains lay within 2 of their standard errors
-/// in 89 % (median z +0.93; 43 % and +2.04 before, the shape without any error for the
-/// motion's size), the inertia in 100 % (86 %). On 12 of them the gains' median z was +2.49
-/// with the rides' own errors only, +0.91 with this shared part at four times them, +0.82 at
-/// eight. Taken this wide, a κ of any size the rides show is theirs to fit, as an effect's
-/// parameter is. One κ per condition, not per study: the difference grows with the motion and
-/// changes with the controller (a steer motor's rides kicked at 12–17.5 N, 0.3 and 0.5 times
-/// that: σ −0.055, −0.023, −0.011 1/s and ω +0.085, +0.029, +0.011 rad/s from the linear
-/// model at G = 1, 3 m/s; −0.020, −0.004, +0.001 and +0.036, +0.011, +0.005 at G = 2), so that
-/// one κ for the study left the gains a median +0.81 of their errors high (90 % within 2);
-/// with one per condition +0.58 (98 %), the pair named in 46 of the 50 studies (47).
-///
-/// What it leaves: an uncontrolled campaign's effects still lean with the motion's size. On
-/// 16 sync blind campaigns of the suite's draws (the true bicycle the measured one) a rear
-/// point mass of 2.5–3.9 kg fitted at a mean z of −0.35, and effect-free ones a speedometer's
-/// scale at −0.30 and the front frame's I_xx at −0.37; with the kicks halved −0.04, −0.05
-/// and +0.13. The single rides' ω there, against the simulator's own linearization, was high
-/// by +0.0011, +0.0068 and +0.0267 rad/s at 4 m/s for the kick ×0.5, 1 and 2 (κ_ω ≈ +1.5 per
-/// rad², +1.1 at 5 m/s; 24 rides each). Widening this shared part to 8 and 16 times moved
-/// the mass's z to −0.34 and −0.30 only: the leak is not its shrinkage of κ but what one κ
-/// per condition cannot follow (its change with the speed, its scatter from ride to ride);
-/// a second κ per condition and part, proportional to the ride's speed less the campaign's
-/// mean, at 8 and 16 times, left it at −0.45 and −0.37 (the second naming 3 of 50 fewer).
-/// Each ride's own second-order shift, from the measured bicycle's nonlinear equations
-/// ([`crate::ride::amplitude`]), is right ride by ride (ω at 4 m/s 0.007 1/s high, 0.001 once
-/// taken off) but moved the mass's mean error over 50 broad campaigns only from −0.13 to
-/// −0.11 kg (sync) and −0.22 to −0.20 kg (noted), where halving the kicks brings it to −0.03
-/// and +0.01 kg; it raised the noted design's false alarms from 3 to 6 of 200, so it is not
-/// applied. What is left grows with the kick (×0.5, 1, 2: −0.03, −0.13, −0.20 kg sync;
-/// +0.01, −0.22, −0.38 noted, ± 0.03–0.05), is the same below and above 2 kg of truth (an
-/// offset, not a scale), stays with the true bicycle the measured one (−0.10, −0.19), and
-/// rides on σ: with every ride's σ given 30 times its error it is −0.03 and −0.04 kg, with ω
-/// so treated −0.18 and −0.46. The carried speed's false slowing from the frame's pitch
-/// ([`crate::ride::speed::remove_pitch_gravity`], 0.003 m/s) moved it by 0.005 kg only; a
-/// part common to a condition's rides along each ride's replayed shift (1 and 3 times it, the
-/// truth's nonlinearity free to differ from the measured bicycle's) by 0.001 and 0.006 kg;
-/// every window held to its full length whatever the kick, by 0.001 kg; the rides below
-/// 3.95 m/s (the largest size-dependent σ) given 30 times their errors left −0.11 and
-/// −0.15 kg. The coasting correction's common part
-/// ([`crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION`]) at 2.0 instead of 0.7 left the
-/// noted mass's median z at −0.30 (−0.33), right in 34 of 44 beyond the limit either way.
-/// Per ride, over 16 effect-free sync campaigns (192 rides, the true bicycle the measured
-/// one, the replay's prediction beside), σ's mean normalized error, its speed's error
-/// included, was −0.29, −0.11 and −0.03 for the kick ×0.5, 1, 2 (prediction −0.00, −0.01,
-/// +0.03), ω's −0.03, +0.09 and +0.32 (prediction +0.02, +0.09, +0.39): the replay follows
-/// ω, and σ's deficit falls with the kick as the mass's grows. Coasting rides released at
-/// 3.7–4.2 m/s (knife edges, the lab's kick, 60 rides) lay 0.37 of their σ's error below the
-/// Whipple weave with a spread of 0.13 (their error mostly the drift check's); released at
-/// 2.9–6.4 m/s instead of 3.8–6.5, the noted mass's mean error went from −0.22 to −0.32 kg.
-/// Where it comes from, measured by each residual's influence on the fitted mass (the fit's
-/// gain (dᵀΣ⁻¹d)⁻¹dᵀΣ⁻¹ times the residual at the true mass; 50 campaigns per design, the true
-/// bicycle the measured one): generalized least squares carries small systematic residuals of
-/// the slowest rides through the model's covariance. The measured bicycle's errors span most
-/// of what a rear mass does to the weave (its standard error 0.35 kg, against 0.03 kg from
-/// the fits' noise alone), and what is left of its direction lies in a few parts of the rides
-/// at 3.4–4.4 m/s. Sync, −0.096 kg in all: the phase of γ/θ −0.064 (its residuals there −0.39
-/// and −0.26 of their errors), σ −0.033 (−0.65); noted, −0.196: |γ/θ| −0.116, the phase
-/// −0.105, σ −0.065, ω +0.090. Those campaigns fitted +0.006 and +0.075 kg with the
-/// model's covariance shrunk (its inputs' errors × 0.02), and −0.072 and −0.169 with each
-/// ride's amplitude shift taken off in all four parts ([`crate::ride::amplitude`]: ω's +1.2
-/// of its errors at 3.8 m/s goes, and σ's; the phase's −0.2 stays). With the true bicycle
-/// drawn as the suite draws it (−0.129 and −0.222 kg as they stand, noted right beyond the
-/// limit 34 of 44): −0.059 and −0.081 without the shape (its errors × 30), the noted
-/// design's power mostly gone (8 campaigns beyond the limit); −0.108 and −0.183 with floors
-/// of 1 % and 5 mrad on the shape's errors, −0.089 and −0.140 with 2 % and 10 mrad (noted
-/// beyond the limit 43 and 40, right there 34 both); −0.136 and −0.235, −0.125 and −0.237
-/// with the rides' nonlinear errors and their common part doubled and quadrupled; −0.128 and
-/// −0.154 with the mass's candidate replaying its own bicycle on each coasting window as the
-/// damped ones do (right there 32); −0.130 and −0.174 with a common error of the fits, 0.3
-/// of each ride's errors in each part and linear in the speed (37 beyond the limit, 31 right
-/// there). The modal fits with 2,000 iterations instead of 200, and sensors mounted true
-/// instead of 2–5° off (140 noted rides), left the slow rides' residuals as they were. On 40
-/// sync rides released at 3.8–4.4 m/s the same windows fitted on the simulator's true angles
-/// had the phase 0.0006 rad low (sd 0.0002: the motion's size, which the amplitude replay
-/// takes), the rides' fits 0.0016 ± 0.0013 low against errors of 0.008. What the covariance
-/// carries is a few tenths of the slow rides' errors, near what 50 campaigns resolve, and
-/// the model's covariance leaves the mass too little of its own to give any of it up: every
-/// change above that lowers the bias costs power, or (the amplitude shift) false alarms.
+/// The shared part of the rides' motion-size error, as a multiple of the ride stage's own
+/// ([`crate::ride::dynamic::NONLINEAR_SE_PER_RAD2`]): one coefficient κ per condition and part
+/// (σ, ω, |γ/θ|, arg γ/θ) by which a ride's fit differs from the small motion's in proportion to
+/// its motion's size. The difference has one sign for a bicycle's rides near one speed, so a
+/// ride's own error does not cover it; four times it gave the blind studies' gains a median z of
+/// +0.58 (98 % within 2). The blind runs behind the value, and what it leaves:
+/// [docs/decisions/constants.md](../../docs/decisions/constants.md#nonlinear_common_factor).
 pub const NONLINEAR_COMMON_FACTOR: f64 = 4.0;
 /// The best candidate is told from another when the rides left out favour it by more than this
 /// in Σz² …

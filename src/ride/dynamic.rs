@@ -566,40 +566,13 @@ fn first_roll_beyond(s: &RideSignals, start_s: f64, limit_rad: f64) -> Option<f6
         .map(|(t, _)| t)
 }
 
-/// The size of a coasting ride's eigenvalue bias that its error is counted in, as a fraction
-/// of [`replay_coasting`]'s `[re, im]`; none of the replay is taken off the eigenvalue. The
-/// measured bicycle's rigid-wheeled model gives the replay; on simulated coasting rides the
-/// true bias was about half of it (knife-edge wheels) or a tenth of it of the opposite sign
-/// (compliant tyres and steer damping, whose mode shape changes otherwise with speed), and
-/// which the lab's bicycle is the ride stage cannot know: a real one rolls on tyres. Over 100
-/// coasting rides each (tests/speed.rs), ω's mean normalized error against the Whipple model
-/// (which the gap stage predicts with) is +0.43 on knife-edge wheels and −0.07 against the
-/// simulator's own linearization with tyres and damping (+0.24 and −0.24 with a quarter of the
-/// replay taken off and half of this size as its error, +0.04 and −0.41 with half). The fit's
-/// standard error holds the whole of this size ([`COASTING_RIDE_SE_FRACTION`]), and the gap
-/// stage makes most of it common to a campaign's rides ([`COASTING_BIAS_COMMON_FRACTION`]).
-///
-/// Half of the replay was taken off first, fitted to the knife-edge rides alone; over the
-/// noted campaigns of docs/gap-calibration.md (issue 29) that left a systematic residual on
-/// the slow rides of the effect-free campaigns (below 3.6 m/s σ's mean −0.076 1/s, −0.40 of
-/// its errors), which a rear point mass's fit took up: its mean error −0.24 kg, right beyond
-/// the detection limit 33 of 44. A quarter: −0.14 kg, 36 of 44. None, its error carried: the
-/// mass's median normalized error −0.21 → 0.00 (noted), −0.22 → +0.14 (varied), right there 38
-/// of 44; over the whole of docs/gap-calibration.md right beyond the detection limit noted
-/// 328/366 → 334/366 (91.3 %), varied 323/352 → 324/352, sync 409/424 as before; effect-free
-/// campaigns below p 0.01 noted 3 → 4 of 200 (below 0.05 16 → 19), varied 2 → 3 (13), sync 1
-/// (11) as before; outside the library 0 of 600 attributed as before. The cost: a front point
-/// mass's fits went low (noted median z −0.44 → −0.69, within 1 SE 35 → 28 of 50, within 2 SE
-/// 46 → 44). Taking none off without carrying its error (the standard errors as at constant
-/// speed) gave 4 of 200 noted controls below 0.01 too, with the knife-edge rides' ω +0.46 of
-/// their errors unaccounted for.
-///
-/// These fractions are the replay's from the model's weave alone. Started where the fit
-/// says the motion began instead (`ReplayStart::Fitted`, as the gap stage replays a damped
-/// candidate), measured twice (issue 29): with half taken off, a rear point mass's mean error
-/// went to −0.08 kg but 6 of 200 noted effect-free campaigns fell below p 0.01 and the front
-/// frame's I_xx was right less often (46 → 43 of 50); in full, ω on the knife-edge rides'
-/// errors lost its spread (0.72).
+/// The size a coasting ride's eigenvalue bias is counted in, as a fraction of
+/// [`replay_coasting`]'s `[re, im]`; none of the replay is taken off the eigenvalue. The rigid-wheeled
+/// replay overstates the bias on tyres (the true one was half of it on knife edges, a tenth of the
+/// opposite sign with tyres and damping), and the ride stage cannot know which bicycle it has: a
+/// quarter, carried as error, leaves both kinds of ride within their errors. The fit's standard
+/// error holds the whole of it ([`COASTING_RIDE_SE_FRACTION`]). The rides and campaigns behind it:
+/// [docs/decisions/constants.md](../../docs/decisions/constants.md#coasting_bias_error_scale).
 pub const COASTING_BIAS_ERROR_SCALE: f64 = 0.25;
 /// The standard error of a correction the ride stage takes, as a fraction of it: the mode
 /// shape's (its replay taken off in full), and the gap stage's shifts of a candidate's

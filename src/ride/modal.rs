@@ -1072,20 +1072,10 @@ fn fit_structure(
 }
 
 /// Levenberg–Marquardt from `p0`, the parameters with ω made positive; `None` when it ends
-/// non-finite.
-///
-/// At most [`SOLVE_ITERATIONS`], and many fits end there unconverged: measured, 1,657 of the
-/// 3,340 solves of a 1-million-row treadmill recording (334 kicks; their cost still falling by
-/// about 1e-3 of itself every 50 iterations, along the valley a real mode's rate and amplitude
-/// make, or two real modes drifting together), and the chosen structure's final fit on 41 of
-/// the 100 fits of a noted blind campaign and 5 of the 22 ride fits of `data/rides.toml`. The
-/// structures and the coasting corrections are calibrated with the cap as it is, and the
-/// converged alternatives measured worse on the 100 coasting rides of `tests/speed.rs`
-/// (normalized errors against the truth): variable projection (the rates alone damped, the
-/// linear parameters solved at each step) lost rides and widened the errors' spread (σ: sd
-/// 0.92 → 1.22; with tyres and damping 0.95 → 1.35, two rides lost); 3,000 iterations lost
-/// three rides; refusing the structures whose fit reached the cap moved ω's mean error +0.48
-/// → +0.71.
+/// non-finite. At most [`SOLVE_ITERATIONS`]: many fits end there unconverged, along the valley a
+/// real mode's rate and amplitude make ([`ModalFit::solver`] says which), and the structures and
+/// the coasting corrections are calibrated with the cap as it is (issue 75 replaces it). What was
+/// measured: [docs/decisions/2026-12-02-ride-estimator.md](../../docs/decisions/2026-12-02-ride-estimator.md#the-iteration-cap-as-it-was-measured-before).
 fn solve(problem: &Problem<'_>, p0: Vec<f64>, solver: &mut Solver) -> Option<Vec<f64>> {
     solve_within(problem, p0, SOLVE_ITERATIONS, solver)
 }
