@@ -136,8 +136,8 @@ pub enum LogErrorKind {
         counter_samples: u64,
         time_samples: f64,
     },
-    /// A hole longer than [`crate::signal::MAX_GAP_S`], or holes that make the grid span beyond
-    /// [`crate::signal::grid_span_limit`]: not one recording.
+    /// A hole longer than [`MAX_GAP_S`], or holes that make the grid span beyond
+    /// [`grid_span_limit`]: not one recording.
     GapTooLong {
         gap_s: f64,
     },
@@ -213,7 +213,7 @@ impl fmt::Display for LogErrorKind {
             GapTooLong { gap_s } => write!(
                 f,
                 "{}",
-                crate::signal::gap_too_long_message(*gap_s)
+                gap_too_long_message(*gap_s)
             ),
             QuaternionNorm(n) => write!(f, "quaternion of norm {n}: expected a unit quaternion"),
             NotRotation { orthonormality_error, det } => write!(
@@ -940,7 +940,7 @@ impl<'a> Parser<'a> {
                     } else {
                         anchor = (time, grid);
                     }
-                    if grid > crate::signal::grid_span_limit(grid_index.len(), sample_rate_hz) {
+                    if grid > grid_span_limit(grid_index.len(), sample_rate_hz) {
                         return Err(self.err(
                             Some(no),
                             Some(field_col(line(), separator, time_col)),
@@ -1082,7 +1082,7 @@ impl<'a> Parser<'a> {
         if d == 0 {
             return Err(LogErrorKind::CounterRepeats(now));
         }
-        if dt_s > crate::signal::MAX_GAP_S {
+        if dt_s > MAX_GAP_S {
             return Err(LogErrorKind::GapTooLong { gap_s: dt_s });
         }
         let by_time = dt_s * rate_hz;
@@ -1698,6 +1698,37 @@ fn orientation(
         }
         OutputMode::Calibrated => UnitQuaternion::identity(),
     })
+}
+
+/// The longest hole a recording may hold (s): a link lost for longer than an hour has ended
+/// one recording, and the file holds two.
+pub const MAX_GAP_S: f64 = 3600.0;
+
+/// The time a recording may lose beyond ten times its own samples (s): a sensor out of the
+/// receiver's range for a minute. A short recording with a longer hole is two recordings or a
+/// wrong time stamp: 42 rows of which the last was stamped 2994 s after 2.98 s were read as one
+/// 17-sample "free decay" over 50 minutes (found by fuzzing).
+pub const MAX_HOLE_S: f64 = 60.0;
+
+/// Grid samples of holes a recording may hold beyond ten times its own samples, at any rate:
+/// what the spectrum and the fits allocate stays proportional to the data (a row stamped at
+/// 1e12 s would otherwise ask for terabytes).
+pub const MAX_HOLE_SAMPLES: u64 = 4_000_000;
+
+/// The furthest grid position a recording of `kept` samples at `rate_hz` may reach: ten times
+/// its samples plus [`MAX_HOLE_S`] of samples (at most [`MAX_HOLE_SAMPLES`]).
+pub fn grid_span_limit(kept: usize, rate_hz: f64) -> u64 {
+    let hole = (MAX_HOLE_S * rate_hz).clamp(0.0, MAX_HOLE_SAMPLES as f64) as u64;
+    10 * kept as u64 + hole
+}
+
+/// The message for a hole beyond [`MAX_GAP_S`] or [`grid_span_limit`].
+pub fn gap_too_long_message(gap_s: f64) -> String {
+    format!(
+        "a hole of {gap_s:.6e} s in the time: over {MAX_GAP_S} s, or over {MAX_HOLE_S} s beyond \
+         ten times the data before it: not one recording (split the file, or check the time \
+         column)"
+    )
 }
 
 #[cfg(test)]

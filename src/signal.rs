@@ -595,36 +595,11 @@ pub fn sampling_grid(t: &[f64]) -> Result<(f64, Vec<u64>), (usize, String)> {
     Ok((dt, index))
 }
 
-/// The longest hole a recording may hold (s): a link lost for longer than an hour has ended
-/// one recording, and the file holds two.
-pub const MAX_GAP_S: f64 = 3600.0;
-
-/// The time a recording may lose beyond ten times its own samples (s): a sensor out of the
-/// receiver's range for a minute. A short recording with a longer hole is two recordings or a
-/// wrong time stamp: 42 rows of which the last was stamped 2994 s after 2.98 s were read as one
-/// 17-sample "free decay" over 50 minutes (found by fuzzing).
-pub const MAX_HOLE_S: f64 = 60.0;
-
-/// Grid samples of holes a recording may hold beyond ten times its own samples, at any rate:
-/// what the spectrum and the fits allocate stays proportional to the data (a row stamped at
-/// 1e12 s would otherwise ask for terabytes).
-pub const MAX_HOLE_SAMPLES: u64 = 4_000_000;
-
-/// The furthest grid position a recording of `kept` samples at `rate_hz` may reach: ten times
-/// its samples plus [`MAX_HOLE_S`] of samples (at most [`MAX_HOLE_SAMPLES`]).
-pub fn grid_span_limit(kept: usize, rate_hz: f64) -> u64 {
-    let hole = (MAX_HOLE_S * rate_hz).clamp(0.0, MAX_HOLE_SAMPLES as f64) as u64;
-    10 * kept as u64 + hole
-}
-
-/// The message for a hole beyond [`MAX_GAP_S`] or [`grid_span_limit`].
-pub fn gap_too_long_message(gap_s: f64) -> String {
-    format!(
-        "a hole of {gap_s:.6e} s in the time: over {MAX_GAP_S} s, or over {MAX_HOLE_S} s beyond \
-         ten times the data before it: not one recording (split the file, or check the time \
-         column)"
-    )
-}
+// The limits on a recording's holes are the log reader's ([`crate::log`]); a CSV's time
+// column is held to the same.
+pub use crate::log::{
+    gap_too_long_message, grid_span_limit, MAX_GAP_S, MAX_HOLE_S, MAX_HOLE_SAMPLES,
+};
 
 /// Which signal to take from a log.
 #[derive(Debug, Clone, Default)]
