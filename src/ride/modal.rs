@@ -924,10 +924,10 @@ pub struct Solver {
 
 impl Solver {
     fn record(&mut self, iterations: usize, converged: bool) {
-        self.converged = converged && (self.solves == 0 || self.converged);
         self.iterations = self.iterations.max(iterations);
         self.solves += 1;
         self.unconverged += usize::from(!converged);
+        self.converged = self.unconverged == 0;
     }
 }
 

@@ -7,6 +7,7 @@
 //! sealed `truth.json`) and the truth. The motor is the simulator's own ([`SteerMotor`]): its
 //! rotor's inertia on the fork about the steer axis, its controller's torque in the loads.
 
+use super::calibration::{stage, BlindError};
 use super::campaign::{measured_within_errors, Files};
 use super::draw::{seeded, Draw};
 use super::ride::{simulate_ride, Effects, MotorController, RideError, RideSpec, SteerMotor};
@@ -236,23 +237,21 @@ pub fn run_study(
     bike_text: &str,
     seed: u64,
     kind: StudyKind,
-) -> Result<StudyResult, super::calibration::BlindError> {
+) -> Result<StudyResult, BlindError> {
     let effect_free = kind == StudyKind::EffectFree;
     let motor = match kind {
         StudyKind::Blind => None,
         StudyKind::NearNominal => Some(near_nominal_motor(seed)),
         StudyKind::EffectFree => Some((0.0, 1.0)),
     };
-    let (files, truth) =
-        blind_study_with(measured, "bike.toml", seed, motor).map_err(super::calibration::stage)?;
+    let (files, truth) = blind_study_with(measured, "bike.toml", seed, motor).map_err(stage)?;
     let name = format!("study_calibration_{seed}_{kind:?}");
     super::calibration::in_scratch(&name, &files, bike_text, &|dir| {
-        let study = crate::ride::study::Study::load(&dir.join("study.toml"))
-            .map_err(super::calibration::stage)?;
-        let bike = study.bike_path().map_err(super::calibration::stage)?;
-        let model = crate::model::uncertain::load(&bike).map_err(super::calibration::stage)?;
+        let study = crate::ride::study::Study::load(&dir.join("study.toml")).map_err(stage)?;
+        let bike = study.bike_path().map_err(stage)?;
+        let model = crate::model::uncertain::load(&bike).map_err(stage)?;
         let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})
-            .map_err(super::calibration::stage)?;
+            .map_err(stage)?;
         // `effect` named: first, or tied at the top, with a significant gap.
         let names = |d: &crate::gap::Diagnosis, effect: &str| {
             d.significant
@@ -271,9 +270,8 @@ pub fn run_study(
             .iter()
             .filter(|(_, m)| kind == StudyKind::Blind && !m.control.is_none())
         {
-            let one = m.model(None).map_err(super::calibration::stage)?;
-            let s = crate::gap::diagnose_campaign(m, &one, &|_, _, _| {})
-                .map_err(super::calibration::stage)?;
+            let one = m.model(None).map_err(stage)?;
+            let s = crate::gap::diagnose_campaign(m, &one, &|_, _, _| {}).map_err(stage)?;
             if names(&s, PAIR) {
                 singles_named += 1;
                 if let Some(r) = s.ranking.iter().find(|r| r.effect == PAIR) {
