@@ -3,7 +3,7 @@
 //! Run: `cargo bench --bench core`.
 
 use bikeproc::fit::{self, FitOptions};
-use bikeproc::log::{Log, OutputMode, ReadOptions};
+use bikeproc::read::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{self, Signal};
 use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{self, FileSpec, LinkModel, Locale, Precision, SensorModel};
@@ -170,7 +170,7 @@ fn sweep_10001_speeds(bencher: divan::Bencher) {
 #[divan::bench(sample_count = 5)]
 fn bands_100001_speeds(bencher: divan::Bencher) {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let p = bikeproc::model::uncertain::load(
+    let p = bikeproc::read::bicycle::load(
         &root.join("../shared/reference/bicycleparameters/BenchmarkBenchmark.txt"),
     )
     .expect("the benchmark bicycle");
@@ -184,7 +184,7 @@ fn bands_100001_speeds(bencher: divan::Bencher) {
 #[divan::bench(sample_count = 3, args = [10_001, 100_001, 1_000_001])]
 fn stability_report_by_speeds(bencher: divan::Bencher, n: usize) {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let p = bikeproc::model::uncertain::load(&root.join("data/lab_bike.toml")).expect("lab bike");
+    let p = bikeproc::read::bicycle::load(&root.join("data/lab_bike.toml")).expect("lab bike");
     let step = 10.0 / (n - 1) as f64;
     bencher.bench(|| {
         bikeproc::model::report::StabilityReport::over(&p, divan::black_box((0.0, 10.0, step)))
@@ -228,10 +228,11 @@ fn simulated_ride_10_s_coast(bencher: divan::Bencher) {
 /// `bikeproc dynamic data/rides.toml` runs it.
 #[divan::bench(sample_count = 10)]
 fn dynamic_campaign_16_rides(bencher: divan::Bencher) {
-    use bikeproc::ride::dynamic::{run_campaign, RideManifest};
+    use bikeproc::read::rides::RideManifest;
+    use bikeproc::ride::dynamic::run_campaign;
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
     let modal = bikeproc::ride::modal::ModalOptions::default();
     bencher.bench(|| run_campaign(&manifest, &model, &modal, &|_, _| {}));
 }
@@ -251,10 +252,11 @@ fn data_campaign_observations() -> (
     Vec<bikeproc::gap::Observation>,
 ) {
     use bikeproc::gap::Observation;
-    use bikeproc::ride::dynamic::{run_campaign, RideManifest};
+    use bikeproc::read::rides::RideManifest;
+    use bikeproc::ride::dynamic::run_campaign;
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
     let modal = bikeproc::ride::modal::ModalOptions::default();
     let rides = run_campaign(&manifest, &model, &modal, &|_, _| {})
         .iter()
@@ -279,10 +281,10 @@ fn gap_diagnosis_by_rides(bencher: divan::Bencher, n: usize) {
 /// speeds' correction and the diagnosis, on rayon's threads (two on this machine).
 #[divan::bench(sample_count = 10)]
 fn gap_campaign_16_rides(bencher: divan::Bencher) {
-    use bikeproc::ride::dynamic::RideManifest;
+    use bikeproc::read::rides::RideManifest;
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::model::uncertain::load(&manifest.bike_path()).expect("the bicycle");
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
     bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}));
 }
 
@@ -435,6 +437,6 @@ fn modal_fit_marked_decay(bencher: divan::Bencher, k: usize) {
 fn sensitivity_rigid(bencher: divan::Bencher) {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/reference/bicycleparameters/RigidBenchmark.txt");
-    let model = bikeproc::model::uncertain::load(&path).expect("RigidBenchmark.txt");
+    let model = bikeproc::read::bicycle::load(&path).expect("RigidBenchmark.txt");
     bencher.bench(|| bikeproc::model::sensitivity::sensitivity(&model, &[5.0], 10.0).unwrap());
 }

@@ -1160,8 +1160,12 @@ pub fn measure_file(
     sensor: Option<&str>,
     options: &FitOptions,
 ) -> Result<(OscillationSummary, Vec<String>), MeasureError> {
-    let loaded =
-        crate::signal::load_signal(file, extract, sensor, &crate::log::ReadOptions::default())?;
+    let loaded = crate::signal::load_signal(
+        file,
+        extract,
+        sensor,
+        &crate::read::log::ReadOptions::default(),
+    )?;
     let sig = &loaded.signal;
     let osc = analyse(sig, options).map_err(|error| MeasureError::Fit {
         path: file.to_path_buf(),

@@ -38,7 +38,7 @@ fn as_file(bytes: &[u8], name: &str) -> Option<PathBuf> {
 
 /// A log (orientation or calibrated, either locale): read, its signals extracted and fitted.
 pub fn log_file(bytes: &[u8]) {
-    use crate::log::{Log, ReadOptions};
+    use crate::read::log::{Log, ReadOptions};
     let Ok(log) = Log::parse(bytes, Path::new("fuzz.log"), &ReadOptions::default()) else {
         return;
     };
@@ -77,14 +77,14 @@ pub fn bicycle_text(bytes: &[u8]) {
 /// The lab's bicycle file (`lab_bike.toml`): read, and its benchmark parameters derived.
 pub fn lab_bike(bytes: &[u8]) {
     if let Some(path) = as_file(bytes, "lab_bike.toml") {
-        let _ = crate::model::uncertain::load(&path);
+        let _ = crate::read::bicycle::load(&path);
     }
 }
 
 /// A pendulum test folder's `manifest.toml`.
 pub fn pendulum_manifest(bytes: &[u8]) {
     if let Some(path) = as_file(bytes, "manifest.toml") {
-        let _ = crate::inertia::manifest::Manifest::load(&path);
+        let _ = crate::read::manifest::Manifest::load(&path);
     }
 }
 
@@ -96,7 +96,7 @@ pub fn ride_manifest(bytes: &[u8]) {
         return;
     }
     if let Some(path) = as_file(bytes, "rides.toml") {
-        let _ = crate::ride::dynamic::RideManifest::load(&path);
+        let _ = crate::read::rides::RideManifest::load(&path);
     }
 }
 
@@ -146,7 +146,7 @@ pub fn study_manifest(bytes: &[u8]) {
         return;
     }
     if let Some(path) = as_file(bytes, "study.toml") {
-        if let Ok(study) = crate::ride::study::Study::load(&path) {
+        if let Ok(study) = crate::read::study::Study::load(&path) {
             for (_, m) in &study.conditions {
                 let _ = m.model(None);
             }
@@ -161,7 +161,7 @@ pub fn controller_from_file(bytes: &[u8]) {
         return;
     }
     if let Some(path) = as_file(FILE.as_bytes(), "file.toml") {
-        if let Ok(m) = crate::ride::dynamic::RideManifest::load(&path) {
+        if let Ok(m) = crate::read::rides::RideManifest::load(&path) {
             if let Ok(model) = m.model(None) {
                 for v in [0.0, 1.0, 4.7, 10.0, 40.0] {
                     let _ = model.nominal_canonical().eigenvalues(v);

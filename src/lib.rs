@@ -4,12 +4,13 @@
 //! The data flow, one module per stage:
 //!
 //! ```text
-//! log ──► signal ──► spectral ──► fit ──► (inertia ──► model ──► ride ──► gap)
+//! read ──► signal ──► spectral ──► fit ──► (inertia ──► model ──► ride ──► gap)
 //!  ▲                                                                    │
 //!  └──────────── sim (writes logs from its own physics) ────  report ◄──┘
 //! ```
 //!
-//! - [`log`]: the lab's log files → samples on the 100 Hz grid, gaps, orientations.
+//! - [`read`]: every file from outside (IMU logs, tables, manifests, bicycle files), recognised
+//!   by content → checked values.
 //! - [`signal`]: a log or CSV → one scalar oscillation signal.
 //! - [`spectral`]: a signal → its spectrum and peaks (the fit's first guess).
 //! - [`fit`]: a signal → free-decay segment, damped-sinusoid fit, standard errors.
@@ -36,12 +37,11 @@ pub mod fuzzing;
 pub mod gap;
 pub mod inertia;
 pub mod jet;
-pub mod kind;
-pub mod log;
 pub mod model;
 pub mod output;
 #[cfg(feature = "plot")]
 pub mod plot;
+pub mod read;
 pub mod report;
 pub mod ride;
 pub mod signal;

@@ -304,6 +304,13 @@ fn remove_leftovers(parent: &Path, name: &str) {
     }
 }
 
+/// Whether a file to be written is named as TOML (`*.toml`): it has no content yet to be
+/// recognised by, so its name says the format the user asks for (the readers go by content,
+/// [`crate::read::kind`]).
+pub fn named_toml(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "toml")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,7 @@
 //! Every malformed input in `fixtures/bad/` gets one line naming the file and the line, exit
 //! code 2, and never a panic; random bytes and random edits of valid logs never panic the reader.
 
-use bikeproc::log::{Log, ReadOptions};
+use bikeproc::read::log::{Log, ReadOptions};
 use proptest::prelude::*;
 use std::path::Path;
 use std::process::Command;

@@ -128,7 +128,7 @@ fn simulate_is_byte_identical_for_the_same_seed_and_reads_back() {
 
 #[test]
 fn the_cardan_swing_shows_as_a_secondary_peak() {
-    use bikeproc::log::{Log, OutputMode, ReadOptions};
+    use bikeproc::read::log::{Log, OutputMode, ReadOptions};
     use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
     use bikeproc::sim::pendulum::{Pendulum, Placement, Release, Swing, Torsion};
     let pend = Pendulum::Torsion(Torsion {

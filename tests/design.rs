@@ -54,7 +54,7 @@ fn a_design_is_stable_where_asked_and_the_smallest_change() {
     assert!(vw <= 2.9 + 1e-5 && vc >= 5.2 - 1e-5, "{vw} {vc}");
 
     // Optimality, by central differences through the design's own variables.
-    let bike = uncertain::load(&lab).unwrap().nominal();
+    let bike = bikeproc::read::bicycle::load(&lab).unwrap().nominal();
     let vars = [
         DesignVariable::Trail,
         DesignVariable::HeadAngle,

@@ -3,9 +3,8 @@
 
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::model::{lab::lab_to_benchmark, uncertain, Benchmark, Canonical};
-use bikeproc::ride::dynamic::{
-    dynamic_test, run_campaign, DynamicOptions, DynamicTest, RideManifest,
-};
+use bikeproc::read::rides::RideManifest;
+use bikeproc::ride::dynamic::{dynamic_test, run_campaign, DynamicOptions, DynamicTest};
 use bikeproc::ride::modal::ModalOptions;
 use bikeproc::sim::ride::{simulate_ride, Effects, RideSpec, RideTruth};
 use nalgebra::Complex;
@@ -19,7 +18,10 @@ fn root() -> PathBuf {
 fn bikes() -> (uncertain::Parametrized, Benchmark) {
     let path = root().join("data/lab_bike.toml");
     let truth = bikeproc::sim::campaign::truth_bike(&LabBike::load(&path).unwrap());
-    (uncertain::load(&path).unwrap(), lab_to_benchmark(&truth))
+    (
+        bikeproc::read::bicycle::load(&path).unwrap(),
+        lab_to_benchmark(&truth),
+    )
 }
 
 /// Simulates a ride, writes its log pair to a scratch folder and runs the dynamic test (the
@@ -69,7 +71,7 @@ fn parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
 fn campaign_weave_within_2_5_se_of_truth() {
     let dir = root().join("data");
     let manifest = RideManifest::load(&dir.join("rides.toml")).unwrap();
-    let model = uncertain::load(&manifest.bike_path()).unwrap();
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).unwrap();
     let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
     let mut inside = 0;
     for (entry, ride) in manifest.rides.iter().zip(&results) {
@@ -193,7 +195,7 @@ fn unusable_rides_are_named() {
             name.display()
         );
     }
-    let model = uncertain::load(&root().join("data/lab_bike.toml")).unwrap();
+    let model = bikeproc::read::bicycle::load(&root().join("data/lab_bike.toml")).unwrap();
     let options = DynamicOptions {
         noted: Some(bikeproc::ride::speed::NotedReading::lab(4.5)),
         ..DynamicOptions::default()
@@ -270,7 +272,9 @@ fn the_model_mode_beside_a_measurement_is_the_nearest_oscillatory_one() {
         root().join("../shared/reference/bicycleparameters/Balanceassistv1Benchmark.txt");
     let (control, _) =
         SteerControl::load(&root().join("fixtures/real/balanceassist_gain10.toml")).unwrap();
-    let model = uncertain::load(&reference).unwrap().with_control(control);
+    let model = bikeproc::read::bicycle::load(&reference)
+        .unwrap()
+        .with_control(control);
     let v = 0.8;
     let pairs: Vec<Complex<f64>> = model
         .nominal_canonical()

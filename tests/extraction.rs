@@ -2,7 +2,7 @@
 //! mode or the locale the receiver wrote.
 
 use bikeproc::fit::{self, FitOptions};
-use bikeproc::log::{Log, OutputMode, ReadOptions};
+use bikeproc::read::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{self, Signal};
 use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};

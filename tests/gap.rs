@@ -4,8 +4,7 @@
 
 use bikeproc::gap::{diagnose_campaign, ride_contrasts, Diagnosis, GapOptions};
 use bikeproc::inertia::bike::LabBike;
-use bikeproc::model::uncertain;
-use bikeproc::ride::dynamic::RideManifest;
+use bikeproc::read::rides::RideManifest;
 use bikeproc::sim::calibration::{diagnose_blind, run_case, Case};
 use bikeproc::sim::campaign::{BlindDesign, BlindTruth, Draws, Withheld};
 use common::root;
@@ -285,7 +284,7 @@ fn blind_campaigns_find_the_withheld_effect() {
 #[test]
 fn the_campaign_in_data_is_explained_by_its_own_effects() {
     let manifest = RideManifest::load(&root().join("data/rides.toml")).unwrap();
-    let model = uncertain::load(&manifest.bike_path()).unwrap();
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).unwrap();
     let d = diagnose_campaign(&manifest, &model, &|_, _, _| {}).unwrap();
     println!("{}", d.to_text());
     let simulated = [
@@ -364,7 +363,7 @@ fn copies(name: &str, log: &std::path::Path, n: usize) -> Vec<PathBuf> {
 }
 
 fn inconclusive(m: &RideManifest) -> Diagnosis {
-    let model = uncertain::load(&root().join("data/lab_bike.toml")).unwrap();
+    let model = bikeproc::read::bicycle::load(&root().join("data/lab_bike.toml")).unwrap();
     let d = diagnose_campaign(m, &model, &|_, _, _| {}).unwrap();
     assert!(!d.conclusive, "{}", d.verdict);
     assert!(d.ranking.is_empty(), "a ranking built on nothing");
@@ -613,7 +612,7 @@ fn eigenvalue_only_rides_take_their_own_coasting_errors() {
     let d = bikeproc::sim::calibration::in_scratch("eigenvalue_only", &files, &text, &|dir| {
         use bikeproc::sim::calibration::stage;
         let manifest = RideManifest::load(&dir.join("rides.toml")).map_err(stage)?;
-        let model = uncertain::load(&dir.join("bike.toml")).map_err(stage)?;
+        let model = bikeproc::read::bicycle::load(&dir.join("bike.toml")).map_err(stage)?;
         let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
         let (rides, failed) = observations(&results);
         diagnose(
@@ -777,7 +776,7 @@ fn diagnosed_copies<const N: usize>(
     use bikeproc::ride::dynamic::run_campaign;
     use bikeproc::ride::modal::ModalOptions;
     let manifest = RideManifest::load(&root().join("data/rides.toml")).unwrap();
-    let model = uncertain::load(&manifest.bike_path()).unwrap();
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).unwrap();
     let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});
     let (base, _) = observations(&results);
     let rides = copies(&base, times * base.len(), 0.02, move_windows);

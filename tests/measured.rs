@@ -196,8 +196,8 @@ fn cr_line_ends_read_as_the_same_file() {
     let file = dir.join("CrMeasured.txt");
     std::fs::write(&file, &cr).unwrap();
     assert_eq!(
-        bikeproc::kind::recognise(&file),
-        bikeproc::kind::Kind::MeasuredBicycle
+        bikeproc::read::kind::recognise(&file),
+        bikeproc::read::kind::Kind::MeasuredBicycle
     );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -2,7 +2,7 @@
 //! published bicycle (seed §6, Fig. 15), every reference bicycle, and the propagation of the
 //! parameters' uncertainty against a Monte Carlo.
 
-use bikeproc::model::{uncertain, Benchmark, Canonical};
+use bikeproc::model::{Benchmark, Canonical};
 use bikeproc::sim::draw::{seeded, Draw};
 use nalgebra::Complex;
 use std::path::{Path, PathBuf};
@@ -83,8 +83,10 @@ fn benchmark_file_reproduces_the_published_matrices_eigenvalues_and_speeds() {
 fn the_labs_published_bicycle_is_stable_from_3_14_to_5_40() {
     // Seed Fig. 15 (not π: the seed's lower bound, 3.14 m/s).
     let (seed_lo, seed_hi) = (314.0 / 100.0, 5.40);
-    let p = uncertain::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike_seed.toml"))
-        .unwrap();
+    let p = bikeproc::read::bicycle::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike_seed.toml"),
+    )
+    .unwrap();
     let c = Canonical::from_benchmark(&p.nominal());
     let s = c.stability(10.0, 0.01).unwrap();
     let (lo, hi) = s.stable_ranges_mps[0];
@@ -155,8 +157,10 @@ fn every_reference_bicycle_gets_its_stable_range_or_a_clear_error() {
 
 #[test]
 fn linear_propagation_of_speed_uncertainty_agrees_with_a_monte_carlo() {
-    let p =
-        uncertain::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml")).unwrap();
+    let p = bikeproc::read::bicycle::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml"),
+    )
+    .unwrap();
     let lin = p.speeds(10.0, 0.01).unwrap();
     let (w_se, c_se) = (
         lin.weave_speed_se_mps.unwrap(),
@@ -246,7 +250,7 @@ fn bands_equal_the_full_covariances_diagonal() {
         (lab.clone(), None),
         (lab, Some(control)),
     ] {
-        let mut p = uncertain::load(&path).unwrap();
+        let mut p = bikeproc::read::bicycle::load(&path).unwrap();
         if let Some(c) = control {
             p = p.with_control(c);
         }

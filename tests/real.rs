@@ -2,7 +2,7 @@
 //! lab habits they showed the simulator lacked.
 
 use bikeproc::fit::{self, FitOptions};
-use bikeproc::log::{Log, OutputMode, ReadOptions};
+use bikeproc::read::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{self, Extract, Signal};
 use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
@@ -649,7 +649,8 @@ fn every_kick_of_a_long_simulated_recording_is_found_and_fitted() {
 #[test]
 fn a_controlled_campaign_of_csv_rides_is_compared_with_the_closed_loop() {
     use bikeproc::model::control::SteerControl;
-    use bikeproc::ride::dynamic::{run_campaign, Analysed, RideManifest};
+    use bikeproc::read::rides::RideManifest;
+    use bikeproc::ride::dynamic::{run_campaign, Analysed};
     use bikeproc::ride::modal::ModalOptions;
     use nalgebra::{Matrix2, Matrix4, Vector2};
     let path =
@@ -705,7 +706,7 @@ fn a_controlled_campaign_of_csv_rides_is_compared_with_the_closed_loop() {
 /// that do not increase, and a gain list of another length.
 #[test]
 fn a_bad_controller_table_is_named() {
-    use bikeproc::ride::dynamic::RideManifest;
+    use bikeproc::read::rides::RideManifest;
     let dir = std::env::temp_dir().join(format!("bikeproc_ctrl_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("rides.toml");
@@ -1259,9 +1260,9 @@ fn a_push_that_lasts_past_its_peak_starts_the_decay_at_the_swing_back() {
 fn the_studys_repeated_kicks_scatter_per_condition() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let study =
-        bikeproc::ride::study::Study::load(&root.join("fixtures/real/balanceassist_study.toml"))
+        bikeproc::read::study::Study::load(&root.join("fixtures/real/balanceassist_study.toml"))
             .unwrap();
-    let model = bikeproc::model::uncertain::load(&study.bike_path().unwrap()).unwrap();
+    let model = bikeproc::read::bicycle::load(&study.bike_path().unwrap()).unwrap();
     let d = bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {}).unwrap();
     let s = d.between_kick_scatter.expect("repeated kicks");
     let q: f64 = s.by_condition.iter().map(|c| c.q).sum();

@@ -1,7 +1,7 @@
 //! Issue 14 item 2: the packet counter is the clock. A receiver's time stamps jitter and arrive
 //! late in bursts; no valid log is refused for that, and what is read does not depend on them.
 
-use bikeproc::log::{Log, OutputMode, ReadOptions};
+use bikeproc::read::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal::{channel, dominant_rotation, Signal};
 use bikeproc::sim::draw::{seeded, Draw};
 use proptest::prelude::*;

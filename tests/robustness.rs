@@ -428,7 +428,7 @@ fn endless_or_binary_inputs_are_refused_at_their_head() {
         ),
         (
             vec!["period", nul.to_str().unwrap()],
-            "nul.csv:1: binary data",
+            "nul.csv:1: cannot read: binary data",
         ),
         (vec!["dynamic", nul.to_str().unwrap()], "binary data"),
     ] {

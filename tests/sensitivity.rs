@@ -3,7 +3,7 @@
 //! and the uncertainty budget against the propagation `stability` already does.
 
 use bikeproc::model::sensitivity::sensitivity;
-use bikeproc::model::uncertain::{self, Parametrized};
+use bikeproc::model::uncertain::Parametrized;
 use bikeproc::model::Benchmark;
 use std::path::PathBuf;
 
@@ -30,7 +30,7 @@ fn speeds(b: &Benchmark) -> (f64, f64) {
 /// without standard errors), and the budget's standard errors equal the propagation of `stability` (central
 /// differences through the parameters, a thousandth of each SE) to 1e-3.
 fn check(file: &str) {
-    let model = uncertain::load(&reference(file)).unwrap();
+    let model = bikeproc::read::bicycle::load(&reference(file)).unwrap();
     let s = sensitivity(&model, &[5.0], 10.0).unwrap();
     let nominal = model.nominal();
     let values = nominal.to_array();
@@ -109,7 +109,7 @@ fn a_real_bicycles_derivatives_are_its_speeds_differences() {
 /// The weave eigenvalue's derivatives at 5 m/s against central differences of the eigenvalue.
 #[test]
 fn the_weave_eigenvalues_derivatives_are_its_differences() {
-    let model = uncertain::load(&reference("BenchmarkBenchmark.txt")).unwrap();
+    let model = bikeproc::read::bicycle::load(&reference("BenchmarkBenchmark.txt")).unwrap();
     let s = sensitivity(&model, &[5.0], 10.0).unwrap();
     let w = &s.weave_derivatives[0];
     // Meijaard et al. 2007, Table 2: −0.77534188219585 ± 4.46486771378823i at 5 m/s.
@@ -151,7 +151,7 @@ fn the_speeds_elasticity_by_gravity_is_one_half() {
         "RigidBenchmark.txt",
         "YellowBenchmark.txt",
     ] {
-        let model = uncertain::load(&reference(file)).unwrap();
+        let model = bikeproc::read::bicycle::load(&reference(file)).unwrap();
         let s = sensitivity(&model, &[], 10.0).unwrap();
         let g = s.parameters.iter().find(|p| p.name == "g").unwrap();
         for e in [g.weave_elasticity, g.capsize_elasticity] {
@@ -169,7 +169,7 @@ fn the_speeds_elasticity_by_gravity_is_one_half() {
 fn the_lab_bicycles_budget_names_the_test_to_repeat() {
     use bikeproc::inertia::bike::LabBike;
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/lab_bike.toml");
-    let model = uncertain::load(&path).unwrap();
+    let model = bikeproc::read::bicycle::load(&path).unwrap();
     let s = sensitivity(&model, &[], 10.0).unwrap();
     let total: f64 = s
         .inputs

@@ -21,7 +21,10 @@ fn root() -> PathBuf {
 fn bikes() -> (uncertain::Parametrized, Benchmark) {
     let path = root().join("data/lab_bike.toml");
     let truth = truth_bike(&LabBike::load(&path).unwrap());
-    (uncertain::load(&path).unwrap(), lab_to_benchmark(&truth))
+    (
+        bikeproc::read::bicycle::load(&path).unwrap(),
+        lab_to_benchmark(&truth),
+    )
 }
 
 /// Simulates a ride, writes its log pair to a scratch folder and runs the dynamic test with

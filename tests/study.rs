@@ -5,8 +5,7 @@
 
 use bikeproc::gap::{diagnose_campaign, diagnose_manifests, Diagnosis, Ranked};
 use bikeproc::inertia::bike::LabBike;
-use bikeproc::model::uncertain;
-use bikeproc::ride::study::Study;
+use bikeproc::read::study::Study;
 use bikeproc::sim::study::{blind_study_with, StudyTruth};
 use common::root;
 use std::path::PathBuf;
@@ -37,7 +36,7 @@ fn study(seed: u64, motor: Option<(f64, f64)>) -> (PathBuf, Study, StudyTruth) {
 }
 
 fn diagnose(s: &Study) -> Diagnosis {
-    let model = uncertain::load(&s.bike_path().unwrap()).unwrap();
+    let model = bikeproc::read::bicycle::load(&s.bike_path().unwrap()).unwrap();
     diagnose_manifests(&s.conditions, &model, &|_, _, _| {}).unwrap()
 }
 
@@ -317,7 +316,7 @@ fn a_malformed_study_is_refused_with_its_file() {
 /// the manifest and the controller file named.
 #[test]
 fn a_controller_from_a_file_is_the_inline_one() {
-    use bikeproc::ride::dynamic::RideManifest;
+    use bikeproc::read::rides::RideManifest;
     let dir = std::env::temp_dir().join(format!("bikeproc_controller_file_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();

@@ -3,7 +3,7 @@
 //! unbiased, near the Cramér–Rao bound, with an honest standard error.
 
 use bikeproc::fit::{self, crb_omega_variance, FitOptions};
-use bikeproc::log::{Log, OutputMode, ReadOptions};
+use bikeproc::read::log::{Log, OutputMode, ReadOptions};
 use bikeproc::signal;
 use bikeproc::sim::draw::{seeded, Draw};
 use bikeproc::sim::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};

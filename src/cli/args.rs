@@ -2,7 +2,7 @@
 //! with examples and the shape of its `--json`.
 
 use bikeproc::fit::Trend;
-use bikeproc::log::OutputMode;
+use bikeproc::read::log::OutputMode;
 use bikeproc::sim::imu::{Locale, Precision};
 use bikeproc::stats::number_text;
 use clap::{Args, Parser, Subcommand, ValueEnum};

@@ -6,7 +6,7 @@ use super::io::{advance, emit, note, progress, refuse_files_over_inputs, write_a
 use anyhow::{bail, Context, Result};
 use bikeproc::fit::{self, FitOptions, PeriodBatch};
 use bikeproc::inertia::{self, text};
-use bikeproc::kind::{self, Kind};
+use bikeproc::read::kind::{self, Kind};
 use bikeproc::signal::Extract;
 use bikeproc::uncertainty::Measured;
 use std::path::{Path, PathBuf};
@@ -65,8 +65,8 @@ fn stem(file: &Path) -> String {
         .map_or(String::new(), |x| x.to_string_lossy().into_owned())
 }
 
-/// The recordings named (files, and the `.csv` and `.log` files of folders, `_cal` logs left to
-/// their angles log), in name order within each folder.
+/// The recordings named (files, and the IMU logs and CSV tables of folders, by their content;
+/// a `_cal` log beside its angles log left to it), in name order within each folder.
 fn trial_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
@@ -77,15 +77,22 @@ fn trial_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
         let mut inside: Vec<PathBuf> = std::fs::read_dir(p)
             .with_context(|| format!("{}", p.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
+            // Recordings by their content: IMU logs (not a ride's calibrated companion) and
+            // tables of time series.
             .filter(|f| {
-                let ext = f.extension().and_then(|e| e.to_str());
-                let stem = f.file_stem().and_then(|e| e.to_str()).unwrap_or("");
-                matches!(ext, Some("csv") | Some("log")) && !stem.ends_with("_cal")
+                let companion = kind::angles_beside(f);
+                matches!(
+                    kind::recognise(f),
+                    Kind::PendulumLog | Kind::RideAngles | Kind::Table
+                ) && (companion == *f || !companion.is_file())
             })
             .collect();
         inside.sort();
         if inside.is_empty() {
-            bail!("{}: no .csv or .log recordings in the folder", p.display());
+            bail!(
+                "{}: no recordings in the folder (IMU logs or CSV tables)",
+                p.display()
+            );
         }
         out.extend(inside);
     }

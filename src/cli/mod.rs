@@ -131,7 +131,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Report(r) => {
             bikeproc::output::refuse_folder_over_inputs(&r.out, &[&r.data, &r.reference])?;
             if !r.data.join("rides.toml").is_file() {
-                return Err(bikeproc::kind::WrongKind(format!(
+                return Err(bikeproc::read::kind::WrongKind(format!(
                     "{}: no lab data here (its rides.toml is missing): run `bikeproc report` in \
                      the checkout's top folder, or name the folders with --data, --reference \
                      and --out",
@@ -150,12 +150,12 @@ fn run(cli: Cli) -> Result<()> {
 /// Whether the error comes from an input that is malformed or cannot be analysed.
 fn is_input_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
-        c.is::<bikeproc::log::LogError>()
+        c.is::<bikeproc::read::log::LogError>()
             || c.is::<signal::SignalError>()
             || c.is::<fit::FitError>()
             || c.is::<fit::MeasureError>()
             || c.is::<inertia::InertiaError>()
-            || c.is::<inertia::manifest::ManifestError>()
+            || c.is::<bikeproc::read::manifest::ManifestError>()
             || c.is::<inertia::measured::MeasuredError>()
             || c.is::<bikeproc::model::ParamError>()
             || c.is::<bikeproc::model::sensitivity::SensitivityError>()
@@ -164,7 +164,7 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             || c.is::<bikeproc::model::control::ControlError>()
             || c.is::<NoRideAnalysed>()
             || c.is::<Refused>()
-            || c.is::<bikeproc::kind::WrongKind>()
+            || c.is::<bikeproc::read::kind::WrongKind>()
             || matches!(
                 c.downcast_ref::<bikeproc::output::OutputError>(),
                 Some(bikeproc::output::OutputError::OverInput { .. })

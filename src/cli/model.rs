@@ -6,8 +6,8 @@
 use super::args::{CompareArgs, DesignArgs, SensitivityArgs, StabilityArgs};
 use super::io::{emit, refuse_files_over_inputs, write_atomic};
 use anyhow::Result;
-use bikeproc::kind::{self, Kind};
 use bikeproc::model::{self, uncertain::Parametrized};
+use bikeproc::read::kind::{self, Kind};
 use std::path::{Path, PathBuf};
 
 pub fn stability(a: StabilityArgs) -> Result<()> {
@@ -133,7 +133,7 @@ fn load_bike(bike: &Path) -> Result<Parametrized> {
         &|k| matches!(k, Kind::LabBike | Kind::Benchmark | Kind::MeasuredBicycle),
         "a bicycle file",
     )?;
-    Ok(model::uncertain::load(bike)?)
+    Ok(bikeproc::read::bicycle::load(bike)?)
 }
 
 /// `model` with the steer controller of the file `controller` closing the loop, named in the

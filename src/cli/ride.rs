@@ -6,12 +6,13 @@ use super::io::{advance, emit, note, progress};
 use super::model::load_model;
 use super::{NoRideAnalysed, Refused};
 use anyhow::Result;
-use bikeproc::kind::{self, Kind};
+use bikeproc::read::kind::{self, Kind};
+use bikeproc::read::rides::RideManifest;
+use bikeproc::read::study::Study;
 use bikeproc::ride::csv::{self, KickReport};
-use bikeproc::ride::dynamic::{self, DynamicOptions, RideManifest};
+use bikeproc::ride::dynamic::{self, DynamicOptions};
 use bikeproc::ride::modal::ModalOptions;
 use bikeproc::ride::speed::NotedReading;
-use bikeproc::ride::study::Study;
 
 pub fn gap(a: GapArgs) -> Result<()> {
     let bar = progress(a.json);
@@ -54,7 +55,7 @@ pub fn gap(a: GapArgs) -> Result<()> {
             Some(b) => b.clone(),
             None => study.bike_path()?,
         };
-        let model = bikeproc::model::uncertain::load(&bike)?;
+        let model = bikeproc::read::bicycle::load(&bike)?;
         warn_if_exact(&model, &bike);
         bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|what, done, total| {
             advance(&bar, what, done, total)
@@ -92,11 +93,18 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
         &|k| matches!(k, Kind::RideAngles | Kind::RideManifest | Kind::Table),
         "a ride (its angles log, a CSV of its signals, or a campaign's rides manifest)",
     )?;
-    let extension = a.file.extension().and_then(|e| e.to_str());
-    // A table of time series whatever its name (another lab's `.log` of channels).
-    if extension.is_some_and(|e| e.eq_ignore_ascii_case("csv"))
-        || kind::recognise(&a.file) == Kind::Table
-    {
+    // What the file is, by its content: a table of time series whatever its name (another
+    // lab's `.log` of channels), a campaign's manifest, or else an IMU log.
+    let kind = kind::recognise(&a.file);
+    if kind == Kind::Unknown {
+        // Not recognised: a file that is not text at all is told so before anything else
+        // (the bicycle beside it, the log reader).
+        if let Err(e) = kind::open_text(&a.file) {
+            let line = e.line.map_or(String::new(), |l| format!(":{l}"));
+            return Err(kind::WrongKind(format!("{}{line}: {e}", a.file.display())).into());
+        }
+    }
+    if kind == Kind::Table {
         return csv_ride(&a, &modal);
     }
     // What only a CSV ride takes is refused, not ignored, on a log or a manifest.
@@ -122,7 +130,7 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
             .into());
         }
     }
-    if extension == Some("toml") {
+    if kind == Kind::RideManifest {
         return campaign(&a, &modal);
     }
     let bike = match &a.bike {

@@ -5,8 +5,8 @@ use super::args::{RideArgs, SimCommand};
 use super::io::{note, out, refuse_files_over_inputs, write_atomic};
 use anyhow::{Context, Result};
 use bikeproc::inertia::bike::LabBike;
-use bikeproc::log::Log;
 use bikeproc::output::write_atomic_set;
+use bikeproc::read::log::Log;
 use bikeproc::sim::{self, campaign, pendulum, ride};
 use std::path::Path;
 
@@ -167,7 +167,7 @@ fn simulate_ride(r: RideArgs) -> Result<()> {
         &[&r.bike],
         (!matches!(r.effects.as_str(), "none" | "realistic")).then_some(effects_file),
     )?;
-    let bike = bikeproc::model::uncertain::load(&r.bike)?.nominal();
+    let bike = bikeproc::read::bicycle::load(&r.bike)?.nominal();
     let effects = match r.effects.as_str() {
         "none" => ride::Effects::default(),
         "realistic" => ride::Effects::realistic(),

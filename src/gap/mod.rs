@@ -219,7 +219,7 @@ impl Default for GapOptions {
 /// campaign against `model`; `progress(stage, done, total)` with stage "rides" then
 /// "candidates".
 pub fn diagnose_campaign(
-    manifest: &crate::ride::dynamic::RideManifest,
+    manifest: &crate::read::rides::RideManifest,
     model: &Parametrized,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
@@ -280,7 +280,7 @@ pub struct StudyCondition {
 /// manifest's stem, with its controller) and diagnoses them together against `model` (the
 /// bicycle they share); `progress(stage, done, total)` as [`diagnose_campaign`].
 pub fn diagnose_manifests(
-    manifests: &[(String, crate::ride::dynamic::RideManifest)],
+    manifests: &[(String, crate::read::rides::RideManifest)],
     model: &Parametrized,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {

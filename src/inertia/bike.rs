@@ -3,7 +3,8 @@
 //! axes, eq. 68) with standard errors. The model stage converts it to the benchmark form;
 //! `bikeproc inertia --bike FILE` refreshes its inertias from the test folders it names.
 
-use super::{compound, manifest::Moment, torsion, InertiaError};
+use super::{compound, torsion, InertiaError};
+use crate::read::manifest::Moment;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -76,43 +77,6 @@ pub struct LabBike {
 }
 
 impl LabBike {
-    pub fn load(path: &Path) -> Result<LabBike, InertiaError> {
-        let invalid = |message: String| InertiaError::Invalid {
-            path: path.to_path_buf(),
-            message,
-        };
-        let text =
-            std::fs::read_to_string(path).map_err(|e| invalid(format!("cannot read: {e}")))?;
-        let bike: LabBike = toml::from_str(&text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count())
-                .unwrap_or(0);
-            InertiaError::Invalid {
-                path: path.with_extension(format!("toml:{line}")),
-                message: e.message().replace('\n', " "),
-            }
-        })?;
-        if bike.version != 1 {
-            return Err(invalid(format!(
-                "version {}: this bikeproc reads version 1",
-                bike.version
-            )));
-        }
-        if let Ok(value) = text.parse::<toml::Table>() {
-            check_numbers(&value, "").map_err(|(key, message)| {
-                let line = text
-                    .find(&format!("{} =", key.rsplit('.').next().unwrap_or(&key)))
-                    .map_or(0, |i| 1 + text[..i].matches('\n').count());
-                InertiaError::Invalid {
-                    path: path.with_extension(format!("toml:{line}")),
-                    message: format!("`{key}`: {message}"),
-                }
-            })?;
-        }
-        Ok(bike)
-    }
-
     pub fn to_toml(&self) -> String {
         let body = toml::to_string(self).unwrap_or_default();
         format!(
@@ -228,7 +192,7 @@ impl LabBike {
 
 /// Every number of a bicycle file finite, and every standard error (a key with `_se`) from 0
 /// to 1000 (SI units: no bicycle quantity is that uncertain). The offending key, dotted.
-fn check_numbers(table: &toml::Table, prefix: &str) -> Result<(), (String, String)> {
+pub(crate) fn check_numbers(table: &toml::Table, prefix: &str) -> Result<(), (String, String)> {
     for (k, v) in table {
         let key = format!("{prefix}{k}");
         match v {

@@ -177,15 +177,6 @@ fn number(text: &str) -> Option<f64> {
 }
 
 impl MeasuredFile {
-    /// Reads a file.
-    pub fn load(path: &Path) -> Result<MeasuredFile, MeasuredError> {
-        let bytes = std::fs::read(path).map_err(|e| MeasuredError::Read {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        MeasuredFile::parse(&bytes, path)
-    }
-
     /// Parses the bytes of a file (`path` names it in messages).
     pub fn parse(bytes: &[u8], path: &Path) -> Result<MeasuredFile, MeasuredError> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
@@ -877,11 +868,6 @@ impl Layout {
 }
 
 impl MeasuredBicycle {
-    /// Reads and converts a `*Measured.txt` file.
-    pub fn load(path: &Path) -> Result<MeasuredBicycle, MeasuredError> {
-        MeasuredBicycle::from_file(&MeasuredFile::load(path)?)
-    }
-
     /// Converts a parsed file.
     pub fn from_file(file: &MeasuredFile) -> Result<MeasuredBicycle, MeasuredError> {
         let mut c = Collector {

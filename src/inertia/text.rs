@@ -161,8 +161,8 @@ pub fn compound_json(r: &CompoundResult) -> Value {
     let mut v = serde_json::to_value(r).unwrap_or(Value::Null);
     for t in &r.tests {
         let key = match t.moment {
-            super::manifest::Moment::Iyy => vec!["iyy"],
-            super::manifest::Moment::IxxIzz => vec!["ixx", "izz"],
+            crate::read::manifest::Moment::Iyy => vec!["iyy"],
+            crate::read::manifest::Moment::IxxIzz => vec!["ixx", "izz"],
         };
         for k in key {
             v[k] = json!(t.inertia_about_cg);

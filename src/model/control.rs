@@ -28,7 +28,7 @@
 //! Each gain is interpolated linearly in speed between the points and held constant beyond
 //! the first and the last; a gain not given is zero.
 
-use crate::inertia::manifest::{from_toml, ManifestError};
+use crate::read::manifest::ManifestError;
 use std::path::Path;
 
 /// The most speed points a controller's table may have.
@@ -125,13 +125,6 @@ impl<'de> serde::Deserialize<'de> for ControllerEntry {
     }
 }
 
-/// A TOML file holding a `[controller]` table: a file of its own, or a campaign manifest that
-/// carries one (its other keys are the manifest's business; the table's own are checked).
-#[derive(Debug, Clone, serde::Deserialize)]
-struct ControllerFile {
-    controller: ControllerSpec,
-}
-
 impl SteerControl {
     /// No controller.
     pub const NONE: SteerControl = SteerControl {
@@ -208,19 +201,6 @@ impl SteerControl {
             }
         }
         Ok(c)
-    }
-
-    /// Reads a TOML file that holds a `[controller]` table.
-    pub fn load(path: &Path) -> Result<(SteerControl, String), ControlError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ControlError::Invalid {
-            path: path.to_path_buf(),
-            message: format!("cannot read the controller: {e}"),
-        })?;
-        let file: ControllerFile = from_toml(path, &text)?;
-        Ok((
-            SteerControl::from_spec(&file.controller, path)?,
-            file.controller.description,
-        ))
     }
 
     /// The gains on `(φ, δ, φ̇, δ̇)` at speed `v` (m/s), times the actuator's gain: linear

@@ -53,7 +53,7 @@ impl BikeFileFormat {
                     .into(),
             });
         }
-        Ok(if path.extension().is_some_and(|e| e == "toml") {
+        Ok(if crate::output::named_toml(path) {
             BikeFileFormat::Toml
         } else {
             BikeFileFormat::Text
@@ -231,7 +231,7 @@ impl Benchmark {
     }
 
     /// These parameters as the text of a bicycle file named `path`, in the format its name
-    /// says, so that [`crate::model::uncertain::load`] reads back what was written: benchmark
+    /// says, so that [`crate::read::bicycle::load`] reads back what was written: benchmark
     /// TOML for `*.toml`, BicycleParameters' text otherwise. A name ending in `Measured.txt`
     /// is refused: it is read back as a bicycle's raw measurements.
     pub fn to_file_text(&self, path: &Path) -> Result<String, ParamError> {
@@ -251,30 +251,6 @@ impl Benchmark {
             }
         }
         s
-    }
-
-    /// Reads a file of benchmark parameters: TOML by extension, otherwise BicycleParameters'
-    /// text. The lab's bicycle format (a TOML with a `[geometry]` table) is a parametrization
-    /// that converts to this one: [`crate::model::uncertain::load`] reads every format.
-    pub fn load(path: &Path) -> Result<Benchmark, ParamError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid {
-            path: path.to_path_buf(),
-            message: format!("cannot read: {e}"),
-        })?;
-        if path.extension().is_some_and(|e| e == "toml") {
-            if text.lines().any(|l| l.trim() == "[geometry]") {
-                return Err(ParamError::Invalid {
-                    path: path.to_path_buf(),
-                    message: "a lab bicycle file (it has a [geometry] table), not benchmark \
-                              parameters: they come from it through the lab's parametrization \
-                              (seed §3)"
-                        .into(),
-                });
-            }
-            Benchmark::parse_toml(&text, path)
-        } else {
-            Benchmark::parse_text(&text, path)
-        }
     }
 
     /// Physical checks: positive masses and radii (zero allowed for the two-mass-skate's
@@ -724,15 +700,6 @@ impl Rider {
             }
         }
         Ok(Rider { body, se })
-    }
-
-    /// Reads a rider file ([`Rider::parse_text`]).
-    pub fn load(path: &Path) -> Result<Rider, ParamError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid {
-            path: path.to_path_buf(),
-            message: format!("cannot read: {e}"),
-        })?;
-        Rider::parse_text(&text, path)
     }
 }
 

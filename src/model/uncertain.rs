@@ -9,7 +9,6 @@ use crate::inertia::bike::LabBike;
 use crate::signal::wrap_near;
 use crate::uncertainty::{propagate, propagate_se, propagate_with_factor, Inputs, Measured};
 use nalgebra::Complex;
-use std::path::Path;
 
 /// Inputs → benchmark parameters.
 pub type Builder = std::sync::Arc<dyn Fn(&[f64]) -> Benchmark + Send + Sync>;
@@ -150,19 +149,6 @@ impl Parametrized {
             build(&x[..n]).with_body(super::params::Frame::Rear, &body)
         });
         self
-    }
-
-    /// The same bicycle with the rider of the file `path` ([`super::params::Rider::load`])
-    /// joined to its rear frame, named so ("NAME with the rider of FILE").
-    pub fn with_rider_file(self, path: &Path) -> Result<Parametrized, ParamError> {
-        let rider = super::params::Rider::load(path)?;
-        let file = path.file_name().map_or_else(
-            || path.display().to_string(),
-            |f| f.to_string_lossy().into(),
-        );
-        let mut p = self.with_rider(&rider);
-        p.name = format!("{} with the rider of {file}", p.name);
-        Ok(p)
     }
 
     /// The same bicycle with `control` closing the loop.
@@ -481,39 +467,4 @@ impl Parametrized {
             factor,
         })
     }
-}
-
-/// Loads any bicycle file as a parametrized model: a lab bicycle (TOML with `[geometry]`)
-/// keeps its measured inputs; BicycleParameters' raw measurements (`*Measured.txt`) become
-/// their benchmark parameters with standard errors (what `bikeproc measured --out` writes);
-/// other files are their own benchmark parameters.
-pub fn load(path: &Path) -> Result<Parametrized, ParamError> {
-    if path
-        .file_name()
-        .is_some_and(|n| n.to_string_lossy().ends_with("Measured.txt"))
-    {
-        let bike = crate::inertia::measured::MeasuredBicycle::load(path)
-            .map_err(|e| ParamError::Measured(e.to_string()))?;
-        return Ok(Parametrized::from_benchmark(&bike.name, &bike.benchmark()));
-    }
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let text = std::fs::read_to_string(path).map_err(|e| ParamError::Invalid {
-        path: path.to_path_buf(),
-        message: format!("cannot read: {e}"),
-    })?;
-    if path.extension().is_some_and(|e| e == "toml")
-        && text.lines().any(|l| l.trim() == "[geometry]")
-    {
-        let bike = LabBike::load(path).map_err(|e| ParamError::Invalid {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        let p = Parametrized::from_lab(&name, &bike);
-        p.benchmark_at(p.inputs.values()).validate(path)?;
-        return Ok(p);
-    }
-    Ok(Parametrized::from_benchmark(&name, &Benchmark::load(path)?))
 }

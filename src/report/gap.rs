@@ -326,7 +326,7 @@ pub(super) fn gap_report(
 /// what it rules out (each candidate's smallest size these rides would have detected).
 fn quiet_campaign(data: &std::path::Path, md: &mut String) -> Result<()> {
     let dir = data.join("quiet_campaign");
-    let manifest = crate::ride::dynamic::RideManifest::load(&dir.join("rides.toml"))?;
+    let manifest = crate::read::rides::RideManifest::load(&dir.join("rides.toml"))?;
     let model = manifest.model(None)?;
     let d = crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {})?;
     let _ = writeln!(

@@ -60,7 +60,7 @@ pub fn build(data: &Path, reference: &Path, progress: &mut dyn FnMut(&str)) -> R
 
 /// The ride campaign of `data/rides.toml`, analysed once for the dynamic and the gap reports.
 struct RideCampaign {
-    manifest: crate::ride::dynamic::RideManifest,
+    manifest: crate::read::rides::RideManifest,
     model: crate::model::uncertain::Parametrized,
     results: Vec<crate::ride::dynamic::CampaignRide>,
 }
@@ -70,7 +70,8 @@ impl RideCampaign {
     /// options (the results do not depend on the number of threads: each ride's resampling is
     /// seeded).
     fn analyse(data: &Path) -> Result<Self> {
-        use crate::ride::dynamic::{run_campaign, RideManifest};
+        use crate::read::rides::RideManifest;
+        use crate::ride::dynamic::run_campaign;
         let manifest = RideManifest::load(&data.join("rides.toml"))?;
         let model = manifest.model(None)?;
         let results = run_campaign(&manifest, &model, &Default::default(), &|_, _| {});

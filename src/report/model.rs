@@ -16,13 +16,13 @@ pub(super) fn model_report(
     use crate::model::{uncertain, Benchmark, Canonical};
     progress("model: eigenvalues against speed");
     let bench_path = reference.join("bicycleparameters/BenchmarkBenchmark.txt");
-    let benchmark = uncertain::load(&bench_path)?;
+    let benchmark = crate::read::bicycle::load(&bench_path)?;
     let on_axis = uncertain::Parametrized::from_benchmark(
         "benchmark, handlebar CG on the steer axis",
         &benchmark.nominal().with_handlebar_cg_on_steer_axis(),
     );
-    let seed = uncertain::load(&data.join("lab_bike_seed.toml"))?;
-    let measured = uncertain::load(&data.join("lab_bike.toml"))?;
+    let seed = crate::read::bicycle::load(&data.join("lab_bike_seed.toml"))?;
+    let measured = crate::read::bicycle::load(&data.join("lab_bike.toml"))?;
     let mut md = String::from(
         "# The linear Whipple model (seed §3, §6)\n\n\
          `M q̈ + v C₁ q̇ + (g K₀ + v² K₂) q = 0`, q = (roll φ, steer δ), in the closed form of Meijaard,\n\

@@ -27,7 +27,7 @@ pub(super) fn real_report(
     let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
         .with_context(|| dir.display().to_string())?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+        .filter(|p| crate::read::kind::recognise(p) == crate::read::kind::Kind::Table)
         .collect();
     paths.sort();
     let mut trials = Vec::new();
@@ -162,7 +162,7 @@ pub(super) fn uncontrolled_section(
     let bike_path = reference.join("bicycleparameters/Balanceassistv1Benchmark.txt");
     progress("the balance-assist bicycle's uncontrolled ride");
     let ride = read_csv_ride(&path, &Columns::default(), None)?;
-    let model = crate::model::uncertain::load(&bike_path)?;
+    let model = crate::read::bicycle::load(&bike_path)?;
     md.push_str(
         "\n## A real riderless bicycle, uncontrolled\n\n\
          Another lab's balance-assist bicycle on a treadmill at 18 km/h with its steer motor's assistance\n\
@@ -328,8 +328,9 @@ pub(super) fn controlled_section(
     md: &mut String,
 ) -> Result<()> {
     use crate::gap::{diagnose, observations, GapOptions};
-    use crate::ride::dynamic::{run_campaign, Analysed, RideManifest};
-    let whipple = crate::model::uncertain::load(
+    use crate::read::rides::RideManifest;
+    use crate::ride::dynamic::{run_campaign, Analysed};
+    let whipple = crate::read::bicycle::load(
         &reference.join("bicycleparameters/Balanceassistv1Benchmark.txt"),
     )?;
     md.push_str(
@@ -497,11 +498,11 @@ pub(super) fn controlled_section(
 /// (`fixtures/real/balanceassist_study.toml`): what is shared, what differs per condition, each
 /// condition predicted from the others.
 fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -> Result<()> {
-    use crate::ride::study::Study;
+    use crate::read::study::Study;
     let path = root.join("fixtures/real/balanceassist_study.toml");
     progress("the balance-assist study: four conditions together");
     let study = Study::load(&path)?;
-    let model = crate::model::uncertain::load(&study.bike_path()?)?;
+    let model = crate::read::bicycle::load(&study.bike_path()?)?;
     let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})?;
     let _ = write!(
         md,

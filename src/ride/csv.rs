@@ -369,7 +369,7 @@ fn stream_rows(
     Ok((plan.columns(), n))
 }
 
-/// A ride's CSV opened as text ([`crate::kind::open_text`]) up to `limit_bytes`, its header
+/// A ride's CSV opened as text ([`crate::read::kind::open_text`]) up to `limit_bytes`, its header
 /// read and its columns planned.
 fn open_rows(
     path: &Path,
@@ -378,17 +378,17 @@ fn open_rows(
     limit_bytes: u64,
 ) -> Result<
     (
-        crate::signal::CsvRows<QuoteWatch<impl std::io::Read + Send>>,
+        crate::read::csv::CsvRows<QuoteWatch<impl std::io::Read + Send>>,
         Plan,
     ),
     RideError,
 > {
     use std::io::Read;
-    let file = crate::kind::open_text(path).map_err(|e| {
+    let file = crate::read::kind::open_text(path).map_err(|e| {
         let at = e.line.map_or(String::new(), |l| format!("line {l}: "));
         err(path, format!("{at}{}", e.message))
     })?;
-    let rows = crate::signal::CsvRows::open(QuoteWatch::new(file.take(limit_bytes)), path)?;
+    let rows = crate::read::csv::CsvRows::open(QuoteWatch::new(file.take(limit_bytes)), path)?;
     let plan = plan(path, &rows.headers, |n| rows.find(n), given, rate_hz)?;
     Ok((rows, plan))
 }
@@ -464,7 +464,7 @@ impl Stillness {
 /// where the table has none, from that index). Gives the index after the last row read and
 /// the roll's and roll rate's [`Stillness`] over the rows read.
 fn rows_from<R: std::io::Read>(
-    rows: &mut crate::signal::CsvRows<R>,
+    rows: &mut crate::read::csv::CsvRows<R>,
     plan: &Plan,
     first_row: usize,
     mut each: impl FnMut(usize, &Row, Option<&csv::Position>) -> bool,
@@ -655,7 +655,7 @@ fn read_marked_windows(
              read it again",
         ));
     }
-    let mut rows = crate::signal::CsvRows::open(file, path)?;
+    let mut rows = crate::read::csv::CsvRows::open(file, path)?;
     let plan = plan(path, &rows.headers, |n| rows.find(n), given, rate_hz)?;
     let windows = Windows::new(windows);
     let mut values: [Vec<f64>; 6] = Default::default();
@@ -1015,9 +1015,9 @@ impl LaterHalf {
         use std::io::{Read, Seek};
         let mut file = std::fs::File::open(path).ok()?;
         file.seek(std::io::SeekFrom::Start(cut)).ok()?;
-        let limit = crate::kind::MAX_INPUT_BYTES.saturating_sub(cut);
+        let limit = crate::read::kind::MAX_INPUT_BYTES.saturating_sub(cut);
         let mut rows =
-            crate::signal::CsvRows::headless(QuoteWatch::new(file.take(limit)), path, headers);
+            crate::read::csv::CsvRows::headless(QuoteWatch::new(file.take(limit)), path, headers);
         let mut half = LaterHalf::default();
         let (rows_read, still) = rows_from(&mut rows, plan, 0, |j, row, position| {
             if plan.rate_hz.is_none() {
@@ -1109,7 +1109,7 @@ impl KickSeries {
         halves_from_bytes: u64,
     ) -> Result<FirstPass, RideError> {
         let size = std::fs::metadata(path).map_or(0, |m| m.len());
-        if (halves_from_bytes..crate::kind::MAX_INPUT_BYTES).contains(&size) {
+        if (halves_from_bytes..crate::read::kind::MAX_INPUT_BYTES).contains(&size) {
             if let Some(read) = KickSeries::read_halves(path, given, rate_hz, size) {
                 return Ok(read);
             }
@@ -1705,7 +1705,7 @@ mod tests {
     /// The row `mark` names, read by seeking a fresh reader to it: its line and its first value.
     fn row_at(path: &Path, mark: &RowMark) -> (u64, f64) {
         let file = std::fs::File::open(path).unwrap();
-        let mut rows = crate::signal::CsvRows::open(file, path).unwrap();
+        let mut rows = crate::read::csv::CsvRows::open(file, path).unwrap();
         rows.seek(mark.position.clone()).unwrap();
         let line = rows.next_row().unwrap().unwrap();
         (line, rows.number(line, 0).unwrap())

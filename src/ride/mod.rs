@@ -11,7 +11,8 @@
 //! - [`csv`]: rides from other instruments, a CSV of named time series → one free decay
 //!   fitted, the speed from the wheel-speed column.
 //! - [`kicks`]: a long recording's kicks and the free decay after each, from its roll rate.
-//! - [`study`]: several campaigns of one bicycle, each a condition (controller off, gains).
+//! - Campaigns and studies come from their manifests, read in [`crate::read::rides`] and
+//!   [`crate::read::study`].
 //! - [`model_weave`]: the model's oscillatory mode nearest a measured weave at the ride's
 //!   speed, with its errors and shape: every instrument's ride set beside the model.
 //! - [`modal`]: θ and γ over the free motion → the modes they share (weave σ ± iω, real
@@ -25,14 +26,13 @@ pub mod modal;
 pub mod model_weave;
 pub mod read;
 pub mod speed;
-pub mod study;
 
 pub use read::*;
 
 /// A number given from outside (a speed reading, a sampling rate) outside the range its
 /// quantity takes: "0.05 m/s is not a riding speed (expected from 0.1 to 30 m/s)".
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{} {unit} is not {what} (expected from {lo} to {hi} {unit})", crate::inertia::manifest::number_text(*.value))]
+#[error("{} {unit} is not {what} (expected from {lo} to {hi} {unit})", crate::read::manifest::number_text(*.value))]
 pub struct OutOfRange {
     pub value: f64,
     pub unit: &'static str,

@@ -13,7 +13,7 @@
 //! handlebar sensor's rotation relative to the frame sensor, about the steer axis, measured from
 //! its orientation at the standstill.
 
-use crate::log::{Log, LogError, ReadOptions};
+use crate::read::log::{Log, LogError, ReadOptions};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use std::path::{Path, PathBuf};
 

@@ -171,8 +171,8 @@ pub fn diagnose_blind(
     );
     let diagnosis = in_scratch(&name, &files, bike_text, &|dir| {
         let manifest =
-            crate::ride::dynamic::RideManifest::load(&dir.join("rides.toml")).map_err(stage)?;
-        let model = crate::model::uncertain::load(&dir.join("bike.toml")).map_err(stage)?;
+            crate::read::rides::RideManifest::load(&dir.join("rides.toml")).map_err(stage)?;
+        let model = crate::read::bicycle::load(&dir.join("bike.toml")).map_err(stage)?;
         crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}).map_err(stage)
     })?;
     Ok((diagnosis, truth))

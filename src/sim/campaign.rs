@@ -12,7 +12,7 @@
 use super::draw::{seeded, Draw, Rng};
 use super::imu::{FileSpec, LinkModel, Locale, Precision, SensorModel};
 use super::pendulum::{Compound, Pendulum, Placement, Release, Swing, Torsion};
-use crate::log::OutputMode;
+use crate::read::log::OutputMode;
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::PathBuf;

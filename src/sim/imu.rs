@@ -5,7 +5,7 @@
 //! corrupt rows.
 
 use super::draw::{seeded, Draw, Rng};
-use crate::log::OutputMode;
+use crate::read::log::OutputMode;
 use nalgebra::{UnitQuaternion, Vector3};
 use std::fmt::Write as _;
 

@@ -197,7 +197,7 @@ mod tests {
     /// +0.015 1/s), 0.18–0.19 on the lab's (−0.635 m/s², ω's −0.07 to −0.16 1/s). Bound: 0.4.
     #[test]
     fn a_braked_bicycles_weave_moves_as_its_accel_stiffness_says() {
-        let lab = crate::model::uncertain::load(std::path::Path::new(concat!(
+        let lab = crate::read::bicycle::load(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/data/lab_bike.toml"
         )))

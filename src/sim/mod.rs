@@ -69,7 +69,7 @@ pub struct SingleTest {
     pub noise_deg: f64,
     /// No dropped packets and no clock jitter.
     pub perfect_link: bool,
-    pub mode: crate::log::OutputMode,
+    pub mode: crate::read::log::OutputMode,
     pub locale: imu::Locale,
     pub precision: imu::Precision,
     pub sensor_id: String,

@@ -14,8 +14,8 @@ use super::draw::{seeded, Draw};
 use super::imu::{self, BodySample, FileSpec, LinkModel, Locale, Precision, SensorModel};
 use super::whipple::{self, Body, Load, RideState, WhippleParams};
 use crate::jet::Jet;
-use crate::log::OutputMode;
 use crate::model::Benchmark;
+use crate::read::log::OutputMode;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -872,7 +872,7 @@ mod tests {
         let a = simulate_ride(&b, &spec, 7).unwrap();
         let c = simulate_ride(&b, &spec, 7).unwrap();
         assert!(a.angles_log == c.angles_log && a.cal_log == c.cal_log);
-        let log = crate::log::Log::parse(
+        let log = crate::read::log::Log::parse(
             a.angles_log.as_bytes(),
             std::path::Path::new("ride.log"),
             &Default::default(),

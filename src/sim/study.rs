@@ -247,9 +247,9 @@ pub fn run_study(
     let (files, truth) = blind_study_with(measured, "bike.toml", seed, motor).map_err(stage)?;
     let name = format!("study_calibration_{seed}_{kind:?}");
     super::calibration::in_scratch(&name, &files, bike_text, &|dir| {
-        let study = crate::ride::study::Study::load(&dir.join("study.toml")).map_err(stage)?;
+        let study = crate::read::study::Study::load(&dir.join("study.toml")).map_err(stage)?;
         let bike = study.bike_path().map_err(stage)?;
-        let model = crate::model::uncertain::load(&bike).map_err(stage)?;
+        let model = crate::read::bicycle::load(&bike).map_err(stage)?;
         let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})
             .map_err(stage)?;
         // `effect` named: first, or tied at the top, with a significant gap.

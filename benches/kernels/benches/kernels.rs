@@ -13,7 +13,7 @@
 //!   a kinematics-like function of three coordinates along one direction.
 
 use bikeproc::fit::{self, FitOptions};
-use bikeproc::log::ReadOptions;
+use bikeproc::read::log::ReadOptions;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use std::path::PathBuf;

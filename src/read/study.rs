@@ -4,8 +4,8 @@
 //! manifests themselves. Out: the conditions, named by their manifests' stems, loaded and
 //! checked ([`RideManifest::load`]), and the bicycle they share.
 
-use super::dynamic::RideManifest;
-use crate::inertia::manifest::{from_toml, ManifestError};
+use super::manifest::{from_toml, ManifestError};
+use super::rides::RideManifest;
 use std::path::{Path, PathBuf};
 
 /// A study manifest as written.
@@ -30,13 +30,13 @@ pub struct Study {
 impl Study {
     /// Reads a study manifest and every campaign it lists (beside it, or below it).
     pub fn load(path: &Path) -> Result<Study, ManifestError> {
-        let text = crate::inertia::manifest::read_text(path, "the study manifest")?;
+        let text = super::manifest::read_text(path, "the study manifest")?;
         let file: StudyFile = from_toml(path, &text)?;
         let err = |needle: &str, message: String| ManifestError::at(path, &text, needle, message);
-        crate::inertia::manifest::check_version(path, &text, file.version)?;
+        super::manifest::check_version(path, &text, file.version)?;
         let dir = path.parent().unwrap_or(Path::new(""));
         for c in &file.conditions {
-            if !crate::inertia::manifest::within_folder(c) {
+            if !super::manifest::within_folder(c) {
                 return Err(err(
                     &c.display().to_string(),
                     format!(
@@ -90,9 +90,9 @@ impl Study {
             }
             // A study's condition is a campaign: another kind of file is said as what it is
             // (a study, a log or a bicycle file used to get "unknown key `conditions`").
-            if let Some(m) = crate::kind::mismatch(
+            if let Some(m) = crate::read::kind::mismatch(
                 p,
-                &|k| matches!(k, crate::kind::Kind::RideManifest),
+                &|k| matches!(k, crate::read::kind::Kind::RideManifest),
                 "a condition of a study: a campaign manifest of rides",
             ) {
                 let prefix = format!("{}: ", p.display());

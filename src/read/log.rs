@@ -350,7 +350,7 @@ impl Log {
     /// Reads a log file from disk, a block of lines at a time: the file is never held whole
     /// (its columns are what stays in memory).
     pub fn open(path: &Path, options: &ReadOptions) -> Result<Log, LogError> {
-        let reader = crate::kind::open_text(path).map_err(|e| LogError {
+        let reader = crate::read::kind::open_text(path).map_err(|e| LogError {
             path: path.to_path_buf(),
             line: e.line.map(|l| l as usize),
             column: None,
@@ -1198,8 +1198,8 @@ impl<R: Read> BlockReader<R> {
             .read_to_end(&mut self.pending)
             .map_err(|e| LogErrorKind::Io(e.to_string()))?;
         self.read_bytes += n as u64;
-        if self.read_bytes >= crate::kind::MAX_INPUT_BYTES {
-            return Err(LogErrorKind::Io(crate::kind::too_large_message()));
+        if self.read_bytes >= crate::read::kind::MAX_INPUT_BYTES {
+            return Err(LogErrorKind::Io(crate::read::kind::too_large_message()));
         }
         self.done = n == 0;
         Ok(())
@@ -1236,7 +1236,7 @@ struct RowFormat<'h> {
 /// One data row as read: its line (number within its block, from 0, and where its text lies
 /// in the block's bytes), counter (when it has one) and whether it is corrupt (cut short, NaN,
 /// a value beyond its channel's range). A block is part of a file read to less than
-/// [`crate::kind::MAX_INPUT_BYTES`] (4 GiB), so its lines and offsets fit 32 bits, and a
+/// [`crate::read::kind::MAX_INPUT_BYTES`] (4 GiB), so its lines and offsets fit 32 bits, and a
 /// counter is below [`COUNTER_MODULUS`]: 20 bytes a row where machine words took 48 (every
 /// row is written by its block's parse and read again to be placed).
 struct ParsedRow {

@@ -42,7 +42,7 @@ pub enum Kind {
     MeasuredBicycle,
     /// A steer controller (a `[controller]` table and no rides).
     Controller,
-    /// A table of named columns (CSV).
+    /// A table of named columns (CSV: comma-, semicolon- or tab-separated).
     Table,
     /// A folder holding none of the above's manifests.
     Folder,
@@ -303,7 +303,7 @@ pub fn recognise(path: &Path) -> Kind {
     }
     if lines
         .first()
-        .is_some_and(|l| l.contains(',') || l.contains(';'))
+        .is_some_and(|l| l.contains(',') || l.contains(';') || l.contains('\t'))
         || single_column(&lines)
     {
         return Kind::Table;
