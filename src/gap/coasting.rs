@@ -39,7 +39,7 @@
 use super::conditions::ConditionModel;
 use super::effects::{linear_bike, true_speed, Effect};
 use super::linear::LinearBike;
-use super::Observation;
+use super::observe::Observation;
 use crate::ride::dynamic::{
     accel_shape_shift, coasting_correction, replay_coasting, CoastingWindow, ReplayStart,
     COASTING_SHAPE_APPLIED,
@@ -193,7 +193,7 @@ impl CoastingBase {
 /// [`COASTING_BIAS_OWN_FRACTION`]: crate::ride::dynamic::COASTING_BIAS_OWN_FRACTION
 pub(super) fn correction_cov(
     corrections: &[[f64; 4]],
-    parts: &super::fit::Parts,
+    parts: &super::observe::Parts,
 ) -> nalgebra::DMatrix<f64> {
     use crate::ride::dynamic::{
         COASTING_BIAS_OWN_FRACTION as OWN, COASTING_RIDE_SE_FRACTION as HELD,
@@ -215,7 +215,7 @@ pub(super) fn correction_cov(
 /// [`COASTING_BIAS_COMMON_FRACTION`]: crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION
 pub(super) fn correction_common(
     corrections: &[[f64; 4]],
-    parts: &super::fit::Parts,
+    parts: &super::observe::Parts,
 ) -> nalgebra::DVector<f64> {
     use crate::ride::dynamic::COASTING_BIAS_COMMON_FRACTION as COMMON;
     let mut w = nalgebra::DVector::zeros(parts.total());
@@ -230,7 +230,7 @@ pub(super) fn correction_common(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gap::fit::Parts;
+    use crate::gap::observe::Parts;
 
     /// Two coasting rides (one with the mode shape, one without) and one at constant speed:
     /// the common part couples every pair of parts by 0.7² bᵢ bⱼ, and each part's own variance

@@ -5,7 +5,7 @@
 //! reported it).
 
 use super::linear::{LinearBike, LinearTyres};
-use super::Observation;
+use super::observe::Observation;
 use crate::model::{Benchmark, SteerControl};
 use crate::ride::dynamic::SpeedSource;
 use nalgebra::Complex;
@@ -466,4 +466,48 @@ pub fn predict_weave(
     let v = true_speed(effects, params, obs);
     let (w, s) = bike.weave_and_shape(v, guess, shape)?;
     Some((w / clock(effects, params), s))
+}
+
+/// A parameter at its search's edge ([`super::rank::at_bound`]) as the bound the rides put on
+/// it: at the lower edge `lo`, "≤ p + SE"; at the upper, "≥ p − SE" (neither past the other
+/// edge); without a standard error, the edge alone. Never an estimate ± SE, which would read
+/// as a measurement.
+pub fn bound_text(spec: &ParamSpec, p: f64, se: f64) -> String {
+    let unit = spaced(spec.unit);
+    let (_, lower) = spec.nearest_edge(p);
+    let edge = if lower { spec.lo } else { spec.hi };
+    match (se.is_finite(), lower) {
+        // One SE from the value, but never past the search's other edge (a value the rides
+        // barely tell: frame_mass 8.0 ± 8.2 kg is "≥ 0.000", not "≥ −0.215").
+        (true, true) => format!(
+            "≤ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
+            (p + se).min(spec.hi)
+        ),
+        (true, false) => format!(
+            "≥ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
+            (p - se).max(spec.lo)
+        ),
+        (false, true) => format!("≤ {edge:.3}{unit} (at the search's edge, no SE)"),
+        (false, false) => format!("≥ {edge:.3}{unit} (at the search's edge, no SE)"),
+    }
+}
+
+/// A fitted parameter with its standard error and unit, `0.092 ± 0.061 kg·m²`; one the fit
+/// could not identify has no standard error, and says so.
+pub fn param_text(value: f64, se: f64, unit: &str) -> String {
+    let unit = spaced(unit);
+    if se.is_finite() {
+        format!("{value:.3} ± {se:.3}{unit}")
+    } else {
+        format!("{value:.3}{unit} (no standard error: not identified)")
+    }
+}
+
+/// A unit with its leading space (`" kg"`), or nothing.
+pub(super) fn spaced(unit: &str) -> String {
+    if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    }
 }

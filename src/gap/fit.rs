@@ -12,8 +12,8 @@
 use super::conditions::{ConditionModel, Layout};
 use super::effects::{clock, linear_bike_assuming, specs, true_speed, Assumed, Effect};
 use super::linear::LinearBike;
+use super::observe::{Observation, Parts};
 use super::speed_grid;
-use super::Observation;
 use crate::model::uncertain::Parametrized;
 use crate::model::Benchmark;
 use crate::ride::dynamic::COASTING_BIAS_SE_FRACTION;
@@ -76,59 +76,6 @@ pub struct Campaign<'a> {
     /// Whether a condition with many rides is predicted from a grid of speeds
     /// ([`super::GapOptions::speed_grid`]).
     pub speed_grid: bool,
-}
-
-/// Where each ride's parts lie in the residual vector: 2 (the eigenvalue's real and imaginary
-/// parts) or 4 (and the mode shape's |γ/θ| and phase) per ride, in the rides' order. Rides fitted
-/// from the roll rate alone give the eigenvalue only; rides with both angles give the shape too:
-/// both enter one likelihood.
-#[derive(Debug, Clone)]
-pub struct Parts {
-    per_ride: Vec<usize>,
-    start: Vec<usize>,
-    total: usize,
-}
-
-impl Parts {
-    /// The parts of rides with `per_ride` parts each (2 or 4).
-    pub fn new(per_ride: Vec<usize>) -> Parts {
-        let mut start = Vec::with_capacity(per_ride.len());
-        let mut total = 0;
-        for &p in &per_ride {
-            start.push(total);
-            total += p;
-        }
-        Parts {
-            per_ride,
-            start,
-            total,
-        }
-    }
-
-    /// Ride `i`'s number of parts …
-    pub fn of(&self, i: usize) -> usize {
-        self.per_ride[i]
-    }
-
-    /// … and where they start.
-    pub fn start(&self, i: usize) -> usize {
-        self.start[i]
-    }
-
-    /// Every ride's parts.
-    pub fn total(&self) -> usize {
-        self.total
-    }
-
-    /// The parts of `rides`.
-    pub fn count(&self, rides: &[usize]) -> usize {
-        rides.iter().map(|&i| self.per_ride[i]).sum()
-    }
-
-    /// The most parts of any ride (4 when some ride gives its mode shape).
-    pub fn most(&self) -> usize {
-        self.per_ride.iter().copied().max().unwrap_or(2)
-    }
 }
 
 /// χ² of a subset of rides.

@@ -36,21 +36,28 @@
 
 pub mod coasting;
 pub mod conditions;
+pub mod diagnosis;
 pub mod effects;
+pub mod error;
 pub mod fit;
 pub mod linear;
 pub mod observe;
 pub mod rank;
 pub mod significance;
 pub mod speed_grid;
+pub mod thresholds;
 pub mod ties;
 pub mod verdict;
 pub use crate::stats;
+pub use diagnosis::{ConditionSummary, Diagnosis};
+pub use effects::param_text;
+pub use error::GapError;
 pub use observe::{observations, weighted_mean, BandResidual, Observation, RideResidual};
 pub use rank::Ranked;
+pub use rank::{heldout_contrast, ride_contrasts};
 pub use significance::{DetectionLimit, TargetedTest};
-pub use ties::{heldout_contrast, ride_contrasts, NextRide, NextRides, UNTIE_SEPARATION};
-pub use verdict::param_text;
+pub use thresholds::*;
+pub use ties::{NextRide, NextRides, UNTIE_SEPARATION};
 
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
 use fit::Campaign;
@@ -60,136 +67,6 @@ use rank::{rank, ride_vaf};
 use significance::{insufficiency, targeted_test};
 use ties::{next_rides, tied};
 use verdict::verdict;
-
-/// Errors of the diagnosis itself (the model cannot be evaluated).
-#[derive(Debug, thiserror::Error)]
-pub enum GapError {
-    #[error(transparent)]
-    Model(#[from] crate::model::ParamError),
-    #[error("the covariance of the residuals is not positive definite")]
-    Covariance,
-}
-
-/// The diagnosis of a campaign.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct Diagnosis {
-    /// `false` when the campaign cannot support a conclusion (then `reason` says why and
-    /// nothing is ranked).
-    pub conclusive: bool,
-    pub reason: Option<String>,
-    pub rides_used: usize,
-    /// Rides left out, with why.
-    pub rides_failed: Vec<String>,
-    /// In a study of several conditions: each condition (empty for a single campaign).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub conditions: Vec<ConditionSummary>,
-    /// Repeated kicks of one set-up (a condition's rides at one set speed) that scatter beyond
-    /// their fits' errors: the scatter between kicks, carried in every ride's covariance.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub between_kick_scatter: Option<observe::BetweenKickScatter>,
-    pub residuals: Vec<RideResidual>,
-    /// The same with the best explanation in the model (fitted to every ride).
-    pub residuals_after: Vec<RideResidual>,
-    pub bands: Vec<BandResidual>,
-    /// The campaign's χ² against the unextended model with the full covariance, its degrees of
-    /// freedom and p-value; the same without the model's parameter error.
-    pub chi2: f64,
-    pub dof: usize,
-    pub p_value: f64,
-    pub chi2_without_parameter_error: f64,
-    pub p_value_without_parameter_error: f64,
-    /// The parts of each ride in the residuals and the fits: 4 (the eigenvalue's real and
-    /// imaginary parts, the mode shape's |γ/θ| and phase) or 2 (the eigenvalue only, when
-    /// the shape is left out or the model has none at some ride).
-    pub parts_per_ride: usize,
-    /// The targeted test: the single effect of the library that lowers the campaign's χ² the
-    /// most, its likelihood ratio and p-value over all the single effects tried.
-    pub targeted: Option<TargetedTest>,
-    /// The campaign's test: the smallest of the χ² test's p and the single effects' (either
-    /// may find the gap), calibrated on draws of the residuals with no effect present
-    /// (`significance::NullTest`); significant below [`SIGNIFICANCE`].
-    pub campaign_p_value: f64,
-    /// The variance of θ and γ over the rides' windows that the eigenvalues account for (mean
-    /// over rides and the two signals; modes' amplitudes, offsets and trends fitted, eigenvalues
-    /// held): the model as it is, and with the best explanation refitted without each ride.
-    pub heldout_vaf_before: Option<f64>,
-    pub heldout_vaf_after: Option<f64>,
-    /// `campaign_p_value` < [`SIGNIFICANCE`].
-    pub significant: bool,
-    /// The gap is significant without the parameters' uncertainty but not with it.
-    pub parameters_could_explain: bool,
-    /// Best first.
-    pub ranking: Vec<Ranked>,
-    /// Candidates the held-out test cannot tell from the best (the best included), when more
-    /// than one.
-    pub tied: Vec<String>,
-    /// The best candidate explains the gap: its held-out RMS normalized residual is at most
-    /// [`EXPLAINED_HELDOUT_RMS`] and smaller than without it, and its fit to every ride passes
-    /// the χ² test at [`SIGNIFICANCE`]. `false` when the gap is not significant.
-    pub explained: bool,
-    /// The best candidate's goodness of fit: p of its χ² on 2N − k degrees of freedom.
-    pub best_fit_p_value: f64,
-    /// When candidates are tied: the rides to make next, where their predictions differ most.
-    pub next_rides: NextRides,
-    /// … and the known changes (another condition: the controller off or its gains changed, a
-    /// known mass added) that would split them most, best first.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub next_conditions: Vec<ties::NextCondition>,
-    /// Each one-parameter candidate's smallest size these rides would have detected (the
-    /// campaign's test, 80 % power): with no significant gap, what the quiet campaign rules out.
-    pub detection_limits: Vec<significance::DetectionLimit>,
-    pub verdict: String,
-}
-
-/// A candidate that leaves the rides left out further than this from its prediction (RMS, in
-/// their standard errors; ≈ 1 when the explanation is right) does not explain the gap.
-pub const EXPLAINED_HELDOUT_RMS: f64 = 2.0;
-
-/// How many of its standard errors a fitted value may lie outside its plausible range and
-/// still count as plausible: two, where the fit cannot tell its value from the range's edge
-/// at 95 %. At one, a front frame's I_zz half the measured one fitted at 0.46–0.50 ± 0.07 and
-/// a trail 1.17–1.2 times the measured one at 1.25–1.28 ± 0.05, and both were ranked behind
-/// every plausible candidate. Over the 1,700 blind campaigns of docs/gap-calibration.md, two
-/// named front_izz right in 44 of 100 (was 36), every effect together right in 861 of 1,100
-/// (was 855), and attributed one more of 200 effects outside the library (a headset's
-/// friction, 2 of 200).
-pub const PLAUSIBLE_SE: f64 = 2.0;
-
-/// The significance level of the campaign's test.
-pub const SIGNIFICANCE: f64 = 0.01;
-
-/// The shared part of the rides' motion-size error, as a multiple of the ride stage's own
-/// ([`crate::ride::dynamic::NONLINEAR_SE_PER_RAD2`]): one coefficient κ per condition and part
-/// (σ, ω, |γ/θ|, arg γ/θ) by which a ride's fit differs from the small motion's in proportion to
-/// its motion's size. The difference has one sign for a bicycle's rides near one speed, so a
-/// ride's own error does not cover it; four times it gave the blind studies' gains a median z of
-/// +0.58 (98 % within 2). The blind runs behind the value, and what it leaves:
-/// [docs/decisions/constants.md](../../docs/decisions/constants.md#nonlinear_common_factor).
-pub const NONLINEAR_COMMON_FACTOR: f64 = 4.0;
-/// The best candidate is told from another when the rides left out favour it by more than this
-/// in Σz² …
-pub const TIE_CHI2: f64 = 2.0;
-/// … and by more than this many of that sum's standard deviations had the two been equally
-/// right (`distinguishable`).
-pub const TIE_SE: f64 = 2.0;
-/// Fewer usable rides than this support no conclusion.
-pub const MIN_RIDES: usize = 4;
-/// Speeds spanning less than this (m/s) are "a single speed".
-pub const MIN_SPEED_SPAN_MPS: f64 = 0.5;
-/// Pairs tried: the best single effect with every other, and the next `PAIR_POOL − 1` best
-/// among themselves.
-const PAIR_POOL: usize = 4;
-/// A single effect closes the gap when the rides left out are predicted within this RMS
-/// normalized residual (two standard errors); pairs are tried only when none does.
-pub const CLOSED_RMS: f64 = 2.0;
-/// A pair must beat the best single effect's held-out Σz² by this much (the 1 % point of χ²
-/// with one degree of freedom: the pair's extra parameter) and by the BIC.
-pub const PAIR_GAIN_CHI2: f64 = 6.63;
-
-/// The experimental mode shape's standard error has at least this relative part in |γ/θ| …
-pub const SHAPE_RATIO_FLOOR: f64 = 0.0;
-/// … and this much in its phase (rad).
-pub const SHAPE_PHASE_FLOOR_RAD: f64 = 0.0;
 
 /// Options of [`diagnose`].
 #[derive(Debug, Clone)]
@@ -313,20 +190,6 @@ pub fn diagnose_manifests(
     )
 }
 
-/// One condition of a study in the diagnosis.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct ConditionSummary {
-    pub name: String,
-    /// Whether it carries a controller.
-    pub controlled: bool,
-    pub rides_used: usize,
-    pub rides_failed: Vec<String>,
-    /// Its rides' χ² against the unextended model (their block of the covariance) and its
-    /// degrees of freedom.
-    pub chi2: f64,
-    pub dof: usize,
-}
-
 /// Diagnoses the conditions of a study together (one condition: a single campaign, as
 /// [`diagnose`]): the bicycle's effects shared, each condition's own equipment fitted per
 /// condition ([`conditions`]), and with two or more conditions each predicted from the others.
@@ -418,7 +281,7 @@ pub fn diagnose_study(
     let condition_shapes: Vec<bool> = (0..study.len())
         .map(|c| options.shape && (0..n).filter(|&i| ride_condition[i] == c).all(shape_usable))
         .collect();
-    let parts = fit::Parts::new(
+    let parts = observe::Parts::new(
         (0..n)
             .map(|i| {
                 if condition_shapes[ride_condition[i]] {
@@ -667,7 +530,8 @@ pub fn diagnose_study(
         .collect();
     singles.sort();
     let null = significance::NullTest::new(&campaign, &singles);
-    targeted_test(&mut d, null.as_ref());
+    (d.targeted, d.campaign_p_value) =
+        targeted_test(d.chi2, d.dof, d.p_value, &d.ranking, null.as_ref());
     d.significant = d.campaign_p_value < SIGNIFICANCE;
     d.parameters_could_explain = !d.significant && d.p_value_without_parameter_error < SIGNIFICANCE;
     if let Some(null) = &null {

@@ -6,10 +6,12 @@
 
 use super::conditions::{Layout, Slot};
 use super::effects::{self, Effect};
+use super::error::GapError;
 use super::fit::{assumed_se, fit_effects, param_se, refine, refit_near, Campaign, ResidualCache};
-use super::{
-    linear, GapError, Observation, CLOSED_RMS, PAIR_GAIN_CHI2, PAIR_POOL, PLAUSIBLE_SE,
-    SIGNIFICANCE,
+use super::linear;
+use super::observe::Observation;
+use super::thresholds::{
+    CLOSED_RMS, PAIR_GAIN_CHI2, PAIR_POOL, PLAUSIBLE_SE, SIGNIFICANCE, TIE_CHI2, TIE_SE,
 };
 use nalgebra::Complex;
 use std::collections::BTreeMap;
@@ -306,7 +308,7 @@ impl Ranked {
     }
 
     /// Each parameter in words, with its unit: `0.092 ± 0.061 kg·m²`, or a bound for one at
-    /// the search's edge ([`super::verdict::param_text`]).
+    /// the search's edge ([`super::effects::param_text`]).
     pub fn param_texts(&self) -> Vec<String> {
         self.specs
             .iter()
@@ -314,9 +316,9 @@ impl Ranked {
             .map(|(k, spec)| {
                 let (p, se) = (self.params[k], self.params_se[k]);
                 let text = if self.at_bound.get(k).copied().unwrap_or(false) {
-                    super::verdict::bound_text(spec, p, se)
+                    super::effects::bound_text(spec, p, se)
                 } else {
-                    super::verdict::param_text(p, se, spec.unit)
+                    super::effects::param_text(p, se, spec.unit)
                 };
                 match self.param_conditions.get(k) {
                     Some(Some(c)) => format!("{text} ({c})"),
@@ -484,7 +486,7 @@ pub(super) fn rank(
             if against.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2
                 && r.bic < against.bic
             {
-                r.not_needed = !super::ties::distinguishable(&r, against);
+                r.not_needed = !distinguishable(&r, against);
                 ranked.push(r);
             }
         }
@@ -644,6 +646,50 @@ fn order_key(r: &Ranked) -> f64 {
     }
 }
 
+/// Whether the rides left out tell `a` from `b`: `a` is better when S = Σᵢ (z²_b,i − z²_a,i),
+/// the held-out χ² by which it beats `b`, exceeds [`TIE_CHI2`] and [`TIE_SE`] of its standard
+/// deviation had the two been equally right. With the whitened residuals of ride i, r_a and
+/// r_b = r_a + dᵢ (dᵢ the two predictions' difference in the ride's standard errors), each
+/// term is |dᵢ|² + 2 dᵢ·r_a: its standard deviation is 2|dᵢ| when r_a is pure noise (Vuong's
+/// test with the separations known), so S is judged against 2 √Σ|dᵢ|². (A paired t-test on
+/// the terms, used before, could never pass with the separation in two rides of 16: its
+/// statistic is then 1.46 whatever their size, so the rides recommended to break a tie could
+/// not break it.)
+pub(super) fn distinguishable(a: &Ranked, b: &Ranked) -> bool {
+    let (s, d2) = heldout_contrast(a, b);
+    s > TIE_CHI2 && s > TIE_SE * 2.0 * d2.sqrt()
+}
+
+/// (S, Σ|dᵢ|²) of the tie test between `a` and `b` (see [`super::Diagnosis::tied`]): the
+/// held-out χ² by which `a` beats `b`, and the squared separation of their held-out predictions
+/// in the rides' standard errors; the sums of [`ride_contrasts`]. S is infinite when one of
+/// the two cannot predict a ride the other can (that ride tells them apart).
+pub fn heldout_contrast(a: &Ranked, b: &Ranked) -> (f64, f64) {
+    ride_contrasts(a, b)
+        .iter()
+        .fold((0.0, 0.0), |(s, d2), c| match c {
+            Some((si, di)) => (s + si, d2 + di),
+            None => (f64::INFINITY, d2),
+        })
+}
+
+/// Each ride's part of [`heldout_contrast`], in the campaign's order: (z²_b − z²_a, |d|²);
+/// `None` where one of the two predicts the ride and the other cannot.
+pub fn ride_contrasts(a: &Ranked, b: &Ranked) -> Vec<Option<(f64, f64)>> {
+    a.heldout_whitened
+        .iter()
+        .zip(&b.heldout_whitened)
+        .map(|(ra, rb)| {
+            (ra.len() == rb.len()).then(|| {
+                (
+                    rb.iter().map(|x| x * x).sum::<f64>() - ra.iter().map(|x| x * x).sum::<f64>(),
+                    ra.iter().zip(rb).map(|(x, y)| (y - x).powi(2)).sum::<f64>(),
+                )
+            })
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -671,12 +717,12 @@ mod tests {
         assert!(!at_bound(&spec, 0.9, 0.1));
         assert!(at_bound(&spec, 2.2, f64::INFINITY));
         assert!(!at_bound(&spec, 1.2, f64::INFINITY));
-        let text = super::super::verdict::bound_text(&spec, 0.3, 0.1);
+        let text = super::super::effects::bound_text(&spec, 0.3, 0.1);
         assert!(text.starts_with("≤ 0.400 × measured"), "{text}");
-        let text = super::super::verdict::bound_text(&spec, 2.2, f64::NAN);
+        let text = super::super::effects::bound_text(&spec, 2.2, f64::NAN);
         assert!(text.starts_with("≥ 2.200 × measured"), "{text}");
         // A value the rides barely tell is bounded by the search, not past its other edge.
-        let text = super::super::verdict::bound_text(&spec, 2.2, 5.0);
+        let text = super::super::effects::bound_text(&spec, 2.2, 5.0);
         assert!(text.starts_with("≥ 0.250 × measured"), "{text}");
     }
 }

@@ -5,10 +5,13 @@
 //! the χ² test's, calibrated on draws of the residuals with no effect present: `NullTest`)
 //! and, for a quiet campaign, what it would have seen (`detection_limits`).
 
-use super::{stats, Diagnosis, Observation, Ranked, MIN_RIDES, MIN_SPEED_SPAN_MPS};
+use super::observe::Observation;
+use super::rank::Ranked;
+use super::thresholds::{MIN_RIDES, MIN_SPEED_SPAN_MPS, SIGNIFICANCE};
+use crate::stats;
 use nalgebra::{DMatrix, DVector};
 
-/// The targeted part of the campaign's test (see [`Diagnosis::targeted`]).
+/// The targeted part of the campaign's test (see [`super::Diagnosis::targeted`]).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct TargetedTest {
     pub effect: String,
@@ -372,16 +375,23 @@ fn orthonormal(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
 /// weave alike (a trail and a front frame's inertia) count once and not as independent tries.
 /// The campaign's p-value is the same for the smaller of it and the χ² test's p. Each is
 /// capped by its Bonferroni bound (the draws resolve p-values down to 1/[`NULL_DRAWS`]; the
-/// bound below that). Sets `targeted` and `campaign_p_value`.
-pub(super) fn targeted_test(d: &mut Diagnosis, null: Option<&NullTest>) {
-    let chi2_before = d.chi2;
-    let singles: Vec<&Ranked> = d.ranking.iter().filter(|r| r.effects.len() == 1).collect();
+/// bound below that). From the unextended model's `chi2` on `dof` degrees of freedom with its
+/// p-value `p_value`, and the `ranking`: the targeted test and the campaign's p-value.
+pub(super) fn targeted_test(
+    chi2: f64,
+    dof: usize,
+    p_value: f64,
+    ranking: &[Ranked],
+    null: Option<&NullTest>,
+) -> (Option<TargetedTest>, f64) {
+    let chi2_before = chi2;
+    let singles: Vec<&Ranked> = ranking.iter().filter(|r| r.effects.len() == 1).collect();
     let tried = singles.len().max(1) as f64;
     let best = singles
         .iter()
         .map(|r| {
             let k = r.params.len();
-            let birge = (r.chi2_test / d.dof.saturating_sub(k).max(1) as f64).max(1.0);
+            let birge = (r.chi2_test / dof.saturating_sub(k).max(1) as f64).max(1.0);
             let lr = ((chi2_before - r.chi2_test) / birge).max(0.0);
             (r.effect.clone(), lr, k, stats::chi2_sf(lr, k))
         })
@@ -391,15 +401,16 @@ pub(super) fn targeted_test(d: &mut Diagnosis, null: Option<&NullTest>) {
     let p_targeted = null.map_or(bonferroni, |n| {
         NullTest::tail(&n.targeted, p_single).min(bonferroni)
     });
-    d.targeted = best.map(|(effect, lr, k, _)| TargetedTest {
+    let targeted = best.map(|(effect, lr, k, _)| TargetedTest {
         effect,
         likelihood_ratio: lr,
         dof: k,
         p_value: p_targeted,
     });
-    let smallest = d.p_value.min(p_single);
-    let bound = (2.0 * d.p_value.min(bonferroni)).min(1.0);
-    d.campaign_p_value = null.map_or(bound, |n| NullTest::tail(&n.campaign, smallest).min(bound));
+    let smallest = p_value.min(p_single);
+    let bound = (2.0 * p_value.min(bonferroni)).min(1.0);
+    let campaign = null.map_or(bound, |n| NullTest::tail(&n.campaign, smallest).min(bound));
+    (targeted, campaign)
 }
 
 /// Why a campaign cannot support a conclusion, if it cannot.
@@ -472,7 +483,7 @@ pub(super) fn detection_limits(
     let Ok(normal) = Normal::new(0.0, 1.0) else {
         return Vec::new();
     };
-    let critical = null.critical(super::SIGNIFICANCE);
+    let critical = null.critical(SIGNIFICANCE);
     let z = normal.inverse_cdf(1.0 - critical / 2.0) + normal.inverse_cdf(DETECTION_POWER);
     null.directions
         .iter()

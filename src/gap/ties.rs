@@ -5,7 +5,10 @@
 //! are expected to split them ([`NextRides`]).
 
 use super::fit::Campaign;
-use super::{effects, linear, Observation, Ranked, TIE_CHI2, TIE_SE};
+use super::observe::Observation;
+use super::rank::{distinguishable, heldout_contrast, Ranked};
+use super::thresholds::TIE_SE;
+use super::{effects, linear};
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
 use crate::model::Benchmark;
 use nalgebra::{DMatrix, DVector};
@@ -182,50 +185,6 @@ pub(super) fn next_rides(
         separation_needed: UNTIE_SEPARATION,
         rides_needed,
     }
-}
-
-/// Whether the rides left out tell `a` from `b`: `a` is better when S = Σᵢ (z²_b,i − z²_a,i),
-/// the held-out χ² by which it beats `b`, exceeds [`TIE_CHI2`] and [`TIE_SE`] of its standard
-/// deviation had the two been equally right. With the whitened residuals of ride i, r_a and
-/// r_b = r_a + dᵢ (dᵢ the two predictions' difference in the ride's standard errors), each
-/// term is |dᵢ|² + 2 dᵢ·r_a: its standard deviation is 2|dᵢ| when r_a is pure noise (Vuong's
-/// test with the separations known), so S is judged against 2 √Σ|dᵢ|². (A paired t-test on
-/// the terms, used before, could never pass with the separation in two rides of 16: its
-/// statistic is then 1.46 whatever their size, so the rides recommended to break a tie could
-/// not break it.)
-pub(super) fn distinguishable(a: &Ranked, b: &Ranked) -> bool {
-    let (s, d2) = heldout_contrast(a, b);
-    s > TIE_CHI2 && s > TIE_SE * 2.0 * d2.sqrt()
-}
-
-/// (S, Σ|dᵢ|²) of the tie test between `a` and `b` (see [`super::Diagnosis::tied`]): the
-/// held-out χ² by which `a` beats `b`, and the squared separation of their held-out predictions
-/// in the rides' standard errors; the sums of [`ride_contrasts`]. S is infinite when one of
-/// the two cannot predict a ride the other can (that ride tells them apart).
-pub fn heldout_contrast(a: &Ranked, b: &Ranked) -> (f64, f64) {
-    ride_contrasts(a, b)
-        .iter()
-        .fold((0.0, 0.0), |(s, d2), c| match c {
-            Some((si, di)) => (s + si, d2 + di),
-            None => (f64::INFINITY, d2),
-        })
-}
-
-/// Each ride's part of [`heldout_contrast`], in the campaign's order: (z²_b − z²_a, |d|²);
-/// `None` where one of the two predicts the ride and the other cannot.
-pub fn ride_contrasts(a: &Ranked, b: &Ranked) -> Vec<Option<(f64, f64)>> {
-    a.heldout_whitened
-        .iter()
-        .zip(&b.heldout_whitened)
-        .map(|(ra, rb)| {
-            (ra.len() == rb.len()).then(|| {
-                (
-                    rb.iter().map(|x| x * x).sum::<f64>() - ra.iter().map(|x| x * x).sum::<f64>(),
-                    ra.iter().zip(rb).map(|(x, y)| (y - x).powi(2)).sum::<f64>(),
-                )
-            })
-        })
-        .collect()
 }
 
 /// The candidates in the best's standing ([`Ranked::standing`]) that the rides left out cannot tell from it

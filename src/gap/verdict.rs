@@ -2,8 +2,11 @@
 //! whether it is significant, which candidate explains it or why none does, how far it shrinks,
 //! what to ride next) and the human-readable table of `bikeproc gap`.
 
-use super::effects::{self, Effect};
-use super::{stats, weighted_mean, Diagnosis, RideResidual, EXPLAINED_HELDOUT_RMS, TIE_SE};
+use super::diagnosis::Diagnosis;
+use super::effects::{self, spaced, Effect};
+use super::observe::{weighted_mean, RideResidual};
+use super::thresholds::{EXPLAINED_HELDOUT_RMS, SIGNIFICANCE, TIE_SE};
+use crate::stats;
 use std::fmt::Write as _;
 
 /// What each ride's residual is made of.
@@ -222,7 +225,7 @@ fn headline(d: &Diagnosis) -> String {
     if !d.significant {
         return format!(
             "No significant gap: {test}, above the {} level{}.",
-            super::SIGNIFICANCE,
+            SIGNIFICANCE,
             if d.parameters_could_explain {
                 "; without the measured parameters' uncertainty there would be one, so the rides part from the model by no more than the inertia measurements allow"
             } else {
@@ -249,7 +252,7 @@ fn headline(d: &Diagnosis) -> String {
         return format!(
             "Explained: a significant gap ({test}) that {} accounts for: {rms}, and {chi2}, which passes at the {} level.",
             best.effect,
-            super::SIGNIFICANCE
+            SIGNIFICANCE
         );
     }
     let mut fails = Vec::new();
@@ -258,10 +261,10 @@ fn headline(d: &Diagnosis) -> String {
     {
         fails.push(format!("the held-out test ({rms})"));
     }
-    if d.best_fit_p_value < super::SIGNIFICANCE {
+    if d.best_fit_p_value < SIGNIFICANCE {
         fails.push(format!(
             "the χ² test at the {} level ({chi2})",
-            super::SIGNIFICANCE
+            SIGNIFICANCE
         ));
     }
     format!(
@@ -471,7 +474,7 @@ impl Diagnosis {
 
 /// A candidate's parameters in words, each named where its effect has more than one
 /// (`cornering 11.8 ± 0.5 1/rad, relaxation 0.15 ± 0.03 m`), the effects' separated by `; `.
-fn named_params(r: &super::Ranked) -> String {
+fn named_params(r: &super::rank::Ranked) -> String {
     let texts = r.param_texts();
     r.effects
         .iter()
@@ -494,41 +497,6 @@ fn named_params(r: &super::Ranked) -> String {
         .join("; ")
 }
 
-/// A parameter at its search's edge ([`super::rank::at_bound`]) as the bound the rides put on
-/// it: at the lower edge `lo`, "≤ p + SE"; at the upper, "≥ p − SE" (neither past the other
-/// edge); without a standard error, the edge alone. Never an estimate ± SE, which would read
-/// as a measurement.
-pub fn bound_text(spec: &super::effects::ParamSpec, p: f64, se: f64) -> String {
-    let unit = spaced(spec.unit);
-    let (_, lower) = spec.nearest_edge(p);
-    let edge = if lower { spec.lo } else { spec.hi };
-    match (se.is_finite(), lower) {
-        // One SE from the value, but never past the search's other edge (a value the rides
-        // barely tell: frame_mass 8.0 ± 8.2 kg is "≥ 0.000", not "≥ −0.215").
-        (true, true) => format!(
-            "≤ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
-            (p + se).min(spec.hi)
-        ),
-        (true, false) => format!(
-            "≥ {:.3}{unit} (at the search's edge {edge:.3} within its SE)",
-            (p - se).max(spec.lo)
-        ),
-        (false, true) => format!("≤ {edge:.3}{unit} (at the search's edge, no SE)"),
-        (false, false) => format!("≥ {edge:.3}{unit} (at the search's edge, no SE)"),
-    }
-}
-
-/// A fitted parameter with its standard error and unit, `0.092 ± 0.061 kg·m²`; one the fit
-/// could not identify has no standard error, and says so.
-pub fn param_text(value: f64, se: f64, unit: &str) -> String {
-    let unit = spaced(unit);
-    if se.is_finite() {
-        format!("{value:.3} ± {se:.3}{unit}")
-    } else {
-        format!("{value:.3}{unit} (no standard error: not identified)")
-    }
-}
-
 /// A plausible range in words: `0.3–1.5 × nominal`.
 fn range_text(lo: f64, hi: f64, unit: &str) -> String {
     let num = |x: f64| {
@@ -536,13 +504,4 @@ fn range_text(lo: f64, hi: f64, unit: &str) -> String {
         t.trim_end_matches('0').trim_end_matches('.').to_string()
     };
     format!("{}–{}{}", num(lo), num(hi), spaced(unit))
-}
-
-/// A unit with its leading space (`" kg"`), or nothing.
-fn spaced(unit: &str) -> String {
-    if unit.is_empty() {
-        String::new()
-    } else {
-        format!(" {unit}")
-    }
 }

@@ -2,7 +2,7 @@
 //! `*Measured.txt`) against that lab's published parameters, with their stable speeds.
 
 use super::markdown::half_unit_of_last_digit;
-use super::Files;
+use super::set::Files;
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;

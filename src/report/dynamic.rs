@@ -3,7 +3,7 @@
 //! diagram with the rides and each ride's θ and γ with the fit.
 
 use super::markdown::pm;
-use super::{Files, RideCampaign};
+use super::set::{Files, RideCampaign};
 use anyhow::Result;
 use std::fmt::Write as _;
 

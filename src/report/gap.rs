@@ -3,7 +3,7 @@
 //! analysed rides ([`super::RideCampaign`]); out: the Markdown and the residual figure.
 
 use super::markdown::{pm, verdict_list};
-use super::{Files, RideCampaign};
+use super::set::{Files, RideCampaign};
 use anyhow::Result;
 use std::fmt::Write as _;
 

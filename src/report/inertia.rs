@@ -3,7 +3,7 @@
 //! each test's fit and spectrum.
 
 use super::markdown::{pct, pm};
-use super::Files;
+use super::set::Files;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;

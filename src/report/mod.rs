@@ -14,6 +14,7 @@ mod inertia;
 mod markdown;
 mod model;
 mod real;
+mod set;
 mod signals;
 
 use anyhow::Result;
@@ -26,11 +27,10 @@ use gap::gap_report;
 use inertia::inertia_report;
 use model::model_report;
 use real::real_report;
+pub use set::Files;
+use set::RideCampaign;
 use signals::reference_signals;
 pub use signals::{published_periods, within_reference_bar, PublishedPeriod};
-
-/// Files of a report set, relative path → contents.
-pub type Files = Vec<(PathBuf, Vec<u8>)>;
 
 /// Computes every report into memory from `data` and `reference`.
 pub fn build(data: &Path, reference: &Path, progress: &mut dyn FnMut(&str)) -> Result<Files> {
@@ -56,31 +56,6 @@ pub fn build(data: &Path, reference: &Path, progress: &mut dyn FnMut(&str)) -> R
     files.push(("README.md".into(), index.into_bytes()));
     files.sort_by(|a, b| a.0.cmp(&b.0));
     Ok(files)
-}
-
-/// The ride campaign of `data/rides.toml`, analysed once for the dynamic and the gap reports.
-struct RideCampaign {
-    manifest: crate::read::rides::RideManifest,
-    model: crate::model::uncertain::Parametrized,
-    results: Vec<crate::ride::dynamic::CampaignRide>,
-}
-
-impl RideCampaign {
-    /// Loads the manifest and its bicycle and runs every ride's dynamic test with the default
-    /// options (the results do not depend on the number of threads: each ride's resampling is
-    /// seeded).
-    fn analyse(data: &Path) -> Result<Self> {
-        use crate::read::rides::RideManifest;
-        use crate::ride::dynamic::run_campaign;
-        let manifest = RideManifest::load(&data.join("rides.toml"))?;
-        let model = manifest.model(None)?;
-        let results = run_campaign(&manifest, &model, &Default::default(), &|_, _| {});
-        Ok(RideCampaign {
-            manifest,
-            model,
-            results,
-        })
-    }
 }
 
 /// Regenerates every report under `out`, replacing the folder's set as a whole

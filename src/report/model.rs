@@ -1,7 +1,7 @@
 //! `reports/model.md`: the linear Whipple model of the measured bicycle and of the reference
 //! bicycles, stable speeds with their standard errors and continuation diagrams (seed §6).
 
-use super::Files;
+use super::set::Files;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! reference folder; out: the Markdown and its figures.
 
 use super::markdown::{pm, verdict_list};
-use super::Files;
+use super::set::Files;
 use crate::fit::{self, FitOptions};
 use crate::signal::Signal;
 use anyhow::{Context, Result};

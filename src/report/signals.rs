@@ -2,7 +2,7 @@
 //! `../shared/reference` against their published periods. In: the reference folder; out: the
 //! Markdown (and figures with `plot`).
 
-use super::Files;
+use super::set::Files;
 use crate::fit::{self, FitOptions, OscillationSummary};
 use crate::signal::Signal;
 use anyhow::{Context, Result};
