@@ -1,7 +1,13 @@
-//! The `bikeproc` command: the command line ([`cli`]) over the library. Exit code 0 on
-//! success; 2 when an input is malformed or cannot be analysed, an option is refused for its
-//! value or for the input it came with, or an output would overwrite an input; 3 when
-//! `design` does not reach its target range (the closest design is printed); 1 otherwise.
+//! The `bikeproc` command: the command line ([`cli`]) over the library.
+//!
+//! Exit codes (`cli::Exit`, decided from the error's kind in `cli::exit_for` alone):
+//!
+//! | code | when |
+//! |---|---|
+//! | 0 | done (`--help` and `--version` included) |
+//! | 1 | anything else: a file that cannot be read or written for the machine's reasons, standard output or standard error gone, the model or a figure failing |
+//! | 2 | the command line or an input: an unknown or malformed option, a value refused for its range, an option the input does not take, an input malformed, of another kind than the command reads, or not analysable (no ride of a campaign analysed), an output that would overwrite an input |
+//! | 3 | `design` did not reach its target range (the closest design is printed) |
 
 mod cli;
 

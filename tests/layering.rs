@@ -418,3 +418,28 @@ fn no_format_is_chosen_by_extension_outside_the_readers() {
     let kind = std::fs::read_to_string(src.join("read/kind.rs")).unwrap();
     assert!(code_lines(&kind).any(|(_, l)| l.contains(".extension()")));
 }
+
+/// Issue 78: anyhow only in the command (`main.rs`, `cli/`); the library's errors are types.
+#[test]
+fn anyhow_only_in_the_command() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    sources(&src, &mut files);
+    let found: Vec<String> = files
+        .iter()
+        .filter(|f| !(f.starts_with(src.join("cli")) || f.ends_with("main.rs")))
+        .flat_map(|f| {
+            let text = std::fs::read_to_string(f).expect("a source file");
+            code_lines(&text)
+                .filter(|(_, l)| l.contains("anyhow"))
+                .map(|(n, l)| format!("{}:{n}: {}", f.display(), l.trim()))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    assert!(found.is_empty(), "{}", found.join("\n"));
+    let cli = std::fs::read_to_string(src.join("cli/mod.rs")).unwrap();
+    assert!(
+        code_lines(&cli).any(|(_, l)| l.contains("anyhow")),
+        "the check reads the sources"
+    );
+}

@@ -1,7 +1,7 @@
 //! The command line over the library: [`args`] parses, one module per command family runs a
 //! command over a library call ([`measure`], [`model`], [`ride`], [`simulate`]; `report` is a
-//! single call), [`io`] writes. Exit code 0 on success, 2 when an input is malformed or cannot be
-//! analysed, 1 otherwise.
+//! single call), [`io`] writes. The exit code comes from what went wrong, in one place
+//! ([`Exit`], [`exit_for`]); `src/main.rs` lists the codes.
 
 mod args;
 mod io;
@@ -18,21 +18,54 @@ use io::note;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// A campaign none of whose rides gave an eigenvalue (exit code 2).
+/// A campaign none of whose rides gave an eigenvalue ([`Exit::Input`]).
 #[derive(Debug, thiserror::Error)]
 #[error("no ride of {} could be analysed (the reasons are listed above)", .0.display())]
 struct NoRideAnalysed(PathBuf);
 
 /// An option the input it was given with does not take (`--window` on a lab log, `--speed`
-/// on a campaign): refused rather than ignored (exit code 2).
+/// on a campaign): refused rather than ignored ([`Exit::Input`]).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub(crate) struct Refused(pub(crate) String);
 
-/// A design whose target range was not reached (exit code 3; the reason was printed).
+/// A design whose target range was not reached ([`Exit::Unreached`]; the reason was printed).
 #[derive(Debug, thiserror::Error)]
 #[error("the target range was not reached (the reason is printed above)")]
 struct Unreached;
+
+/// The command's exit codes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Exit {
+    /// 0: done.
+    Success = 0,
+    /// 1: anything else: the machine (a file that cannot be read or written, standard output or
+    /// error gone), the model, a figure.
+    Failure = 1,
+    /// 2: the command line or an input: a malformed or unknown option, a value refused, an
+    /// input malformed or not analysable, an option the input does not take, an output that
+    /// would overwrite an input.
+    Input = 2,
+    /// 3: `design` did not reach its target range (the closest design was printed).
+    Unreached = 3,
+}
+
+impl From<Exit> for ExitCode {
+    fn from(e: Exit) -> ExitCode {
+        ExitCode::from(e as u8)
+    }
+}
+
+/// The exit code of a command's error, from its kind: the one place where errors become codes.
+fn exit_for(e: &anyhow::Error) -> Exit {
+    if e.is::<Unreached>() {
+        Exit::Unreached
+    } else if is_input_error(e) {
+        Exit::Input
+    } else {
+        Exit::Failure
+    }
+}
 
 /// Parses the arguments, runs the command, prints an error with its causes and maps it to the
 /// exit code.
@@ -43,7 +76,7 @@ pub fn main() -> ExitCode {
              read-write as a closed descriptor or a daemon leaves it): what the command prints \
              would be lost; redirect it to a file, or discard it with `> /dev/null`",
         );
-        return ExitCode::from(1);
+        return Exit::Failure.into();
     }
     let cli = match command()
         .try_get_matches()
@@ -52,32 +85,32 @@ pub fn main() -> ExitCode {
         Ok(cli) => cli,
         // `--help` and `--version` go to standard output, checked as every output is.
         Err(e) if !e.use_stderr() => {
-            return match io::out(&e.render().to_string()) {
-                Ok(()) => ExitCode::SUCCESS,
-                Err(_) => ExitCode::from(1),
-            };
+            let written = io::out(&e.render().to_string());
+            return if written.is_ok() {
+                Exit::Success
+            } else {
+                Exit::Failure
+            }
+            .into();
         }
         Err(e) => {
             io::note_line(e.render().to_string().trim_end());
-            return ExitCode::from(2);
+            return Exit::Input.into();
         }
     };
-    let code = match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+    let exit = match run(cli) {
+        Ok(()) => Exit::Success,
         Err(e) => {
             io::note_line(&format!("error: {e:#}"));
-            if e.is::<Unreached>() {
-                return ExitCode::from(3);
-            }
-            return ExitCode::from(if is_input_error(&e) { 2 } else { 1 });
+            return exit_for(&e).into();
         }
     };
     // A warning or a "wrote …" line that standard error could not take: the user saw less than
     // the command said.
     if io::STDERR_FAILED.load(std::sync::atomic::Ordering::SeqCst) {
-        return ExitCode::from(1);
+        return Exit::Failure.into();
     }
-    code
+    exit.into()
 }
 
 /// The command line's grammar: [`Cli`]'s, every numeric option taking any value that starts
@@ -165,6 +198,8 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             || c.is::<NoRideAnalysed>()
             || c.is::<Refused>()
             || c.is::<bikeproc::read::kind::WrongKind>()
+            || c.downcast_ref::<bikeproc::report::ReportError>()
+                .is_some_and(|r| r.is_input())
             || matches!(
                 c.downcast_ref::<bikeproc::output::OutputError>(),
                 Some(bikeproc::output::OutputError::OverInput { .. })
@@ -175,6 +210,20 @@ fn is_input_error(e: &anyhow::Error) -> bool {
 #[cfg(test)]
 mod tests {
     use super::command;
+
+    /// main.rs's doc lists every exit code, each once, and no other.
+    #[test]
+    fn main_rs_lists_every_exit_code() {
+        use super::Exit;
+        let doc = include_str!("../main.rs");
+        let rows: Vec<u8> = doc
+            .lines()
+            .filter_map(|l| l.strip_prefix("//! | "))
+            .filter_map(|l| l.split(' ').next()?.parse().ok())
+            .collect();
+        let codes = [Exit::Success, Exit::Failure, Exit::Input, Exit::Unreached].map(|e| e as u8);
+        assert_eq!(rows, codes.to_vec(), "main.rs's table of exit codes");
+    }
     use proptest::prelude::*;
 
     /// Every numeric option, with the path of subcommands that reaches it.

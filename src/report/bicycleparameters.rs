@@ -1,9 +1,9 @@
 //! `reports/bicycleparameters.md`: real bicycles from their raw measurements (BicycleParameters'
 //! `*Measured.txt`) against that lab's published parameters, with their stable speeds.
 
+use super::error::{reading, Result};
 use super::markdown::half_unit_of_last_digit;
 use super::set::Files;
-use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -18,13 +18,15 @@ pub(super) fn bicycleparameters_report(
     use crate::inertia::measured::MeasuredBicycle;
     progress("bicycleparameters: real bicycles from their raw measurements");
     let dir = reference.join("bicycleparameters");
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| {
-            let name = e.ok()?.file_name().into_string().ok()?;
-            Some(name.strip_suffix("Measured.txt")?.to_string())
-        })
-        .collect();
+    let mut names: Vec<String> = reading(
+        format!("reading {}", dir.display()),
+        std::fs::read_dir(&dir),
+    )?
+    .filter_map(|e| {
+        let name = e.ok()?.file_name().into_string().ok()?;
+        Some(name.strip_suffix("Measured.txt")?.to_string())
+    })
+    .collect();
     names.sort();
     let mut md = String::from(
         "# Real bicycles from their raw measurements\n\n\

@@ -2,9 +2,9 @@
 //! the campaign's analysed rides ([`super::RideCampaign`]); out: the Markdown, the continuation
 //! diagram with the rides and each ride's θ and γ with the fit.
 
+use super::error::Result;
 use super::markdown::pm;
 use super::set::{Files, RideCampaign};
-use anyhow::Result;
 use std::fmt::Write as _;
 
 /// `reports/dynamic.md`: every ride of `data/rides.toml` fitted, its weave eigenvalue beside the

@@ -2,9 +2,9 @@
 //! the model, which effect explains it, how far it shrinks on rides left out. In: the campaign's
 //! analysed rides ([`super::RideCampaign`]); out: the Markdown and the residual figure.
 
+use super::error::Result;
 use super::markdown::{pm, verdict_list};
 use super::set::{Files, RideCampaign};
-use anyhow::Result;
 use std::fmt::Write as _;
 
 /// `reports/gap.md`: the campaign's gap diagnosis — residuals against speed, the ranking of the

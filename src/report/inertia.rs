@@ -2,9 +2,9 @@
 //! `data/`. In: the bar calibration and the torsion and compound folders; out: the Markdown and
 //! each test's fit and spectrum.
 
+use super::error::Result;
 use super::markdown::{pct, pm};
 use super::set::Files;
-use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 

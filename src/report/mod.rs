@@ -9,6 +9,7 @@
 
 mod bicycleparameters;
 mod dynamic;
+pub mod error;
 mod gap;
 mod inertia;
 mod markdown;
@@ -17,7 +18,7 @@ mod real;
 mod set;
 mod signals;
 
-use anyhow::Result;
+pub use error::{ReportError, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

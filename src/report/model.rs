@@ -1,8 +1,8 @@
 //! `reports/model.md`: the linear Whipple model of the measured bicycle and of the reference
 //! bicycles, stable speeds with their standard errors and continuation diagrams (seed §6).
 
+use super::error::{ReportError, Result};
 use super::set::Files;
-use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -136,7 +136,7 @@ pub(super) fn model_report(
     ] {
         let ev = c
             .eigenvalues(v)
-            .ok_or_else(|| anyhow::anyhow!("no eigenvalues at {v} m/s"))?;
+            .ok_or_else(|| ReportError::Data(format!("no eigenvalues at {v} m/s")))?;
         for (k, (re, im)) in published.iter().enumerate() {
             let d = (ev[k] - nalgebra::Complex::new(*re, *im)).norm();
             let _ = writeln!(

@@ -2,11 +2,11 @@
 //! recordings by set-up; a balance-assist bicycle's rides, uncontrolled and controlled). In: the
 //! reference folder; out: the Markdown and its figures.
 
+use super::error::{analysing, reading, ReportError, Result};
 use super::markdown::{pm, verdict_list};
 use super::set::Files;
 use crate::fit::{self, FitOptions};
 use crate::signal::Signal;
-use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -24,8 +24,7 @@ pub(super) fn real_report(
     files: &mut Files,
 ) -> Result<usize> {
     let dir = reference.join("signals/robot_bicycle");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .with_context(|| dir.display().to_string())?
+    let mut paths: Vec<PathBuf> = reading(dir.display().to_string(), std::fs::read_dir(&dir))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| crate::read::kind::recognise(p) == crate::read::kind::Kind::Table)
         .collect();
@@ -38,8 +37,7 @@ pub(super) fn real_report(
             .map_or(String::new(), |s| s.to_string_lossy().into_owned());
         progress(&format!("robot bicycle recording {stem}"));
         let sig = Signal::from_csv(path)?;
-        let osc = fit::analyse(&sig, &FitOptions::default())
-            .with_context(|| path.display().to_string())?;
+        let osc = analysing(path, fit::analyse(&sig, &FitOptions::default()))?;
         let t = osc.fit.period_s();
         trials.push((stem, crate::uncertainty::Measured::new(t.value, t.se)));
         segments.push(osc.segment_s);
@@ -187,7 +185,10 @@ pub(super) fn uncontrolled_section(
             &crate::ride::modal::ModalOptions::default(),
         )?;
         let Some(v) = d.wheel_speed_mps else {
-            anyhow::bail!("{}: no wheel-speed column", path.display());
+            return Err(ReportError::Data(format!(
+                "{}: no wheel-speed column",
+                path.display()
+            )));
         };
         let e = &d.weave;
         let m = crate::ride::model_weave::model_weave_at(&path, &model, v.value, v.se, e)?;

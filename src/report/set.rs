@@ -1,7 +1,7 @@
 //! What the reports share: the set of files they make, and the ride campaign of `data/`
 //! analysed once for the dynamic and the gap reports.
 
-use anyhow::Result;
+use super::error::Result;
 use std::path::{Path, PathBuf};
 
 /// Files of a report set, relative path → contents.

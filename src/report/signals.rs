@@ -2,10 +2,10 @@
 //! `../shared/reference` against their published periods. In: the reference folder; out: the
 //! Markdown (and figures with `plot`).
 
+use super::error::{analysing, reading, Result};
 use super::set::Files;
 use crate::fit::{self, FitOptions, OscillationSummary};
 use crate::signal::Signal;
-use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -60,8 +60,10 @@ pub(super) fn reference_signals(
     files: &mut Files,
 ) -> Result<usize> {
     let readme_path = reference.join("README.md");
-    let readme = std::fs::read_to_string(&readme_path)
-        .with_context(|| format!("reading {}", readme_path.display()))?;
+    let readme = reading(
+        format!("reading {}", readme_path.display()),
+        std::fs::read_to_string(&readme_path),
+    )?;
     let published = published_periods(&readme);
     let mut md = String::new();
     md.push_str(
@@ -81,8 +83,7 @@ pub(super) fn reference_signals(
         let path = reference.join("signals").join(&p.file);
         progress(&format!("reference signal {}", p.file));
         let sig = Signal::from_csv(&path)?;
-        let osc = fit::analyse(&sig, &FitOptions::default())
-            .with_context(|| path.display().to_string())?;
+        let osc = analysing(&path, fit::analyse(&sig, &FitOptions::default()))?;
         let s: OscillationSummary = osc.summary(&sig);
         let stem = p.file.trim_end_matches(".csv");
         let (pub_t, diff_cols) = match (p.period_s, p.period_se_s) {

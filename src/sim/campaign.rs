@@ -497,7 +497,7 @@ pub fn truth_bike(measured: &crate::inertia::bike::LabBike) -> crate::inertia::b
 /// the sealed truths in `truth/`.
 pub fn lab_rides(
     measured: &crate::inertia::bike::LabBike,
-) -> Result<Files, super::ride::RideError> {
+) -> Result<Files, super::ride::SimulationError> {
     use super::ride::{simulate_ride, Effects, RideSpec};
     let bike = crate::model::lab::lab_to_benchmark(&truth_bike(measured));
     let mut files = Files::new();
@@ -558,7 +558,7 @@ pub fn lab_rides(
 /// (`handlebar_still`).
 pub fn ride_fault_fixtures(
     measured: &crate::inertia::bike::LabBike,
-) -> Result<Files, super::ride::RideError> {
+) -> Result<Files, super::ride::SimulationError> {
     use super::ride::{simulate_ride, Effects, Fault, RideSpec};
     let bike = crate::model::lab::lab_to_benchmark(measured);
     let mut files = Files::new();
@@ -834,7 +834,7 @@ pub fn blind_campaign(
     withheld: Withheld,
     design: BlindDesign,
     seed: u64,
-) -> Result<(Files, BlindTruth), super::ride::RideError> {
+) -> Result<(Files, BlindTruth), super::ride::SimulationError> {
     blind_campaign_plus(
         measured,
         bike_file,
@@ -856,7 +856,7 @@ pub fn blind_campaign_plus(
     seed: u64,
     extra_speeds_mps: &[f64],
     draws: Draws,
-) -> Result<(Files, BlindTruth), super::ride::RideError> {
+) -> Result<(Files, BlindTruth), super::ride::SimulationError> {
     use super::ride::{simulate_ride, Effects, PointMass, RideSpec};
     let broad = draws == Draws::Broad;
     use super::whipple::{Body, TyreModel};

@@ -416,9 +416,9 @@ pub struct Ride {
     pub truth: RideTruth,
 }
 
-/// Errors of the ride simulation.
+/// Why a ride could not be simulated (an analysed ride's errors are [`crate::ride::RideError`]).
 #[derive(Debug, thiserror::Error)]
-pub enum RideError {
+pub enum SimulationError {
     #[error("the bicycle has no upright configuration (pitch could not be solved)")]
     NoUpright,
     #[error(transparent)]
@@ -542,7 +542,11 @@ fn sample(
 }
 
 /// Simulates one ride of `bike` (the truth bicycle), deterministic for a seed.
-pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Ride, RideError> {
+pub fn simulate_ride(
+    bike: &Benchmark,
+    spec: &RideSpec,
+    seed: u64,
+) -> Result<Ride, SimulationError> {
     let mut rng = seeded(seed);
     let truth_bike = with_point_masses(bike, &spec.effects.extra_masses);
     let p = params_with_motor(&truth_bike, spec.effects.steer_motor.as_ref());
@@ -555,7 +559,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
     let release_s = spec.standstill_s + spec.push_s;
     let n_hold = (release_s / dt).round() as usize;
     let upright = whipple::upright_state(&p, 0.0, 0.0, 0.0, 0.0, 0.0)
-        .ok_or(RideError::NoUpright)?
+        .ok_or(SimulationError::NoUpright)?
         .0;
     let mut motion: [Vec<BodySample>; 2] = [Vec::new(), Vec::new()];
     let (mut roll, mut steer, mut speed) = (Vec::new(), Vec::new(), Vec::new());
@@ -595,7 +599,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
     // Release with the hand's small imperfection, then the coast with the kick and the effects.
     let (q, qd) =
         whipple::upright_state(&p, v0, 0.0, 0.0, 0.01 * rng.normal(), 0.02 * rng.normal())
-            .ok_or(RideError::NoUpright)?;
+            .ok_or(SimulationError::NoUpright)?;
     let mut y: RideState = whipple::ride_state(&q, &qd);
     y[0] = x;
     y[5] = wheel;
@@ -636,10 +640,10 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
                 Some((q, qd, qdd))
             })
             .collect::<Option<_>>()
-            .ok_or(RideError::NoUpright)?,
+            .ok_or(SimulationError::NoUpright)?,
         Some(tyre) => {
             let q0: [f64; 8] = std::array::from_fn(|k| y[k]);
-            let qd0 = whipple::full_rates(&p, &y).ok_or(RideError::NoUpright)?;
+            let qd0 = whipple::full_rates(&p, &y).ok_or(SimulationError::NoUpright)?;
             let tyres = whipple::Tyres {
                 model: *tyre,
                 normal_n: normal,
@@ -659,7 +663,7 @@ pub fn simulate_ride(bike: &Benchmark, spec: &RideSpec, seed: u64) -> Result<Rid
                     Some((std::array::from_fn(|k| s[k]), qd, qdd))
                 })
                 .collect::<Option<_>>()
-                .ok_or(RideError::NoUpright)?
+                .ok_or(SimulationError::NoUpright)?
         }
     };
     let mut catch_s = release_s + spec.coast_s;

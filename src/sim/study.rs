@@ -10,7 +10,7 @@
 use super::calibration::{stage, BlindError};
 use super::campaign::{measured_within_errors, Files};
 use super::draw::{seeded, Draw};
-use super::ride::{simulate_ride, Effects, MotorController, RideError, RideSpec, SteerMotor};
+use super::ride::{simulate_ride, Effects, MotorController, RideSpec, SimulationError, SteerMotor};
 use std::fmt::Write as _;
 
 /// The controller's roll-rate gains of the powered conditions, G (N·m·s/rad per m/s below
@@ -49,7 +49,7 @@ pub fn blind_study(
     measured: &crate::inertia::bike::LabBike,
     bike_file: &str,
     seed: u64,
-) -> Result<(Files, StudyTruth), RideError> {
+) -> Result<(Files, StudyTruth), SimulationError> {
     blind_study_with(measured, bike_file, seed, None)
 }
 
@@ -61,7 +61,7 @@ pub fn blind_study_with(
     bike_file: &str,
     seed: u64,
     motor: Option<(f64, f64)>,
-) -> Result<(Files, StudyTruth), RideError> {
+) -> Result<(Files, StudyTruth), SimulationError> {
     let mut rng = seeded(31_000 + seed);
     let truth_bike = measured_within_errors(measured, &mut seeded(37_000 + seed));
     let bike = crate::model::lab::lab_to_benchmark(&truth_bike);
