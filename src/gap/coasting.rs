@@ -113,17 +113,11 @@ impl CoastingBase {
     ///
     /// - Damping: the candidate's own replay less the measured bicycle's, both from the fit's
     ///   start.
-    /// - A speedometer's scale or a clock moves the speed a ride applies at
-    ///   ([`true_speed`]): the ride stage took its correction off the fit at the reported
-    ///   speed, and the prediction carries the change of that correction (the ride stage's own
-    ///   replay, [`ReplayStart::Weave`]) to the candidate's. Without it the scale fitted on 30
-    ///   noted campaigns lay a median −0.98 of its errors low (−0.0057 in k), growing with
-    ///   its deviation (−0.0032 at 3–5.5 %, −0.0096 at 8–10 %) whichever its sign; five of
-    ///   them with their readings divided by the true scale gave k 0.0006–0.006 higher than
-    ///   with their own, 0.0002–0.002 without the ride stage's correction, and −0.002 to
-    ///   +0.002 with this. The change near the weave speed is erratic (σ by 0.23 1/s between
-    ///   3.345 and 3.387 m/s) as the correction is; a replay from the fit's start, smooth
-    ///   there, does not undo it (its change left the five at −0.009 to −0.001).
+    /// - A speedometer's scale or a clock moves the speed a ride applies at ([`true_speed`]):
+    ///   the ride stage took its correction off at the reported speed, so the prediction carries
+    ///   that correction's change (the ride stage's own replay, [`ReplayStart::Weave`]) to the
+    ///   candidate's speed; without it a scale fitted low by about its own error.
+    /// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#coastingbaseshifts).
     pub fn shifts(
         &self,
         obs: &[Observation],

@@ -101,11 +101,10 @@ impl Assumed {
 }
 
 /// A measured parameter off by a factor: inertias (a component forgotten or counted twice, a
-/// pendulum misread) plausibly by up to half. The search reaches well beyond that (0.25–2.2), so
-/// that a fit of 0.5 ± 0.1 or 1.7 ± 0.12 is an estimate and not a bound: searched over 0.4–1.8,
-/// front_izz truths of 0.51–0.64 fitted within one standard error of 0.4 and were shown as
-/// bounds, ranked 10th–20th behind pairs (8 of its 100 broad campaigns; named now in 59 of
-/// 100, 52 before).
+/// pendulum misread) plausibly by up to half. The search reaches well beyond that (0.25–2.2),
+/// so that a fit of 0.5 ± 0.1 or 1.7 ± 0.12 is an estimate and not a bound at the search's
+/// edge.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#inertia_factor).
 const INERTIA_FACTOR: ParamSpec = ParamSpec {
     name: "factor",
     unit: "× measured",

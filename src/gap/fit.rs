@@ -1107,28 +1107,15 @@ pub fn refine(
 pub const TRUSTED_NEWTON_RIDES: usize = 64;
 
 /// The minimum of `subset`'s χ² near `start` (a fit to more rides): one Newton step on the
-/// χ² surface's central-difference gradient and Hessian (steps of 1e-3 of each range: 3
-/// evaluations for one parameter, 9 for two), clamped to the bounds; failing that (the Hessian
-/// not positive definite, or χ² not lowered), the step with the parameters `start` left at an
-/// active bound held there (`active_bounds`: where the subset's minimum stays, a third of
-/// the held-out refits of the data/ campaign); Nelder–Mead from `start` (steps `step`) when
-/// neither lowers χ².
-/// Leaving one ride out moves the minimum by a fraction of its standard error, where χ² is
-/// quadratic to within the step's own error.
-/// The elements of `held` stay at their start (a condition's own parameters when its rides
-/// are left out).
-///
-/// Unchecked (`check` false: a ride left out of a campaign of [`TRUSTED_NEWTON_RIDES`] or more),
-/// the Newton step is taken without the χ² at its end, which is every ride's prediction at a
-/// parameter set no other refit shares (n eigenproblems a refit, n² a candidate: at 512 rides
-/// 45 % of the diagnosis). One ride of so many moves the minimum by a small fraction of its
-/// standard error, where χ² is quadratic and the check passes. That step holds a bound that
-/// is active at it, where the checked refit tries the free step clamped to the box first
-/// (held-out Σz² up to 32 % apart from the checked refits' when the clamped free step is
-/// taken unchecked). On the 128-ride campaign of `tests/gap.rs`
-/// (`a_large_campaigns_refits_trust_the_newton_step`) the ranking and ties are the checked
-/// refits', 21 of 23 candidates' held-out Σz² to the last digit, the others within 6.2e-5 of
-/// themselves. With no step (the Hessian not positive definite) the checked refit runs.
+/// χ² surface's central-difference gradient and Hessian (steps of 1e-3 of each range), clamped
+/// to the bounds; failing that, the step with the bounds active at `start` held
+/// (`active_bounds`); Nelder–Mead from `start` (steps `step`) when neither lowers χ². The
+/// elements of `held` stay at their start (a condition's own parameters when its rides are left
+/// out). Unchecked (`check` false: a ride left out of [`TRUSTED_NEWTON_RIDES`] or more), the
+/// Newton step is taken without evaluating χ² at its end: one ride of so many moves the
+/// minimum by a small fraction of its error, where χ² is quadratic (with no step, the checked
+/// refit runs).
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#refit_near).
 pub fn refit_near(
     subset: &Subset<'_, '_>,
     cache: &ResidualCache<'_, '_>,

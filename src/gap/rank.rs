@@ -624,20 +624,12 @@ fn sort_by(ranked: &mut [Ranked], key: impl Fn(&Ranked) -> f64) {
 }
 
 /// What orders candidates of one standing. In a campaign, the BIC of the fit to every ride
-/// (χ² in the campaign's full covariance, the model's error correlated across rides, plus
-/// k ln 2N): the likelihood the fit maximizes. The rides left out one at a time weigh each ride
-/// alone, the model's shared error in its own block, and so miss a pattern across rides that
-/// the full covariance sees: on a noted blind campaign (seed 1012) a point mass of 1.73 kg at
-/// the rear frame's centre fitted at 1.71 ± 0.42 kg with the lowest χ² of all (59.2; a trail
-/// 0.80 × measured, 61.4), yet its held-out Σz² was 66.7 against the trail's 45.5 and "no
-/// effect"'s 55.7, and it ranked tenth. Over the 1,700 blind campaigns of
-/// docs/gap-calibration.md, ordered so (was by the held-out RMS): beyond the detection limit,
-/// right 325 of 368 noted (321; frame_mass 34 of 44, was 30) and 406 of 424 sync (404); the
-/// controls and the effects outside the library as before. The held-out prediction still
-/// decides what the order cannot: whether a pair is needed, whether the best explains the
-/// gap, and which candidates are tied with the best (one the rides left out favour over it is
-/// tied, not ahead). In a study the conditions left out carry the known change between them,
-/// which a fit to every ride weighs no more than a ride: there the held-out RMS orders.
+/// (χ² in the campaign's full covariance plus k ln 2N): the likelihood the fit maximizes, which
+/// sees a pattern across rides that the rides left out one at a time miss. The held-out
+/// prediction still decides whether a pair is needed, whether the best explains the gap and
+/// which are tied with it. In a study the conditions left out carry the known change between
+/// them, which a fit to every ride weighs no more than a ride: there the held-out RMS orders.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#order_key).
 fn order_key(r: &Ranked) -> f64 {
     if r.in_study() {
         r.heldout_rms_after

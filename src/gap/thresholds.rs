@@ -9,12 +9,8 @@ pub const EXPLAINED_HELDOUT_RMS: f64 = 2.0;
 
 /// How many of its standard errors a fitted value may lie outside its plausible range and
 /// still count as plausible: two, where the fit cannot tell its value from the range's edge
-/// at 95 %. At one, a front frame's I_zz half the measured one fitted at 0.46–0.50 ± 0.07 and
-/// a trail 1.17–1.2 times the measured one at 1.25–1.28 ± 0.05, and both were ranked behind
-/// every plausible candidate. Over the 1,700 blind campaigns of docs/gap-calibration.md, two
-/// named front_izz right in 44 of 100 (was 36), every effect together right in 861 of 1,100
-/// (was 855), and attributed one more of 200 effects outside the library (a headset's
-/// friction, 2 of 200).
+/// at 95 %. At one, candidates fitted just past their edge ranked behind every plausible one.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#plausible_se).
 pub const PLAUSIBLE_SE: f64 = 2.0;
 
 /// The significance level of the campaign's test.

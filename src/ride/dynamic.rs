@@ -226,23 +226,12 @@ pub fn dynamic_test(
 }
 
 /// The free motion's window and its modal fit: from just after the kick to the catch, the
-/// first roll beyond [`MAX_ROLL_RAD`], or where the fitted curve's envelope (the weave's with
-/// the offsets, trends and real modes beside it: [`lost_in_noise`]) sinks below three times
-/// the residual noise in both signals, whichever comes first. A weave that grows (below the
-/// weave speed), or a window too short after the castor's tail, gets the window
-/// [`early_window`] makes instead.
-///
-/// The catch is found where the gyros go quiet ([`super::read`]), and a weave that has died
-/// into the sensors' noise is quiet too while the bicycle rolls on (kicked at half the lab's
-/// force at 6 m/s, 1.5 s after the kick). A window that ends at the catch therefore runs on
-/// past it, as long as any other window, when the weave had sunk into the noise by the catch
-/// (held or rolling upright, the samples after it are constant within the noise), as a fit of
-/// the motion before the catch alone says (one that ran on would bend to a held bicycle's
-/// samples: `a_weave_a_hand_stops_is_not_run_on`); where it had not, a hand stopped a motion
-/// still seen, and the window ends there. Ended at the quiet instead, the window was short
-/// (and below 1 s, moved to the early one, in the castor's tail): 40 rides at 6 m/s kicked at
-/// 7.5 N had σ a mean 0.80 of its standard error low, now 0.25 high (`tests/speed.rs`); at
-/// 5 m/s 0.41 low, now 0.16 low; at 6.5 m/s 8 of 40 rides refused, now 2.
+/// first roll beyond [`MAX_ROLL_RAD`], or where the fitted curve's envelope ([`lost_in_noise`])
+/// sinks below three times the residual noise in both signals, whichever comes first. A weave
+/// that grows, or a window too short after the castor's tail, gets [`early_window`]'s. A
+/// window that ends at the catch runs on past it when the weave had already sunk into the
+/// noise there (a quiet bicycle still rolling): the catch is found where the gyros go quiet.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#fit_window).
 fn fit_window(path: &Path, s: &RideSignals, options: &ModalOptions) -> Result<ModalFit, RideError> {
     let rate = s.sample_rate_hz;
     let start = s.kick_s + AFTER_KICK_S;
@@ -479,17 +468,10 @@ enum WindowError {
 /// What the speed's own error `speed_se_mps` makes of a coasting ride's correction
 /// ([`coasting_correction`], made at the reported speed): its change between the speed ± that
 /// error, halved, `[re, im, |γ/θ|, arg]`; zeros where either fails. Near the weave speed the
-/// correction is erratic in the speed (a replay's fit of a motion neither growing nor dying),
-/// and a correction taken at a speed off by its error is off by this; the ride's error carries
-/// it beside the correction's own ([`COASTING_RIDE_SE_FRACTION`]). Measured on 149 knife-edge
-/// coasting rides released at 2.9–4.2 m/s (tests/speed.rs; normalized errors against the
-/// Whipple model of the true bicycle at the true speed): at 3.0–3.2 m/s arg γ/θ lay −1.95 ±
-/// 1.55 of its errors with it, −2.44 ± 1.94 without (the replay's phase there +0.027 rad
-/// where the fit's own error is near none, a bias this does not remove), |γ/θ| +0.11 ± 1.07
-/// (−0.18 ± 2.26); at 3.4–3.8 m/s each part within 0.1 of before. On 60 effect-free
-/// campaigns of the `varied` design (12–16 rides from 2.9–3.6 m/s up;
-/// [`crate::sim::campaign::BlindDesign::Varied`]) the campaign's p fell below 0.05 in 4 (9
-/// without), below 0.01 in 1 (3).
+/// correction is erratic in the speed, and a correction taken at a speed off by its error is
+/// off by this: the ride's error carries it beside the correction's own
+/// ([`COASTING_RIDE_SE_FRACTION`]).
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#correction_through_speed).
 pub fn correction_through_speed(
     model: &impl LinearWeave,
     window: &CoastingWindow,
@@ -516,20 +498,13 @@ pub fn correction_through_speed(
     }
 }
 
-/// A motion of size m differs from the small motion the linear model describes by about κ m in
-/// its eigenvalue and mode shape: the Whipple bicycle's equations are odd in the lean and the
-/// steer, so the first correction is cubic in the motion, of second order in its amplitude.
-/// The standard errors that puts on a ride's fit, per rad² of m ([`motion_size_rad2`]):
-/// `[σ (1/s), ω (1/s), |γ/θ| (a fraction of it), arg γ/θ (rad)]`. From the nonlinear
-/// bicycle: uncontrolled near the weave speed and kicked at 12–18 N, windows that reached 0.2
-/// rad of roll had σ 0.09 ± 0.11 /s low and ω 0.05 ± 0.05 rad/s high; with a steer motor and
-/// its roll-rate law (G = 1 and 2, 2.6–3.3 m/s, 10 rides each), σ 0.02–0.18 1/s low and ω
-/// 0.02–0.19 rad/s high (κ −0.3 to −0.9 and +0.4 to +1.6 per rad²), |γ/θ| up to 1 % high and
-/// arg up to 0.006 rad low (κ −0.04 to +0.4 and −0.07 to −0.12), 8–10 of the shape's own
-/// errors, which had no share for it; a quarter of the kick left σ and ω within 0.03 and the
-/// shape within 1.3 of its errors. A ride's own share is κ's scatter from ride to ride, about
-/// half its size; κ's part shared by a campaign's rides is the gap stage's
-/// ([`crate::gap::NONLINEAR_COMMON_FACTOR`] times these).
+/// The standard errors a motion of size m puts on a ride's fit, per rad² of m
+/// ([`motion_size_rad2`]): `[σ (1/s), ω (1/s), |γ/θ| (a fraction of it), arg γ/θ (rad)]`.
+/// The Whipple bicycle's equations are odd in lean and steer, so a large motion's eigenvalue
+/// and shape differ from the small motion's by about κ m; these are a ride's own share of κ
+/// (its scatter from ride to ride), the nonlinear bicycle's as simulated. The part a
+/// campaign's rides share is the gap stage's ([`crate::gap::NONLINEAR_COMMON_FACTOR`]).
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#nonlinear_se_per_rad2).
 pub const NONLINEAR_SE_PER_RAD2: [f64; 4] = [0.5, 0.5, 0.05, 0.03];
 
 /// The motion's size over `[from_s, to_s]` of samples `[t (s), roll (rad), steer (rad)]`: the
@@ -580,47 +555,31 @@ pub const COASTING_BIAS_ERROR_SCALE: f64 = 0.25;
 pub const COASTING_BIAS_SE_FRACTION: f64 = 0.5;
 /// The standard error a ride keeps for its coasting correction (`bikeproc dynamic`), per part
 /// `[re, im, |γ/θ|, arg]`, as a fraction of its error scale
-/// ([`CoastingCorrection::error_scale`]). The eigenvalue's, the whole scale (a quarter of the
-/// replay): nothing is taken off it, and the bias lies anywhere from about −0.1 to +0.54 of
-/// the replay (tyres and damping, knife-edge wheels), whose RMS about none is 0.29 of it. With
-/// half the scale, a knife-edge ride released at 2.7 m/s (below the weave speed, the replay
-/// −0.38 1/s in σ) lay 4.45 of its errors from the truth; with the whole, 3.6 (tests/speed.rs,
-/// 40 rides at 2.8–6.3 m/s). The shape's, [`COASTING_BIAS_SE_FRACTION`] of what is taken off.
-///
-/// Across a campaign the part not known is one and the same (the tyres and the damping the
-/// rides share decide it), so the gap stage replaces this by one error common to every
-/// coasting ride, [`COASTING_BIAS_COMMON_FRACTION`] of each ride's scale, beside
-/// [`COASTING_BIAS_OWN_FRACTION`] of it kept as the ride's own: the campaign's test does not
-/// depend on this.
+/// ([`CoastingCorrection::error_scale`]): the whole scale for the eigenvalue, of which nothing
+/// is taken off (its bias lies from about −0.1 to +0.54 of the replay, tyres to knife-edge
+/// wheels); [`COASTING_BIAS_SE_FRACTION`] of what is taken off for the shape. The gap stage
+/// replaces it by a part common to a campaign's rides ([`COASTING_BIAS_COMMON_FRACTION`]) and
+/// a part each keeps ([`COASTING_BIAS_OWN_FRACTION`]).
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#coasting_ride_se_fraction).
 pub const COASTING_RIDE_SE_FRACTION: [f64; 4] = [
     1.0,
     1.0,
     COASTING_BIAS_SE_FRACTION,
     COASTING_BIAS_SE_FRACTION,
 ];
-/// The common part of the correction's error across one campaign's rides, as a fraction of
-/// each ride's correction: the residual the half-correction left lay at +0.85 of it on
-/// knife-edge wheels and −0.6 with the realistic tyres and damping (the means above, over 100
-/// rides each), so 0.7 held either within 1.2 of its standard deviations. With a quarter taken
-/// off (ω's means above: the bias is zero at about 0.54 and −0.1 of the replay) the ends lie at
-/// about +1.2 and −1.4 of the correction, within 2 of them; kept at 0.7, the controls of
-/// docs/gap-calibration.md stay quiet (3 and 2 of 200 noted and varied below p 0.01).
+/// The common part of the coasting correction's error across one campaign's rides, as a
+/// fraction of each ride's correction: the tyres and damping the rides share decide the bias,
+/// which lies at about +1.2 and −1.4 of the correction at the two ends simulated (knife-edge
+/// wheels; tyres and damping): 0.7 holds both within two of its standard deviations and keeps
+/// the effect-free campaigns quiet.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#coasting_bias_common_fraction).
 pub const COASTING_BIAS_COMMON_FRACTION: f64 = 0.7;
-/// The part of the correction's error each ride keeps as its own beside the common one, as a
-/// fraction of its correction: near the weave speed the correction is erratic in the speed and
-/// the bicycle (on a ride at 3.2 m/s, the measured bicycle's inputs moved one standard error
-/// each moved its |γ/θ| by up to 0.56 of the ride's error), so that a large correction there
-/// is not one error shared with the other rides. Made common in full (none kept), the slow
-/// rides' phases were tied at correlations of 0.9 between rides, and a true bicycle a draw of
-/// its measured errors away (whose corrections are other) broke the tie: 5 of 200
-/// effect-free varied campaigns fell below p 0.01, their χ² test alone 6 (its p-values
-/// U-shaped), one at χ² 86 on 52 degrees of freedom where the campaign's experimental
-/// covariance made at the true bicycle gave 62. With 0.3 kept, 1 of 200 (13 below 0.05, the
-/// p-values flat by tenths, the χ² test alone's leaning high: 45 above 0.9); with 0.5 (the
-/// ride's whole error kept beside the common part), 2 (10), the χ² test alone conservative
-/// (61 above 0.9). Propagating the inputs' errors through the correction instead (its Jacobian
-/// by secants, beside the model's) raised the false alarms to 10 of 200 and the gap's time on
-/// data/rides.toml from 0.7 to 1.7 s.
+/// The part of the coasting correction's error each ride keeps as its own beside the common
+/// one, as a fraction of its correction: near the weave speed the correction is erratic in the
+/// speed and the bicycle, so a large correction there is not one error shared with the other
+/// rides. None kept tied the slow rides' phases and raised the effect-free campaigns' false
+/// alarms; 0.3 left their p-values flat.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#coasting_bias_own_fraction).
 pub const COASTING_BIAS_OWN_FRACTION: f64 = 0.3;
 
 /// How much of [`replay_coasting`]'s mode-shape part is taken off the fitted shape. The fit holds
@@ -729,25 +688,10 @@ pub fn coasting_correction(
 /// What the window's acceleration does to `model`'s mode shape at the window's speed: the
 /// shape of the bicycle slowing at v̇ (its stiffness `g K₀ + v² K₂ + v̇ K_a`,
 /// [`Canonical::ka`]) less the one at constant speed, as `[0, 0, |γ/θ|, arg γ/θ]` (the
-/// corrections' layout, the eigenvalue's parts zero). A bicycle whose speed changes is
-/// another linear system: the yaw acceleration and the front wheel's spin momentum carry v̇.
-///
-/// Only the shape's part is taken. Over the 100 knife-edge coasting rides of tests/speed.rs
-/// (0.05–0.25 m/s²) the fitted |γ/θ| lay a mean −0.33 of its errors below the Whipple model's
-/// at constant speed (medians −0.89 to +0.03 by speed bin, most at 4–5 m/s), arg γ/θ −0.28;
-/// with this part −0.16 and −0.24, σ's and ω's +0.04 and +0.02 as before. The eigenvalue's part
-/// of the same `v̇ K_a` moved ω's mean error from +0.04 to +0.77 there: against the
-/// simulator's own linearization of those rides (rolling resistance at the hubs and drag at
-/// the frame, each along its point's velocity) K_a's ω
-/// shift is 1.65 times the true one and its σ shift near nothing where the true one is −0.013
-/// 1/s. The resistances' own lateral forces take back part of what v̇ does, and how they act
-/// (at a hub, as a torque on the axle, along the velocity or the wheel's plane) is the lab's
-/// bicycle's, not the model's (issue 29). Over the noted campaigns of docs/gap-calibration.md
-/// (50 per effect, 200 effect-free) the median z of the effects' fits moved: frame_mass −0.67
-/// → −0.55, front_ixx −0.58 → −0.47, trail +0.48 → +0.35, speed_scale −0.18 → +0.02,
-/// time_scale −0.32 → −0.22, front_mass −0.03 → −0.18; named right beyond the detection limit
-/// 324 of 366 → 326 of 368; effect-free campaigns below 0.05 21 → 17 of 200 (below 0.01 3 as
-/// before). `None` when the model has no weave there.
+/// corrections' layout). Only the shape's part is taken: the eigenvalue's part of the same
+/// `v̇ K_a` overstates what the lab's resistances do to σ and ω, whose lateral forces take part
+/// of it back. `None` when the model has no weave there.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#accel_shape_shift).
 pub fn accel_shape_shift<M: LinearWeave>(model: &M, w: &CoastingWindow) -> Option<[f64; 4]> {
     let shape = |m: M| Some(m.weave_shape(w.speed_mps, w.measured)?.1);
     let still = shape(model.accelerating(0.0))?;

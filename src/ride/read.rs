@@ -614,15 +614,10 @@ mod tests {
 
 /// The speed from the reed switch: `Sync` pulses one wheel circumference apart (the header's
 /// `Wheel circumference`), the distance rolled `C k` at the `k`-th pulse's time, and a parabola
-/// `s(t)` fitted through them over `[t0_s, t1_s]`: its slope is the speed.
-///
-/// The distance against time, not the speed `C/Δt` of each pair of pulses: a pulse is known to
-/// the sample (10 ms at 100 Hz, a twentieth to a fiftieth of a wheel turn), and `C/Δt` of a
-/// quantized `Δt` is biased high (its mean over a window is above `C` over the mean `Δt`), and
-/// a line through a handful of them was pulled further by the one pair a late sample split.
-/// On 84 simulated rides at 3.8–6.5 m/s, the pairs' line read +0.0063 ± 0.0028 m/s above the
-/// true speed (0.13 %: a speedometer scale fitted 1 standard error low on every campaign that
-/// compares noted rides with reed-switch ones).
+/// `s(t)` fitted through them over `[t0_s, t1_s]`: its slope is the speed. The distance against
+/// time, not each pair of pulses' `C/Δt`: a pulse is known to the sample, and `C/Δt` of a
+/// quantized `Δt` is biased high.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#syncspeed).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SyncSpeed {
     /// Speed at `at_s` (m/s) and its standard error from the parabola's fit.

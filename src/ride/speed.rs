@@ -402,20 +402,12 @@ fn integral(samples: &[(f64, f64)]) -> f64 {
 }
 
 /// Removes the gravity the frame sensor's forward axis picks up as the rear frame pitches
-/// with lean and steer. The front wheel stays on the ground, so the rear frame's pitch p is a
-/// function of roll θ and steer δ (the Whipple bicycle's holonomic constraint, of second order
-/// in them: `pitch_rad(θ, δ)`, nose up positive, the measured bicycle's,
-/// [`crate::model::nonlinear`]); the axis, level at the standstill, is then raised by Δp cos θ
-/// (Δp the pitch less the upright's; the lab's bicycle pitches nose down as it steers), and
-/// the specific force along it gains `g Δp cos θ`, which integrated over a ride reads as a
-/// change of speed that is not there. Measured on 72 knife-edge rides at 3.8 and 5 m/s kicked
-/// at the lab's 15 N (tests/speed.rs): the speed carried from the release came out 0.0030 ±
-/// 0.0011 m/s low with it, 0.0013 ± 0.0011 without; at 3.8 m/s, where dω/dv = 2.6 /s per m/s,
-/// the difference is 0.004 1/s of the weave's ω.
-///
-/// Each `_cal` sample takes θ and δ at its grid index, linear between the neighbours where the
-/// angles file lacks it; samples outside the angles' span, or where `pitch_rad` has no
-/// answer, are left as they are.
+/// with lean and steer: the pitch p is a function of roll θ and steer δ (the Whipple bicycle's
+/// holonomic constraint, `pitch_rad(θ, δ)`, [`crate::model::nonlinear`]), and the forward
+/// specific force gains `g Δp cos θ`, which integrated reads as a change of speed that is not
+/// there. Each `_cal` sample takes θ and δ at its grid index (linear between neighbours);
+/// samples outside the angles' span, or where `pitch_rad` has no answer, are left as they are.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#remove_pitch_gravity).
 pub fn remove_pitch_gravity(s: &mut RideSignals, pitch_rad: impl Fn(f64, f64) -> Option<f64>) {
     let Some(upright) = pitch_rad(0.0, 0.0) else {
         return;
@@ -521,22 +513,12 @@ pub fn slowing(s: &RideSignals, fit: &ModalFit, to_s: f64) -> Option<Slowing> {
 }
 
 /// The frame sensor's lever arm r (m, sensor axes) from the rear frame's point at the rear
-/// contact, with its covariance. Once the bicycle weaves with a large amplitude (below the
-/// weave speed, steer 0.3–0.6 rad), ω̇ × r and ω × (ω × r) at a sensor above and ahead of the
-/// rear contact put up to 1.8 m/s² into its forward acceleration, which does not average out:
-/// integrated, the speed came out 3–20 standard errors low.
-///
-/// The arm comes from the sensor's lateral and vertical accelerations
-/// ([`LeverSample`]: `e · a = v e · (ω_z ŷ − ω_y ẑ) + c_e · r + b_e` on the left and up axes
-/// e), where ω̇ × r is of first order in the motion: least squares for r, the speed v (a
-/// line in time) and each axis's offset, each axis weighted by its residuals' spread. Not
-/// from the forward acceleration itself: there the arm's terms are of second order (roll
-/// rate times yaw rate for its height), as is the real change of the speed as the weave
-/// gives its energy back to the forward motion, and the two cannot be told apart. From the
-/// forward axis, the arm came out at 0.02–0.07 m in height for the simulated sensor's 0.71 m,
-/// and the speed of rides with a steer motor's rotor (0.05 kg·m², at 3 and 4 m/s) 2.1 and 1.0
-/// of its standard errors low on average (24 rides each); from the lateral and vertical
-/// axes, 0.74–0.82 m, and −0.55 and −0.03 (tests/speed.rs).
+/// contact, with its covariance: a large weave puts ω̇ × r and ω × (ω × r) into the sensor's
+/// forward acceleration, which integrated would read as a slowing. It comes from the lateral
+/// and vertical accelerations ([`LeverSample`]), where ω̇ × r is of first order in the motion
+/// (least squares for r, the speed as a line in time and each axis's offset); on the forward
+/// axis the arm's terms are of second order, as the weave's real exchange of energy is.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#leverarm).
 struct LeverArm {
     r: nalgebra::Vector3<f64>,
     cov: nalgebra::Matrix3<f64>,

@@ -147,17 +147,11 @@ impl Effects {
     /// A realistic mix for the lab's riderless bicycle: steer damping 0.3 N·m·s/rad, no Coulomb
     /// friction, C_rr 0.004, C_dA 0.08 m² (a bare bicycle: ≈0.1 m/s² at 5 m/s for the lab's
     /// 13 kg), two sensors and a speedometer (0.3 kg on the frame, 0.15 kg on the handlebar), a
-    /// speedometer reading 3 % high, tyres with C_α = 11 /rad, C_γ = 0.6 /rad, σ = 0.18 m.
-    ///
-    /// Coulomb friction: the 0.15 N·m measured on an instrumented bicycle with a rider makes the
-    /// lab's light riderless bicycle fall within 2 s of the kick at 4.1 m/s (simulated, seed 3),
-    /// and even 0.04 N·m locks its steer after the first weave cycle (roll and steer stand still
-    /// for 0.5 s at 4 m/s, then slip). Riderless bicycles with good headset bearings follow the
-    /// frictionless Whipple model (Kooijman, Schwab & Meijaard 2008). Even 0.005 N·m lowers the
-    /// fitted weave frequency by 0.1–0.2 rad/s at 5–6 m/s, where the steer swings only a few
-    /// hundredths of a radian, and Coulomb friction has no linearization to state a true
-    /// eigenvalue with; the preset leaves it out (`steer_coulomb_nm` stays for robustness
-    /// tests).
+    /// speedometer reading 3 % high, tyres with C_α = 11 /rad, C_γ = 0.6 /rad, σ = 0.18 m. No
+    /// Coulomb friction: a riderless bicycle with good headset bearings follows the frictionless
+    /// model (Kooijman, Schwab & Meijaard 2008), and friction has no linearization to state a
+    /// true eigenvalue with (`steer_coulomb_nm` stays for robustness tests).
+    /// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#effectsrealistic).
     pub fn realistic() -> Effects {
         Effects {
             steer_viscous_nms_per_rad: 0.3,

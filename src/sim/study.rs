@@ -38,13 +38,11 @@ pub struct StudyTruth {
 }
 
 /// The study of `seed`: 10 rides unpowered at 3.4–5.2 m/s and 10 rides per gain at
-/// 2.5–3.5 m/s, where the controller acts (and where each gain's capsize and castor are real:
-/// below 2.5 m/s they join in a second oscillatory pair that the rides' weave fits do not
-/// model — at 2.3 m/s and G = 1 it is −2.52 ± 1.30i beside the weave's −0.40 ± 3.97i, and the
-/// effect-free rides' weaves came out 0.05 1/s more damped and 0.05 rad/s faster than the
-/// model's, ten of their errors) (the speedometer read at the release to 0.01 m/s,
-/// nothing slowing the coast, as in the `Sync` design of a blind campaign but without its reed
-/// switch), on the measured bicycle off by a draw of its measurement errors.
+/// 2.5–3.5 m/s, where the controller acts and each gain's capsize and castor are still real
+/// (below 2.5 m/s they join in a second oscillatory pair the rides' weave fits do not model);
+/// the speedometer read at the release to 0.01 m/s, nothing slowing the coast, on the
+/// measured bicycle off by a draw of its measurement errors.
+/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#blind_study).
 pub fn blind_study(
     measured: &crate::inertia::bike::LabBike,
     bike_file: &str,
