@@ -1606,6 +1606,141 @@ pub fn crb_omega_variance(amplitude: f64, sigma: f64, dt_s: f64, n: usize, noise
     2.0 * noise_var / (amplitude * amplitude) * s0 / (s0 * s2 - s1 * s1) / (dt_s * dt_s)
 }
 
+/// The periods of repeated trials of one set-up, combined.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SetupPeriods {
+    /// The set-up: the trials' common name (`RobotForkTorsionalFirst` for
+    /// `RobotForkTorsionalFirst1` … `3`).
+    pub setup: String,
+    pub trials: Vec<String>,
+    /// Each trial's damped period (s) with its fit's standard error.
+    pub periods_s: Vec<crate::uncertainty::Measured>,
+    /// Their mean (s), its standard error including the scatter between trials, the flagged
+    /// trials ([`combine_repeats`](crate::uncertainty::combine_repeats)).
+    pub combined: crate::uncertainty::Repeats,
+}
+
+impl SetupPeriods {
+    /// Each trial: its name less the set-up's (the trial number), its period, whether it was
+    /// flagged and left out.
+    pub fn each_trial(&self) -> impl Iterator<Item = (&str, crate::uncertainty::Measured, bool)> {
+        self.trials
+            .iter()
+            .zip(&self.periods_s)
+            .zip(&self.combined.outlier)
+            .map(|((name, p), &flagged)| {
+                (
+                    name.strip_prefix(self.setup.as_str()).unwrap_or(name),
+                    *p,
+                    flagged,
+                )
+            })
+    }
+}
+
+/// The periods of a batch of recordings (`bikeproc period FOLDER`), grouped by set-up, and the
+/// recordings that gave none with the reason. Its JSON is the command's `--json`.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PeriodBatch {
+    pub setups: Vec<SetupPeriods>,
+    /// `file: reason` of each recording that gave no period.
+    pub failed: Vec<String>,
+}
+
+impl PeriodBatch {
+    /// Groups named trials ([`group_trials`]) beside the failures.
+    pub fn new(trials: &[(String, crate::uncertainty::Measured)], failed: Vec<String>) -> Self {
+        PeriodBatch {
+            setups: group_trials(trials),
+            failed,
+        }
+    }
+
+    /// The set-ups as a table: mean damped period with its standard error, where that error
+    /// comes from, the scatter, and each trial (flagged ones starred).
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{:<28} {:>22} {:>24} {:>9}  trials (damped period T, s; * flagged, left out)",
+            "set-up", "mean T (s)", "", "scatter"
+        );
+        for s in &self.setups {
+            let c = &s.combined;
+            let trials: Vec<String> = s
+                .each_trial()
+                .map(|(name, p, flagged)| {
+                    format!(
+                        "{}{name} {:.6} ± {:.6}",
+                        if flagged { "*" } else { "" },
+                        p.value,
+                        p.se
+                    )
+                })
+                .collect();
+            let _ = writeln!(
+                out,
+                "{:<28} {:>11.6} ± {:<8.6} {:>24} {:>8.3}%  {}",
+                s.setup,
+                c.mean.value,
+                c.mean.se,
+                if c.scatter_dominates {
+                    "(SE from the scatter)"
+                } else {
+                    "(SE from the fits)"
+                },
+                100.0 * c.sd / c.plain_mean,
+                trials.join(", ")
+            );
+        }
+        out
+    }
+}
+
+/// A trial's set-up: its name less a trailing trial number (and a `_` or `-` before it), or
+/// less a trial letter after the set-up's number (`frame_torsion_1a`, `…_1b`: set-up
+/// `frame_torsion_1`).
+pub fn setup_name(trial: &str) -> &str {
+    let b = trial.as_bytes();
+    if b.len() >= 2 && b[b.len() - 1].is_ascii_lowercase() && b[b.len() - 2].is_ascii_digit() {
+        return &trial[..trial.len() - 1];
+    }
+    trial
+        .trim_end_matches(|c: char| c.is_ascii_digit())
+        .trim_end_matches(['_', '-'])
+}
+
+/// Groups `(trial name, period)` by set-up ([`setup_name`]), set-ups in the order of their
+/// first trial, and combines each.
+pub fn group_trials(trials: &[(String, crate::uncertainty::Measured)]) -> Vec<SetupPeriods> {
+    let mut setups: Vec<(String, Vec<usize>)> = Vec::new();
+    for (i, (name, _)) in trials.iter().enumerate() {
+        let s = setup_name(name);
+        match setups.iter_mut().find(|(n, _)| n == s) {
+            Some((_, members)) => members.push(i),
+            None => setups.push((s.to_string(), vec![i])),
+        }
+    }
+    setups
+        .into_iter()
+        .map(|(setup, members)| {
+            let periods_s: Vec<_> = members.iter().map(|&i| trials[i].1).collect();
+            SetupPeriods {
+                setup,
+                trials: members.iter().map(|&i| trials[i].0.clone()).collect(),
+                combined: crate::uncertainty::combine_repeats(
+                    &periods_s
+                        .iter()
+                        .map(|m| (m.value, m.se))
+                        .collect::<Vec<_>>(),
+                ),
+                periods_s,
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1920,139 +2055,4 @@ mod tests {
         assert!((sigma.value - 0.05).abs() < 5.0 * sigma.se, "{sigma:?}");
         assert!((omega.value - 5.1).abs() < 5.0 * omega.se, "{omega:?}");
     }
-}
-
-/// The periods of repeated trials of one set-up, combined.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct SetupPeriods {
-    /// The set-up: the trials' common name (`RobotForkTorsionalFirst` for
-    /// `RobotForkTorsionalFirst1` … `3`).
-    pub setup: String,
-    pub trials: Vec<String>,
-    /// Each trial's damped period (s) with its fit's standard error.
-    pub periods_s: Vec<crate::uncertainty::Measured>,
-    /// Their mean (s), its standard error including the scatter between trials, the flagged
-    /// trials ([`combine_repeats`](crate::uncertainty::combine_repeats)).
-    pub combined: crate::uncertainty::Repeats,
-}
-
-impl SetupPeriods {
-    /// Each trial: its name less the set-up's (the trial number), its period, whether it was
-    /// flagged and left out.
-    pub fn each_trial(&self) -> impl Iterator<Item = (&str, crate::uncertainty::Measured, bool)> {
-        self.trials
-            .iter()
-            .zip(&self.periods_s)
-            .zip(&self.combined.outlier)
-            .map(|((name, p), &flagged)| {
-                (
-                    name.strip_prefix(self.setup.as_str()).unwrap_or(name),
-                    *p,
-                    flagged,
-                )
-            })
-    }
-}
-
-/// The periods of a batch of recordings (`bikeproc period FOLDER`), grouped by set-up, and the
-/// recordings that gave none with the reason. Its JSON is the command's `--json`.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct PeriodBatch {
-    pub setups: Vec<SetupPeriods>,
-    /// `file: reason` of each recording that gave no period.
-    pub failed: Vec<String>,
-}
-
-impl PeriodBatch {
-    /// Groups named trials ([`group_trials`]) beside the failures.
-    pub fn new(trials: &[(String, crate::uncertainty::Measured)], failed: Vec<String>) -> Self {
-        PeriodBatch {
-            setups: group_trials(trials),
-            failed,
-        }
-    }
-
-    /// The set-ups as a table: mean damped period with its standard error, where that error
-    /// comes from, the scatter, and each trial (flagged ones starred).
-    pub fn to_text(&self) -> String {
-        use std::fmt::Write as _;
-        let mut out = String::new();
-        let _ = writeln!(
-            out,
-            "{:<28} {:>22} {:>24} {:>9}  trials (damped period T, s; * flagged, left out)",
-            "set-up", "mean T (s)", "", "scatter"
-        );
-        for s in &self.setups {
-            let c = &s.combined;
-            let trials: Vec<String> = s
-                .each_trial()
-                .map(|(name, p, flagged)| {
-                    format!(
-                        "{}{name} {:.6} ± {:.6}",
-                        if flagged { "*" } else { "" },
-                        p.value,
-                        p.se
-                    )
-                })
-                .collect();
-            let _ = writeln!(
-                out,
-                "{:<28} {:>11.6} ± {:<8.6} {:>24} {:>8.3}%  {}",
-                s.setup,
-                c.mean.value,
-                c.mean.se,
-                if c.scatter_dominates {
-                    "(SE from the scatter)"
-                } else {
-                    "(SE from the fits)"
-                },
-                100.0 * c.sd / c.plain_mean,
-                trials.join(", ")
-            );
-        }
-        out
-    }
-}
-
-/// A trial's set-up: its name less a trailing trial number (and a `_` or `-` before it), or
-/// less a trial letter after the set-up's number (`frame_torsion_1a`, `…_1b`: set-up
-/// `frame_torsion_1`).
-pub fn setup_name(trial: &str) -> &str {
-    let b = trial.as_bytes();
-    if b.len() >= 2 && b[b.len() - 1].is_ascii_lowercase() && b[b.len() - 2].is_ascii_digit() {
-        return &trial[..trial.len() - 1];
-    }
-    trial
-        .trim_end_matches(|c: char| c.is_ascii_digit())
-        .trim_end_matches(['_', '-'])
-}
-
-/// Groups `(trial name, period)` by set-up ([`setup_name`]), set-ups in the order of their
-/// first trial, and combines each.
-pub fn group_trials(trials: &[(String, crate::uncertainty::Measured)]) -> Vec<SetupPeriods> {
-    let mut setups: Vec<(String, Vec<usize>)> = Vec::new();
-    for (i, (name, _)) in trials.iter().enumerate() {
-        let s = setup_name(name);
-        match setups.iter_mut().find(|(n, _)| n == s) {
-            Some((_, members)) => members.push(i),
-            None => setups.push((s.to_string(), vec![i])),
-        }
-    }
-    setups
-        .into_iter()
-        .map(|(setup, members)| {
-            let periods_s: Vec<_> = members.iter().map(|&i| trials[i].1).collect();
-            SetupPeriods {
-                setup,
-                trials: members.iter().map(|&i| trials[i].0.clone()).collect(),
-                combined: crate::uncertainty::combine_repeats(
-                    &periods_s
-                        .iter()
-                        .map(|m| (m.value, m.se))
-                        .collect::<Vec<_>>(),
-                ),
-                periods_s,
-            }
-        })
-        .collect()
 }

@@ -192,6 +192,82 @@ pub fn standard_errors(cov: &DMatrix<f64>) -> DVector<f64> {
     )
 }
 
+/// Repeated trials of one set-up, combined ([`combine_repeats`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Repeats {
+    /// The estimate and its standard error: the larger of the fits' own (the weighted mean's)
+    /// and the trials' scatter (the plain mean's, sd/√n), each with its own mean.
+    pub mean: Measured,
+    /// The plain mean and standard deviation of the trials kept (sd 0 with one).
+    pub plain_mean: f64,
+    pub sd: f64,
+    /// Per trial, in the order given: far from the others, so left out of the mean.
+    pub outlier: Vec<bool>,
+    /// The scatter dominates: the trials differ by more than their fits' errors allow (for a
+    /// physical reason, e.g. the body re-clamped between trials), and the mean is the plain one.
+    pub scatter_dominates: bool,
+}
+
+/// Combines repeated measurements `(value, se)` of one quantity.
+///
+/// - With three or more, a trial further than 4 robust standard deviations (1.4826 × the median
+///   absolute deviation, at least its own standard error) *and* 0.5 % from the median is flagged
+///   and left out: a knock or a mislabelled file, not the ordinary scatter.
+/// - The estimate is the larger-error one of two: the mean weighted by the fits' errors with its
+///   internal error (1/√Σwᵢ), or the plain mean with the external error sd/√n. Repeats of a
+///   pendulum scatter by 0.1–0.3 % for physical reasons while one fit's error is 10⁻⁵ relative:
+///   the scatter is then the truth about the quantity (a random-effects view with the
+///   between-trial variance dominating), and a weighted mean would follow one trial.
+///
+/// # Panics
+/// When `values` is empty.
+pub fn combine_repeats(values: &[(f64, f64)]) -> Repeats {
+    assert!(!values.is_empty(), "combine_repeats of no values");
+    let mut outlier = vec![false; values.len()];
+    if values.len() >= 3 {
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let med = median(values.iter().map(|v| v.0).collect());
+        let robust_sd = 1.4826 * median(values.iter().map(|v| (v.0 - med).abs()).collect());
+        for (flag, &(x, se)) in outlier.iter_mut().zip(values) {
+            let d = (x - med).abs();
+            *flag = d > 4.0 * robust_sd.max(se) && d > 0.005 * med.abs();
+        }
+    }
+    let kept: Vec<(f64, f64)> = values
+        .iter()
+        .zip(&outlier)
+        .filter(|(_, o)| !**o)
+        .map(|(v, _)| *v)
+        .collect();
+    let n = kept.len() as f64;
+    let var = |se: f64| se.max(1e-12).powi(2);
+    let wsum: f64 = kept.iter().map(|v| 1.0 / var(v.1)).sum();
+    let weighted = kept.iter().map(|v| v.0 / var(v.1)).sum::<f64>() / wsum;
+    let internal = (1.0 / wsum).sqrt();
+    let plain = kept.iter().map(|v| v.0).sum::<f64>() / n;
+    let sd = if kept.len() > 1 {
+        (kept.iter().map(|v| (v.0 - plain).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    let external = sd / n.sqrt();
+    let scatter_dominates = external > internal;
+    Repeats {
+        mean: if scatter_dominates {
+            Measured::new(plain, external)
+        } else {
+            Measured::new(weighted, internal)
+        },
+        plain_mean: plain,
+        sd,
+        outlier,
+        scatter_dominates,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,81 +357,5 @@ mod tests {
         inp.push_correlated(&[1.0, 2.0], &c);
         let (_, cov) = propagate(&inp, |x| vec![x[0] - x[1]]);
         assert!(cov[(0, 0)].abs() < 1e-15);
-    }
-}
-
-/// Repeated trials of one set-up, combined ([`combine_repeats`]).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Repeats {
-    /// The estimate and its standard error: the larger of the fits' own (the weighted mean's)
-    /// and the trials' scatter (the plain mean's, sd/√n), each with its own mean.
-    pub mean: Measured,
-    /// The plain mean and standard deviation of the trials kept (sd 0 with one).
-    pub plain_mean: f64,
-    pub sd: f64,
-    /// Per trial, in the order given: far from the others, so left out of the mean.
-    pub outlier: Vec<bool>,
-    /// The scatter dominates: the trials differ by more than their fits' errors allow (for a
-    /// physical reason, e.g. the body re-clamped between trials), and the mean is the plain one.
-    pub scatter_dominates: bool,
-}
-
-/// Combines repeated measurements `(value, se)` of one quantity.
-///
-/// - With three or more, a trial further than 4 robust standard deviations (1.4826 × the median
-///   absolute deviation, at least its own standard error) *and* 0.5 % from the median is flagged
-///   and left out: a knock or a mislabelled file, not the ordinary scatter.
-/// - The estimate is the larger-error one of two: the mean weighted by the fits' errors with its
-///   internal error (1/√Σwᵢ), or the plain mean with the external error sd/√n. Repeats of a
-///   pendulum scatter by 0.1–0.3 % for physical reasons while one fit's error is 10⁻⁵ relative:
-///   the scatter is then the truth about the quantity (a random-effects view with the
-///   between-trial variance dominating), and a weighted mean would follow one trial.
-///
-/// # Panics
-/// When `values` is empty.
-pub fn combine_repeats(values: &[(f64, f64)]) -> Repeats {
-    assert!(!values.is_empty(), "combine_repeats of no values");
-    let mut outlier = vec![false; values.len()];
-    if values.len() >= 3 {
-        let median = |mut v: Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
-        };
-        let med = median(values.iter().map(|v| v.0).collect());
-        let robust_sd = 1.4826 * median(values.iter().map(|v| (v.0 - med).abs()).collect());
-        for (flag, &(x, se)) in outlier.iter_mut().zip(values) {
-            let d = (x - med).abs();
-            *flag = d > 4.0 * robust_sd.max(se) && d > 0.005 * med.abs();
-        }
-    }
-    let kept: Vec<(f64, f64)> = values
-        .iter()
-        .zip(&outlier)
-        .filter(|(_, o)| !**o)
-        .map(|(v, _)| *v)
-        .collect();
-    let n = kept.len() as f64;
-    let var = |se: f64| se.max(1e-12).powi(2);
-    let wsum: f64 = kept.iter().map(|v| 1.0 / var(v.1)).sum();
-    let weighted = kept.iter().map(|v| v.0 / var(v.1)).sum::<f64>() / wsum;
-    let internal = (1.0 / wsum).sqrt();
-    let plain = kept.iter().map(|v| v.0).sum::<f64>() / n;
-    let sd = if kept.len() > 1 {
-        (kept.iter().map(|v| (v.0 - plain).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        0.0
-    };
-    let external = sd / n.sqrt();
-    let scatter_dominates = external > internal;
-    Repeats {
-        mean: if scatter_dominates {
-            Measured::new(plain, external)
-        } else {
-            Measured::new(weighted, internal)
-        },
-        plain_mean: plain,
-        sd,
-        outlier,
-        scatter_dominates,
     }
 }

@@ -443,3 +443,59 @@ fn anyhow_only_in_the_command() {
         "the check reads the sources"
     );
 }
+
+/// The top-level lines of `text` after its first unit-test module that are not themselves in
+/// a unit-test module, with their numbers.
+fn code_after_tests(text: &str) -> Vec<usize> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut found = Vec::new();
+    let (mut depth, mut seen_tests, mut in_tests) = (0i64, false, false);
+    for (i, l) in lines.iter().enumerate() {
+        let at_top = depth == 0;
+        if at_top {
+            let test_mod = l.trim() == "#[cfg(test)]"
+                && lines
+                    .get(i + 1)
+                    .is_some_and(|n| n.starts_with("mod ") && n.contains('{'));
+            if test_mod {
+                seen_tests = true;
+                in_tests = true;
+            } else if l.starts_with("mod ") && in_tests {
+                // The test module's own line.
+            } else if !l.trim().is_empty() {
+                in_tests = false;
+                if seen_tests {
+                    found.push(i + 1);
+                }
+            }
+        }
+        depth += l.matches('{').count() as i64 - l.matches('}').count() as i64;
+    }
+    found
+}
+
+/// Issue 78: a file's unit tests come last; no code follows them.
+#[test]
+fn unit_tests_close_their_files() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    sources(&src, &mut files);
+    let found: Vec<String> = files
+        .iter()
+        .filter_map(|f| {
+            let lines = code_after_tests(&std::fs::read_to_string(f).expect("a source file"));
+            (!lines.is_empty()).then(|| format!("{}:{:?}", f.display(), lines))
+        })
+        .collect();
+    assert!(
+        found.is_empty(),
+        "code after the unit tests: {}",
+        found.join("; ")
+    );
+    let late = "fn a() {}\n#[cfg(test)]\nmod tests {\n    fn t() {}\n}\n\nfn b() {}\n";
+    assert_eq!(
+        code_after_tests(late),
+        vec![7],
+        "the check sees code after the tests"
+    );
+}

@@ -117,6 +117,7 @@ impl CoastingBase {
     ///   the ride stage took its correction off at the reported speed, so the prediction carries
     ///   that correction's change (the ride stage's own replay, [`ReplayStart::Weave`]) to the
     ///   candidate's speed; without it a scale fitted low by about its own error.
+    ///
     /// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#coastingbaseshifts).
     pub fn shifts(
         &self,

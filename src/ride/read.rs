@@ -518,100 +518,6 @@ fn events(
     ))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sim::ride::{simulate_ride, Effects, RideSpec};
-
-    /// The release is found at the end of the push: within 0.3 s before the simulator's
-    /// (the push's acceleration falls to 0.3 m/s² of its 2 m/s² peak 0.14 s early).
-    #[test]
-    fn the_release_is_the_end_of_the_push() {
-        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
-        let ride = simulate_ride(&b, &RideSpec::lab(4.5, Effects::realistic()), 8).unwrap();
-        let dir = std::env::temp_dir().join(format!("bikeproc_release_{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
-        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
-        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
-        std::fs::remove_dir_all(&dir).ok();
-        let found = s.release_s.unwrap();
-        let early = ride.truth.release_s - found;
-        assert!(
-            (0.0..0.3).contains(&early),
-            "found {found}, released at {}",
-            ride.truth.release_s
-        );
-    }
-
-    /// Below the weave speed the bicycle falls after the kick and is caught: the kick is still
-    /// found at the kick, not at the fall, and the catch at the catch.
-    #[test]
-    fn a_falling_ride_has_its_kick_and_catch_where_they_were() {
-        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
-        let ride = simulate_ride(&b, &RideSpec::lab(2.6, Effects::default()), 5).unwrap();
-        let dir = std::env::temp_dir().join(format!("bikeproc_fall_{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
-        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
-        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
-        std::fs::remove_dir_all(&dir).ok();
-        let t = &ride.truth;
-        assert!(
-            t.catch_s < t.kick_s + 5.0,
-            "it should have fallen: caught at {}",
-            t.catch_s
-        );
-        assert!(
-            (s.kick_s - (t.kick_s + 0.05)).abs() < 0.05,
-            "kick at {} s, truth {}",
-            s.kick_s,
-            t.kick_s
-        );
-        assert!(
-            (s.catch_s - t.catch_s).abs() < 0.1,
-            "catch at {} s, truth {}",
-            s.catch_s,
-            t.catch_s
-        );
-    }
-
-    /// The simulator's truth (roll q₄, steer q₇) is what comes out of the sensors, to the
-    /// sensors' noise (RMS within 1.5× of it), for roughly mounted sensors and a drifting
-    /// heading.
-    #[test]
-    fn roll_and_steer_come_back_from_the_sensors() {
-        // The lab's light bicycle (the benchmark's 85 kg rider hardly moves under a 15 N kick).
-        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
-        let ride = simulate_ride(&b, &RideSpec::lab(4.5, Effects::default()), 11).unwrap();
-        let dir = std::env::temp_dir().join(format!("bikeproc_ride_{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
-        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
-        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
-        let t = &ride.truth;
-        let (mut sq_roll, mut sq_steer, mut n, mut peak) = (0.0f64, 0.0f64, 0usize, 0.0f64);
-        for (k, &i) in s.index.iter().enumerate() {
-            let i = i as usize;
-            if (i as f64) < t.kick_s * 100.0 || (i as f64) > t.catch_s * 100.0 {
-                continue;
-            }
-            sq_roll += (s.roll_rad[k] - t.roll_rad[i]).powi(2);
-            sq_steer += (s.steer_rad[k] - t.steer_rad[i]).powi(2);
-            n += 1;
-            peak = peak.max(t.roll_rad[i].abs());
-        }
-        std::fs::remove_dir_all(&dir).ok();
-        let (rms_roll, rms_steer) = ((sq_roll / n as f64).sqrt(), (sq_steer / n as f64).sqrt());
-        assert!(peak > 0.02, "the kick moved it: {peak}");
-        // The orientation noise is 0.05° = 0.87 mrad per axis (√2 of it for steer, two sensors).
-        assert!(
-            rms_roll < 1.5 * 0.87e-3 && rms_steer < 1.5 * 1.23e-3,
-            "RMS roll error {rms_roll}, steer {rms_steer} rad"
-        );
-    }
-}
-
 /// The speed from the reed switch: `Sync` pulses one wheel circumference apart (the header's
 /// `Wheel circumference`), the distance rolled `C k` at the `k`-th pulse's time, and a parabola
 /// `s(t)` fitted through them over `[t0_s, t1_s]`: its slope is the speed. The distance against
@@ -795,5 +701,99 @@ mod sync_tests {
         println!("mean z {mean:.3}, sd z {sd:.3}");
         assert!(mean.abs() < 0.1, "mean z {mean}");
         assert!((0.7..=1.3).contains(&sd), "sd z {sd}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::ride::{simulate_ride, Effects, RideSpec};
+
+    /// The release is found at the end of the push: within 0.3 s before the simulator's
+    /// (the push's acceleration falls to 0.3 m/s² of its 2 m/s² peak 0.14 s early).
+    #[test]
+    fn the_release_is_the_end_of_the_push() {
+        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
+        let ride = simulate_ride(&b, &RideSpec::lab(4.5, Effects::realistic()), 8).unwrap();
+        let dir = std::env::temp_dir().join(format!("bikeproc_release_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
+        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
+        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let found = s.release_s.unwrap();
+        let early = ride.truth.release_s - found;
+        assert!(
+            (0.0..0.3).contains(&early),
+            "found {found}, released at {}",
+            ride.truth.release_s
+        );
+    }
+
+    /// Below the weave speed the bicycle falls after the kick and is caught: the kick is still
+    /// found at the kick, not at the fall, and the catch at the catch.
+    #[test]
+    fn a_falling_ride_has_its_kick_and_catch_where_they_were() {
+        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
+        let ride = simulate_ride(&b, &RideSpec::lab(2.6, Effects::default()), 5).unwrap();
+        let dir = std::env::temp_dir().join(format!("bikeproc_fall_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
+        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
+        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let t = &ride.truth;
+        assert!(
+            t.catch_s < t.kick_s + 5.0,
+            "it should have fallen: caught at {}",
+            t.catch_s
+        );
+        assert!(
+            (s.kick_s - (t.kick_s + 0.05)).abs() < 0.05,
+            "kick at {} s, truth {}",
+            s.kick_s,
+            t.kick_s
+        );
+        assert!(
+            (s.catch_s - t.catch_s).abs() < 0.1,
+            "catch at {} s, truth {}",
+            s.catch_s,
+            t.catch_s
+        );
+    }
+
+    /// The simulator's truth (roll q₄, steer q₇) is what comes out of the sensors, to the
+    /// sensors' noise (RMS within 1.5× of it), for roughly mounted sensors and a drifting
+    /// heading.
+    #[test]
+    fn roll_and_steer_come_back_from_the_sensors() {
+        // The lab's light bicycle (the benchmark's 85 kg rider hardly moves under a 15 N kick).
+        let b = crate::model::lab::lab_to_benchmark(&crate::inertia::bike::LabBike::seed());
+        let ride = simulate_ride(&b, &RideSpec::lab(4.5, Effects::default()), 11).unwrap();
+        let dir = std::env::temp_dir().join(format!("bikeproc_ride_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("r.log"), &ride.angles_log).unwrap();
+        std::fs::write(dir.join("r_cal.log"), &ride.cal_log).unwrap();
+        let s = read_ride(&dir.join("r.log"), b.lambda, 1.5).unwrap();
+        let t = &ride.truth;
+        let (mut sq_roll, mut sq_steer, mut n, mut peak) = (0.0f64, 0.0f64, 0usize, 0.0f64);
+        for (k, &i) in s.index.iter().enumerate() {
+            let i = i as usize;
+            if (i as f64) < t.kick_s * 100.0 || (i as f64) > t.catch_s * 100.0 {
+                continue;
+            }
+            sq_roll += (s.roll_rad[k] - t.roll_rad[i]).powi(2);
+            sq_steer += (s.steer_rad[k] - t.steer_rad[i]).powi(2);
+            n += 1;
+            peak = peak.max(t.roll_rad[i].abs());
+        }
+        std::fs::remove_dir_all(&dir).ok();
+        let (rms_roll, rms_steer) = ((sq_roll / n as f64).sqrt(), (sq_steer / n as f64).sqrt());
+        assert!(peak > 0.02, "the kick moved it: {peak}");
+        // The orientation noise is 0.05° = 0.87 mrad per axis (√2 of it for steer, two sensors).
+        assert!(
+            rms_roll < 1.5 * 0.87e-3 && rms_steer < 1.5 * 1.23e-3,
+            "RMS roll error {rms_roll}, steer {rms_steer} rad"
+        );
     }
 }
