@@ -494,27 +494,12 @@ pub fn diagnose_study(
             } else {
                 shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave)
             };
-            RideResidual {
-                ride: o.ride.clone(),
-                condition: is_study.then(|| study[ride_condition[i]].name.clone()),
-                speed_mps: o.speed_mps,
-                speed_correction_mps: o.speed_correction_mps,
-                speed_se_mps: o.speed_se_mps,
-                speed_source: o.speed_source,
-                speed_sources: o.speed_sources.clone(),
-                re: r0[at],
-                im: r0[at + 1],
-                re_se,
-                im_se,
-                re_z: r0[at] / re_se,
-                im_z: r0[at + 1] / im_se,
-                shape_ratio: dr,
-                shape_ratio_se: ratio_se,
-                shape_ratio_z: dr / ratio_se,
-                shape_phase_rad: dp,
-                shape_phase_se_rad: phase_se,
-                shape_phase_z: dp / phase_se,
-            }
+            RideResidual::of(
+                o,
+                is_study.then(|| study[ride_condition[i]].name.clone()),
+                [r0[at], r0[at + 1], dr, dp],
+                [re_se, im_se, ratio_se, phase_se],
+            )
         })
         .collect();
     d.bands = speed_bands(&d.residuals);
@@ -603,21 +588,10 @@ pub fn diagnose_study(
                     let (re_se, im_se) = (se(0, before.re_se), se(1, before.im_se));
                     let ratio_se = se(2, before.shape_ratio_se);
                     let phase_se = se(3, before.shape_phase_se_rad);
-                    RideResidual {
-                        re: r[at],
-                        im: r[at + 1],
-                        re_se,
-                        im_se,
-                        re_z: r[at] / re_se,
-                        im_z: r[at + 1] / im_se,
-                        shape_ratio: dr,
-                        shape_ratio_se: ratio_se,
-                        shape_ratio_z: dr / ratio_se,
-                        shape_phase_rad: dp,
-                        shape_phase_se_rad: phase_se,
-                        shape_phase_z: dp / phase_se,
-                        ..before.clone()
-                    }
+                    before.with(
+                        [r[at], r[at + 1], dr, dp],
+                        [re_se, im_se, ratio_se, phase_se],
+                    )
                 })
                 .collect();
         }

@@ -171,6 +171,58 @@ pub struct RideResidual {
     pub shape_phase_z: f64,
 }
 
+impl RideResidual {
+    /// Ride `o`'s residual (`condition` its study's condition): `values` experiment − model and
+    /// their combined standard errors `se`, each `[re, im, |γ/θ|, arg γ/θ]`, the z's their
+    /// ratios.
+    pub fn of(o: &Observation, condition: Option<String>, values: [f64; 4], se: [f64; 4]) -> Self {
+        RideResidual {
+            ride: o.ride.clone(),
+            condition,
+            speed_mps: o.speed_mps,
+            speed_correction_mps: o.speed_correction_mps,
+            speed_se_mps: o.speed_se_mps,
+            speed_source: o.speed_source,
+            speed_sources: o.speed_sources.clone(),
+            re: 0.0,
+            im: 0.0,
+            re_se: 0.0,
+            im_se: 0.0,
+            re_z: 0.0,
+            im_z: 0.0,
+            shape_ratio: 0.0,
+            shape_ratio_se: 0.0,
+            shape_ratio_z: 0.0,
+            shape_phase_rad: 0.0,
+            shape_phase_se_rad: 0.0,
+            shape_phase_z: 0.0,
+        }
+        .with(values, se)
+    }
+
+    /// The same ride's residual with other `values` and standard errors `se` (as in
+    /// [`RideResidual::of`]): a candidate's, after the ride's before it.
+    pub fn with(&self, values: [f64; 4], se: [f64; 4]) -> Self {
+        let [re, im, ratio, phase] = values;
+        let [re_se, im_se, ratio_se, phase_se] = se;
+        RideResidual {
+            re,
+            im,
+            re_se,
+            im_se,
+            re_z: re / re_se,
+            im_z: im / im_se,
+            shape_ratio: ratio,
+            shape_ratio_se: ratio_se,
+            shape_ratio_z: ratio / ratio_se,
+            shape_phase_rad: phase,
+            shape_phase_se_rad: phase_se,
+            shape_phase_z: phase / phase_se,
+            ..self.clone()
+        }
+    }
+}
+
 /// The residual of a ride's mode shape against `bike` at its weave: (Δ|γ/θ|, Δarg) with the
 /// phase difference wrapped to ±π; NaN when the model has no shape there.
 pub(super) fn shape_residual(
