@@ -45,7 +45,8 @@ fn to_python<'py>(py: Python<'py>, value: &impl serde::Serialize) -> PyResult<Bo
 #[pyfunction]
 fn read_log<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
     let mut log =
-        bikeproc::log::Log::open(&path, &bikeproc::log::ReadOptions::default()).map_err(err)?;
+        bikeproc::read::log::Log::open(&path, &bikeproc::read::log::ReadOptions::default())
+            .map_err(err)?;
     let out = PyDict::new(py);
     out.set_item("path", path.display().to_string())?;
     out.set_item("sample_rate_hz", log.sample_rate_hz)?;
@@ -214,7 +215,7 @@ fn dynamic<'py>(
     }
     let modal = bikeproc::ride::modal::ModalOptions::default();
     if path.extension().is_some_and(|e| e == "toml") {
-        let manifest = dynamic::RideManifest::load(&path).map_err(err)?;
+        let manifest = bikeproc::read::rides::RideManifest::load(&path).map_err(err)?;
         let bike = bike.unwrap_or_else(|| manifest.bike_path());
         let summary = py
             .detach(|| dynamic::campaign_summary(&manifest, &bike, &modal, &|_, _| {}))
@@ -225,7 +226,7 @@ fn dynamic<'py>(
         Some(b) => b,
         None => dynamic::bike_beside(&path).map_err(err)?,
     };
-    let model = bikeproc::model::uncertain::load(&bike).map_err(err)?;
+    let model = bikeproc::read::bicycle::load(&bike).map_err(err)?;
     let options = dynamic::DynamicOptions {
         noted: speed.map(bikeproc::ride::speed::NotedReading::lab),
         prefer_sync: false,
@@ -250,7 +251,7 @@ fn gap<'py>(
     manifest: PathBuf,
     bike: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let m = bikeproc::ride::dynamic::RideManifest::load(&manifest).map_err(err)?;
+    let m = bikeproc::read::rides::RideManifest::load(&manifest).map_err(err)?;
     let model = m.model(bike.as_deref()).map_err(err)?;
     let d = py
         .detach(|| bikeproc::gap::diagnose_campaign(&m, &model, &|_, _, _| {}))
@@ -273,7 +274,7 @@ impl Bicycle {
     #[staticmethod]
     fn from_file(path: PathBuf) -> PyResult<Bicycle> {
         Ok(Bicycle {
-            model: bikeproc::model::uncertain::load(&path).map_err(err)?,
+            model: bikeproc::read::bicycle::load(&path).map_err(err)?,
         })
     }
 

@@ -9,7 +9,7 @@
 //!   against argmin's `NelderMead` on Rosenbrock's function from (−1.2, 1) (minimum (1, 1)).
 //! - The simulator's Dormand–Prince 5(4) (`bikeproc::sim::ode`) against ode_solvers' `Dopri5`
 //!   on a damped oscillator over 10 s (closed form), both at rtol 1e-10, atol 1e-12.
-//! - The simulator's second-order jets (`bikeproc::sim::jet`) against num-dual's `Dual2_64` on
+//! - The simulator's second-order jets (`bikeproc::jet`) against num-dual's `Dual2_64` on
 //!   a kinematics-like function of three coordinates along one direction.
 
 use bikeproc::fit::{self, FitOptions};
@@ -270,8 +270,8 @@ fn dopri5_ode_solvers_oscillator_10_s() -> ([f64; 2], u32) {
 }
 
 /// f(a, b, c) = sin a cos b √(1 + c²) + cos(a + b) / (2 + sin c), over bikeproc's jets.
-fn kinematics_jet(q: [f64; 3], qd: [f64; 3]) -> bikeproc::sim::jet::Jet {
-    use bikeproc::sim::jet::{Jet, Scalar};
+fn kinematics_jet(q: [f64; 3], qd: [f64; 3]) -> bikeproc::jet::Jet {
+    use bikeproc::jet::{Jet, Scalar};
     let [a, b, c] = [0, 1, 2].map(|i| Jet::var(q[i], qd[i]));
     let one = Jet::c(1.0);
     a.sin() * b.cos() * (one + c * c).sqrt() + (a + b).cos() / (Jet::c(2.0) + c.sin())
@@ -289,7 +289,7 @@ const Q: [f64; 3] = [0.3, -0.7, 1.1];
 const QD: [f64; 3] = [1.5, 0.4, -2.0];
 
 #[divan::bench(sample_count = 200)]
-fn jet_bikeproc_kinematics() -> bikeproc::sim::jet::Jet {
+fn jet_bikeproc_kinematics() -> bikeproc::jet::Jet {
     kinematics_jet(divan::black_box(Q), divan::black_box(QD))
 }
 
