@@ -629,3 +629,26 @@ fn a_roll_rate_logged_alone_is_a_table() {
     assert!((re + 1.2).abs() < 0.06, "σ {re}");
     assert!((im - 9.0).abs() < 0.09, "ω {im}");
 }
+
+/// Issue 78: formats are recognised by content, so a file's name no longer decides; a campaign
+/// manifest with a misspelt table (`[[rides]]`) is not recognised as one, yet is TOML, and goes
+/// to the manifest's reader, which names the key and its line (not to the log reader), whatever
+/// the file is called.
+#[test]
+fn a_misspelt_manifest_meets_the_manifests_reader_under_any_name() {
+    let dir = std::env::temp_dir().join(format!("bikeproc_misspelt_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text =
+        "version = 1\nbike = \"b.toml\"\n\n[[rides]]\nlog = \"x.log\"\nnoted_speed_mps = 4.0\n";
+    for name in ["rides.toml", "campaign.txt"] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let (code, _, err) = bikeproc(&["dynamic", path.to_str().unwrap()]);
+        assert_eq!(code, 2, "{name}: {err}");
+        assert!(
+            err.contains(&format!("{name}:4: unknown key `rides`")),
+            "{name}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -130,7 +130,7 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
             .into());
         }
     }
-    if kind == Kind::RideManifest {
+    if kind == Kind::RideManifest || (kind == Kind::Unknown && kind::is_toml_document(&a.file)) {
         return campaign(&a, &modal);
     }
     let bike = match &a.bike {

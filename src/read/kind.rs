@@ -356,6 +356,16 @@ fn folder_kind(path: &Path) -> Kind {
         .unwrap_or(Kind::Folder)
 }
 
+/// Whether `path` holds a TOML document (any), for a file [`recognise`] does not know: a
+/// manifest with a misspelt table is still handed to the manifest's reader, which names the
+/// line, rather than to another format's. An IMU log or a CSV table is never valid TOML.
+pub fn is_toml_document(path: &Path) -> bool {
+    read_text_bytes(path)
+        .ok()
+        .and_then(|b| String::from_utf8(b).ok())
+        .is_some_and(|t| t.parse::<toml::Table>().is_ok())
+}
+
 /// The message for `path` given where `wanted` (in words) is expected: what it is, and the
 /// command that reads it. `None` when its kind is among `accepted` or not recognised (the
 /// reader then speaks).
