@@ -227,10 +227,6 @@ fn import_graph(src: &Path) -> Vec<(PathBuf, Vec<PathBuf>)> {
     let mut graph = Vec::new();
     for f in &files {
         let (bin, me) = module_of(src, f);
-        let is_dir_module = matches!(
-            f.file_stem().and_then(|s| s.to_str()),
-            Some("mod" | "lib" | "main")
-        );
         let text = std::fs::read_to_string(f).expect("a source file");
         let mut targets: Vec<PathBuf> = Vec::new();
         for p in paths_named(&text) {
@@ -245,7 +241,6 @@ fn import_graph(src: &Path) -> Vec<(PathBuf, Vec<PathBuf>)> {
                 "self" => (bin, me.clone()),
                 "super" => {
                     let mut base = me.clone();
-                    let _ = is_dir_module;
                     base.pop();
                     while parts.get(1).is_some_and(|s| s == "super") {
                         base.pop();

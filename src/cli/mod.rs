@@ -180,31 +180,40 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// Whether the error comes from an input that is malformed or cannot be analysed.
+/// Whether the error comes from an input that is malformed or cannot be analysed: one of its
+/// chain is an input's kind ([`is_input_kind`]); a report's error is judged by the stage error
+/// it wraps.
 fn is_input_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
-        c.is::<bikeproc::read::log::LogError>()
-            || c.is::<signal::SignalError>()
-            || c.is::<fit::FitError>()
-            || c.is::<fit::MeasureError>()
-            || c.is::<inertia::InertiaError>()
-            || c.is::<bikeproc::read::manifest::ManifestError>()
-            || c.is::<inertia::measured::MeasuredError>()
-            || c.is::<bikeproc::model::ParamError>()
-            || c.is::<bikeproc::model::sensitivity::SensitivityError>()
-            || c.is::<bikeproc::model::design::DesignError>()
-            || c.is::<bikeproc::ride::RideError>()
-            || c.is::<bikeproc::model::control::ControlError>()
-            || c.is::<NoRideAnalysed>()
-            || c.is::<Refused>()
-            || c.is::<bikeproc::read::kind::WrongKind>()
+        is_input_kind(c)
             || c.downcast_ref::<bikeproc::report::ReportError>()
-                .is_some_and(|r| r.is_input())
-            || matches!(
-                c.downcast_ref::<bikeproc::output::OutputError>(),
-                Some(bikeproc::output::OutputError::OverInput { .. })
-            )
+                .and_then(|r| r.stage_error())
+                .is_some_and(is_input_kind)
     })
+}
+
+/// The error kinds that mean an input (or the command line) is at fault: the list that makes
+/// exit code 2.
+fn is_input_kind(c: &(dyn std::error::Error + 'static)) -> bool {
+    c.is::<bikeproc::read::log::LogError>()
+        || c.is::<signal::SignalError>()
+        || c.is::<fit::FitError>()
+        || c.is::<fit::MeasureError>()
+        || c.is::<inertia::InertiaError>()
+        || c.is::<bikeproc::read::manifest::ManifestError>()
+        || c.is::<inertia::measured::MeasuredError>()
+        || c.is::<bikeproc::model::ParamError>()
+        || c.is::<bikeproc::model::sensitivity::SensitivityError>()
+        || c.is::<bikeproc::model::design::DesignError>()
+        || c.is::<bikeproc::ride::RideError>()
+        || c.is::<bikeproc::model::control::ControlError>()
+        || c.is::<NoRideAnalysed>()
+        || c.is::<Refused>()
+        || c.is::<bikeproc::read::kind::WrongKind>()
+        || matches!(
+            c.downcast_ref::<bikeproc::output::OutputError>(),
+            Some(bikeproc::output::OutputError::OverInput { .. })
+        )
 }
 
 #[cfg(test)]

@@ -15,35 +15,10 @@ use std::path::{Path, PathBuf};
 
 /// A campaign of rides (`rides.toml`, version 1): the bicycle and each ride's log with the
 /// speedometer's reading the lab noted at the release; optionally the speedometer's display
-/// step and its error per reading (defaults: 0.1 m/s and 1 %, [`NotedReading::lab`]), and a
-/// steer controller the bicycle carries ([`crate::model::control`]).
-///
-/// ```toml
-/// version = 1
-/// bike = "lab_bike.toml"
-/// speedometer_resolution_mps = 0.1
-/// speedometer_se_fraction = 0.01
-///
-/// [[ride]]
-/// log = "ride_01.log"
-/// noted_speed_mps = 2.7
-///
-/// # Another instrument's ride (a CSV, [`super::csv`]): its columns by other names, the free
-/// # decay's window (s; without it a short record is one decay and a long one's kicks are
-/// # found), the reading (a treadmill's) where it has no wheel-speed column.
-/// [[ride]]
-/// log = "gain6_10kmh_kick1.csv"
-/// columns = "roll_rate=gyro_x,time=time"
-/// window_s = [0.0, 2.0]
-/// noted_speed_mps = 2.778
-///
-/// [controller]
-/// speeds_mps = [0.0, 4.7, 20.0]
-/// roll_rate_nms_per_rad = [28.2, 0.0, 0.0]
-/// ```
-///
-/// Instead of the table, `controller = "gains.toml"` (before the first table) names a file
-/// holding one, relative to the manifest: a lab's controller kept once for its campaigns.
+/// step and its error per reading (defaults: 0.1 m/s and 1 %, [`NotedReading::lab`]), another
+/// instrument's CSV rides, a steer controller the bicycle carries ([`crate::model::control`])
+/// and known added masses. The format, with an example:
+/// [docs/formats/rides-manifest.md](../../docs/formats/rides-manifest.md).
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RideManifest {

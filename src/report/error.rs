@@ -57,25 +57,30 @@ pub enum ReportError {
 }
 
 impl ReportError {
-    /// Whether a reader or a stage refused an input (malformed, or not analysable: the command
-    /// exits with 2), rather than the machine, the model or a figure failing (1).
-    pub fn is_input(&self) -> bool {
+    /// The stage's own error this one wraps (for a read or a fit, its cause), by which the
+    /// command decides its exit code as for the stage's error met directly; `None` for an
+    /// input unfit for its report ([`ReportError::Data`]).
+    pub fn stage_error(&self) -> Option<&(dyn std::error::Error + 'static)> {
         use ReportError as E;
         match self {
-            E::Log(_)
-            | E::Signal(_)
-            | E::Fit(_)
-            | E::Analysis { .. }
-            | E::Measure(_)
-            | E::Inertia(_)
-            | E::Measured(_)
-            | E::Manifest(_)
-            | E::Param(_)
-            | E::Ride(_)
-            | E::Sensitivity(_) => true,
-            E::Read { .. } | E::Data(_) | E::Gap(_) | E::Tensor(_) | E::Output(_) => false,
+            E::Read { source, .. } => Some(source),
+            E::Analysis { source, .. } => Some(source),
+            E::Data(_) => None,
+            E::Log(e) => Some(e),
+            E::Signal(e) => Some(e),
+            E::Fit(e) => Some(e),
+            E::Measure(e) => Some(e),
+            E::Inertia(e) => Some(e),
+            E::Measured(e) => Some(e),
+            E::Manifest(e) => Some(e),
+            E::Param(e) => Some(e),
+            E::Ride(e) => Some(e),
+            E::Gap(e) => Some(e),
+            E::Tensor(e) => Some(e),
+            E::Sensitivity(e) => Some(e),
             #[cfg(feature = "plot")]
-            E::Plot(_) => false,
+            E::Plot(e) => Some(e),
+            E::Output(e) => Some(e),
         }
     }
 }
