@@ -9,6 +9,8 @@
 //! - [`kind`]: what an input is, from its first kilobytes.
 //! - [`log`]: the lab's IMU logs (`../shared/formats/imu-log.md`) → samples on the 100 Hz grid.
 //! - [`csv`]: tables of time series (CSV) → a signal, a table, or rows as they stream.
+//! - [`ride_csv`]: rides from other instruments (CSV with named columns) → a ride in SI
+//!   units, or a long recording's kick series and the marks to come back to its kicks.
 //! - [`manifest`]: pendulum test manifests, and the TOML reading every manifest shares
 //!   (line-numbered errors, the version, files kept inside the manifest's folder).
 //! - [`rides`]: campaign manifests (`rides.toml`); [`study`]: study manifests.
@@ -25,5 +27,6 @@ pub mod csv;
 pub mod kind;
 pub mod log;
 pub mod manifest;
+pub mod ride_csv;
 pub mod rides;
 pub mod study;

@@ -177,7 +177,7 @@ impl Times {
 /// What kicks are found in, 9 bytes a row: the times, the roll rate (its column, or the roll's
 /// central difference) and whether the wheel turns at over [`MOVING_MPS`] (every row when the
 /// file has no wheel speed). A day at 100 Hz in under 80 MB.
-#[derive(Debug, Default)]
+#[derive(Debug, Default, PartialEq)]
 pub struct KickSeries {
     pub(super) times: Times,
     pub(super) rate: Vec<f32>,
@@ -185,14 +185,14 @@ pub struct KickSeries {
 }
 
 impl KickSeries {
-    pub(super) fn push(&mut self, t: f64, value: f64, moving: bool) {
+    pub(crate) fn push(&mut self, t: f64, value: f64, moving: bool) {
         self.times.push(t);
         self.rate.push(value as f32);
         self.moving.push(moving);
     }
 
     /// The roll (held in `rate`) replaced by its central difference, in place.
-    pub(super) fn differentiate(&mut self) {
+    pub(crate) fn differentiate(&mut self) {
         let n = self.rate.len();
         let mut before = self.rate.first().copied().unwrap_or(0.0);
         for i in 0..n {
@@ -218,7 +218,7 @@ impl KickSeries {
         f64::from(self.rate[i])
     }
 
-    pub(super) fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.times.len()
     }
 }

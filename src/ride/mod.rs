@@ -8,8 +8,8 @@
 //! - [`dynamic`]: one ride or a campaign: window, speed, fit, the model beside it.
 //! - [`speed`]: the speed where the eigenvalue applies, from the noted reading carried by
 //!   the measured slowing, the reed switch, and the rolling kinematics, compared.
-//! - [`csv`]: rides from other instruments, a CSV of named time series → one free decay
-//!   fitted, the speed from the wheel-speed column.
+//! - [`csv`]: rides from other instruments (read in [`crate::read::ride_csv`]) → each free
+//!   decay fitted, the speed from the wheel-speed column.
 //! - [`kicks`]: a long recording's kicks and the free decay after each, from its roll rate.
 //! - Campaigns and studies come from their manifests, read in [`crate::read::rides`] and
 //!   [`crate::read::study`].
