@@ -652,3 +652,54 @@ fn a_misspelt_manifest_meets_the_manifests_reader_under_any_name() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `simulate check-calibration` names a record the code no longer gives (exit 1), and refuses
+/// a file that is not a calibration's results (exit 2). The record tampered with is one the
+/// check replays: the sync design's first effect-free campaign, its best fit moved by 1e-6.
+#[test]
+fn a_calibration_record_the_code_no_longer_gives_is_named() {
+    let dir = std::env::temp_dir().join(format!("bikeproc_check_cal_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(root().join("docs/gap-calibration.json")).unwrap();
+    let mut records: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let entry = records
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|e| e["effect"] == "none" && e["design"] == "sync")
+        .unwrap();
+    let before = entry["best_params"][0].as_f64().unwrap();
+    entry["best_params"][0] = serde_json::json!(before + 1e-6);
+    let json = dir.join("gap-calibration.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&records).unwrap()).unwrap();
+    std::fs::copy(
+        root().join("docs/gap-calibration.md"),
+        dir.join("gap-calibration.md"),
+    )
+    .unwrap();
+    let bike = root().join("data/lab_bike.toml");
+    let args = |file: &Path| {
+        [
+            "simulate",
+            "check-calibration",
+            file.to_str().unwrap(),
+            "--bike",
+            bike.to_str().unwrap(),
+        ]
+        .map(str::to_string)
+    };
+    let a = args(&json);
+    let (code, _, err) = bikeproc(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("none sync seed 1001: .best_params[0]: recorded"),
+        "{err}"
+    );
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, "[{\"effect\": \"none\",").unwrap();
+    let a = args(&bad);
+    let (code, _, err) = bikeproc(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("bad.json:1:"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

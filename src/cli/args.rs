@@ -654,6 +654,26 @@ pub enum SimCommand {
         #[arg(long)]
         results: Option<PathBuf>,
     },
+    /// A calibration file held true to the code: a few of its recorded campaigns (studies) of
+    /// each design (kind) run again and compared with their record (numbers to 1e-9 of their size, all else exactly), and the Markdown
+    /// beside it rendered again from the record. Exits 1 on any difference: the code under
+    /// the file has moved, and the file must be made again by the command it names.
+    #[command(
+        name = "check-calibration",
+        after_help = "Example (as CI runs it, about 1 min on 2 cores):\n  bikeproc simulate check-calibration docs/gap-calibration.json docs/study-calibration.json"
+    )]
+    CheckCalibration {
+        /// The calibrations' results (`NAME.json`, beside `NAME.md`).
+        #[arg(required = true)]
+        results: Vec<PathBuf>,
+        /// Campaigns replayed per design beside its first effect-free one (gap); studies per
+        /// kind (study).
+        #[arg(long, default_value_t = 1)]
+        per_design: usize,
+        /// The measured bicycle the calibration was made on.
+        #[arg(long, default_value = "data/lab_bike.toml")]
+        bike: PathBuf,
+    },
     /// The lab's whole pendulum campaign (seed §5.3), as data/ holds it.
     #[command(after_help = "Example:\n  bikeproc simulate campaign --out /tmp/campaign")]
     Campaign {

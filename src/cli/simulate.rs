@@ -89,9 +89,14 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             bike,
             out,
         } => {
-            refuse_files_over_inputs(&[&out], &[&bike], None)?;
+            refuse_files_over_inputs(&[&out, &out.with_extension("json")], &[&bike], None)?;
             return study_calibration(studies, near_nominal, controls, &bike, &out);
         }
+        SimCommand::CheckCalibration {
+            results,
+            per_design,
+            bike,
+        } => return check_calibration(&results, per_design, &bike),
         SimCommand::RideFaults { out } => {
             let bike = LabBike::load(Path::new("data/lab_bike.toml"))?;
             return write_generated(&out, &campaign::ride_fault_fixtures(&bike)?);
@@ -266,7 +271,62 @@ fn study_calibration(
         out,
         study_markdown(&results, &failures, &command).as_bytes(),
     )?;
-    note!("wrote {}", out.display());
+    let json = serde_json::to_string_pretty(&results)?;
+    write_atomic(&out.with_extension("json"), json.as_bytes())?;
+    note!("wrote {} and its .json", out.display());
+    Ok(())
+}
+
+/// `simulate check-calibration`: each file's Markdown rendered again from its results, and a
+/// few of its cases replayed against their record; a line per case, exit 1 on a difference.
+fn check_calibration(files: &[std::path::PathBuf], per_design: usize, bike: &Path) -> Result<()> {
+    use sim::replay;
+    let lab = LabBike::load(bike)?;
+    let bike_text =
+        std::fs::read_to_string(bike).with_context(|| format!("reading {}", bike.display()))?;
+    let mut differ = Vec::new();
+    for json in files {
+        let text =
+            std::fs::read_to_string(json).with_context(|| format!("reading {}", json.display()))?;
+        let records = replay::parse_records(json, &text)?;
+        let md_path = json.with_extension("md");
+        let md = std::fs::read_to_string(&md_path)
+            .with_context(|| format!("reading {}", md_path.display()))?;
+        let command = replay::made_by(&md)
+            .ok_or_else(|| anyhow::anyhow!("{}: no \"Made by `…`\" line", md_path.display()))?;
+        let rendered =
+            replay::render(&records, command).with_context(|| format!("{}", json.display()))?;
+        if rendered == md {
+            note!(
+                "{}: rendered again from {}: the same",
+                md_path.display(),
+                json.display()
+            );
+        } else {
+            differ.push(format!(
+                "{} is not what {} renders to",
+                md_path.display(),
+                json.display()
+            ));
+        }
+        let replayed = replay::replay(&records, per_design, &lab, &bike_text, &|case| {
+            note!("{}: replaying {case}", json.display())
+        })
+        .with_context(|| format!("{}", json.display()))?;
+        for r in replayed {
+            match r.difference {
+                None => note!("{}: {}: the same", json.display(), r.case),
+                Some(d) => differ.push(format!("{}: {}: {d}", json.display(), r.case)),
+            }
+        }
+    }
+    if !differ.is_empty() {
+        anyhow::bail!(
+            "the calibration files no longer hold for this code (make them again by the \
+             command each names):\n  {}",
+            differ.join("\n  ")
+        );
+    }
     Ok(())
 }
 

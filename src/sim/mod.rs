@@ -16,6 +16,7 @@ pub mod imu;
 pub mod linearize;
 pub mod ode;
 pub mod pendulum;
+pub mod replay;
 pub mod ride;
 pub mod study;
 pub mod whipple;

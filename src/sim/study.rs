@@ -23,7 +23,7 @@ pub const STUDY_GAINS: [f64; 3] = [1.0, 1.5, 2.0];
 pub const CONTROL_BELOW_MPS: f64 = 3.5;
 
 /// The sealed truth of a blind study.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct StudyTruth {
     /// The motor's rotor inertia reflected to the steer axis (kg·m²): 0.01–0.1. (On the lab's
     /// light bicycle, whose handlebar assembly has I_xx 0.31 kg·m², 0.23 already makes it fall
@@ -179,7 +179,7 @@ const PAIR: &str = "actuator_gain + steer_inertia";
 const INERTIA: &str = "steer_inertia";
 
 /// The kinds of study a calibration runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum StudyKind {
     /// The motor drawn away from nominal ([`blind_study`]).
     Blind,
@@ -190,6 +190,13 @@ pub enum StudyKind {
 }
 
 impl StudyKind {
+    /// Every kind, in a calibration's order.
+    pub const ALL: [StudyKind; 3] = [
+        StudyKind::Blind,
+        StudyKind::NearNominal,
+        StudyKind::EffectFree,
+    ];
+
     /// Its name in a calibration's progress lines.
     pub fn label(self) -> &'static str {
         match self {
@@ -201,7 +208,7 @@ impl StudyKind {
 }
 
 /// What the diagnosis said of one blind study, beside its truth.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct StudyResult {
     pub seed: u64,
     pub kind: StudyKind,
@@ -213,18 +220,38 @@ pub struct StudyResult {
     pub truth: Option<StudyTruth>,
     pub rides_used: usize,
     pub significant: bool,
+    /// NaN (`null` in the JSON) where no candidate was fitted.
+    #[serde(deserialize_with = "nan_for_null")]
     pub campaign_p_value: f64,
     pub best: String,
     pub tied: Vec<String>,
     /// The pair named first, or tied at the top, with a significant gap.
     pub named: bool,
     /// The joint diagnosis's `actuator_gain + steer_inertia` (three gains, then the inertia)
-    /// with standard errors, wherever it ranks.
+    /// with standard errors, wherever it ranks (an error NaN, `null` in the JSON, at a bound).
+    #[serde(deserialize_with = "fit_nan_for_null")]
     pub motor_fit: Option<(Vec<f64>, Vec<f64>)>,
     /// The single-campaign diagnoses of the powered conditions: how many name the pair first
     /// (or tied at the top), and their inertia fits `(value, se)` where they do.
     pub singles_named: usize,
     pub singles_inertia: Vec<(f64, f64)>,
+}
+
+/// A number written `null` (serde_json's NaN) read back as NaN, so that a calibration's JSON
+/// renders its Markdown again.
+fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
+    Ok(v.unwrap_or(f64::NAN))
+}
+
+/// [`StudyResult::motor_fit`] read back, its `null` numbers as NaN.
+#[allow(clippy::type_complexity)]
+fn fit_nan_for_null<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<Option<(Vec<f64>, Vec<f64>)>, D::Error> {
+    let v: Option<(Vec<Option<f64>>, Vec<Option<f64>>)> = serde::Deserialize::deserialize(d)?;
+    let nan = |x: Vec<Option<f64>>| x.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+    Ok(v.map(|(a, b)| (nan(a), nan(b))))
 }
 
 /// Simulates the study of `seed` (the motor drawn, or effect-free) into a scratch folder and

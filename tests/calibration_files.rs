@@ -1,0 +1,54 @@
+//! The checked-in calibrations hold for today's code (issue 75): each Markdown is what its
+//! JSON of per-campaign (per-study) results renders to, and a few recorded cases of every
+//! design (kind), run again from their seeds, give their record (numbers within 1e-9 of their
+//! size, names, counts and flags exactly). A change that moves a calibration fails here until
+//! the file is made again by the command it names (`bikeproc simulate check-calibration` runs
+//! the same check from the command line).
+
+use bikeproc::inertia::bike::LabBike;
+use bikeproc::sim::replay::{calibration_of, made_by, render, replay, Calibration};
+use std::path::Path;
+
+fn check(json: &str, expected: Calibration) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join(json)).unwrap();
+    let records: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(calibration_of(&records).unwrap(), expected);
+    let md_path = root.join(Path::new(json).with_extension("md"));
+    let md = std::fs::read_to_string(&md_path).unwrap();
+    let command = made_by(&md).expect("the Markdown names its command");
+    assert!(
+        render(&records, command).unwrap() == md,
+        "{} is not what {json} renders to: make both again with `{command}`",
+        md_path.display()
+    );
+    let bike_path = root.join("data/lab_bike.toml");
+    let lab = LabBike::load(&bike_path).unwrap();
+    let bike_text = std::fs::read_to_string(&bike_path).unwrap();
+    let replayed = replay(&records, 1, &lab, &bike_text, &|_| {}).unwrap();
+    // Gap: per design its first effect-free campaign and one blind one; study: one per kind.
+    let cases = match expected {
+        Calibration::Gap => 6,
+        Calibration::Study => 3,
+    };
+    assert_eq!(replayed.len(), cases);
+    let differ: Vec<String> = replayed
+        .iter()
+        .filter_map(|r| r.difference.as_ref().map(|d| format!("{}: {d}", r.case)))
+        .collect();
+    assert!(
+        differ.is_empty(),
+        "{json} no longer holds for this code; make it again with `{command}`:\n  {}",
+        differ.join("\n  ")
+    );
+}
+
+#[test]
+fn the_gap_calibration_replays_its_record() {
+    check("docs/gap-calibration.json", Calibration::Gap);
+}
+
+#[test]
+fn the_study_calibration_replays_its_record() {
+    check("docs/study-calibration.json", Calibration::Study);
+}
