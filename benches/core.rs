@@ -440,3 +440,82 @@ fn sensitivity_rigid(bencher: divan::Bencher) {
     let model = bikeproc::read::bicycle::load(&path).expect("RigidBenchmark.txt");
     bencher.bench(|| bikeproc::model::sensitivity::sensitivity(&model, &[5.0], 10.0).unwrap());
 }
+
+/// Issue 75: the ride stage's CPU per ride: the 16 rides of `data/rides.toml` (read both
+/// files, find the window, fit, resample, the model's weave) on one thread, so that the time
+/// over 16 is one ride's CPU (the issue's bound: 5 ms).
+#[divan::bench(sample_count = 10)]
+fn ride_stage_16_rides_one_thread(bencher: divan::Bencher) {
+    use bikeproc::read::rides::RideManifest;
+    use bikeproc::ride::dynamic::run_campaign;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
+    let modal = bikeproc::ride::modal::ModalOptions::default();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("one thread");
+    bencher.bench(|| pool.install(|| run_campaign(&manifest, &model, &modal, &|_, _| {})));
+}
+
+/// A campaign of `rides` rides in a temporary folder: `data/`'s 16 ride logs (and their
+/// calibration logs) copied as many times as it takes, each copy with its ride's noted speed,
+/// and the bicycle; its manifest's path.
+fn copied_campaign(rides: usize) -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data");
+    let dir = std::env::temp_dir().join(format!("bikeproc_bench_copied_{rides}"));
+    let manifest = dir.join("rides.toml");
+    if manifest.exists() {
+        return manifest;
+    }
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    std::fs::copy(root.join("lab_bike.toml"), dir.join("lab_bike.toml")).expect("copy");
+    let data = std::fs::read_to_string(root.join("rides.toml")).expect("data/rides.toml");
+    let table: toml::Table = data.parse().expect("data/rides.toml is TOML");
+    let entries = table["ride"].as_array().expect("[[ride]]");
+    let mut text = String::from("version = 1\nbike = \"lab_bike.toml\"\n");
+    for k in 0..rides {
+        let entry = &entries[k % entries.len()];
+        let log = entry["log"].as_str().expect("log");
+        let stem = log.trim_end_matches(".log");
+        let copy = format!("{stem}_c{k:04}");
+        for (from, to) in [
+            (format!("{stem}.log"), format!("{copy}.log")),
+            (format!("{stem}_cal.log"), format!("{copy}_cal.log")),
+        ] {
+            if root.join(&from).exists() {
+                std::fs::copy(root.join(&from), dir.join(to)).expect("copy");
+            }
+        }
+        text += &format!("\n[[ride]]\nlog = \"{copy}.log\"\n");
+        if let Some(v) = entry.get("noted_speed_mps") {
+            text += &format!("noted_speed_mps = {v}\n");
+        }
+    }
+    std::fs::write(&manifest, text).expect("write the manifest");
+    manifest
+}
+
+/// Issue 75: `bikeproc gap` on 1,000 rides (data/'s logs copied, the noted speeds kept as they
+/// are): every ride's dynamic test and the diagnosis, on rayon's threads (two on this
+/// machine). The issue's bound: 10 s wall.
+#[divan::bench(sample_count = 1)]
+fn gap_campaign_1000_copied_rides(bencher: divan::Bencher) {
+    use bikeproc::read::rides::RideManifest;
+    let manifest = RideManifest::load(&copied_campaign(1000)).expect("the copied campaign");
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
+    bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}));
+}
+
+/// Issue 75: a long treadmill recording as `bikeproc dynamic FILE.csv` analyses it: read,
+/// kicks found, every kick's decay fitted. The issue's bound: 10 s for 10 million rows.
+#[divan::bench(args = [1_000_000, 10_000_000], sample_count = 1)]
+fn csv_ride_decays_by_rows(bencher: divan::Bencher, rows: usize) {
+    use bikeproc::ride::csv::{ride_decays_file, Columns};
+    let path = treadmill_csv(rows);
+    let modal = bikeproc::ride::modal::ModalOptions::default();
+    bencher.bench(|| {
+        ride_decays_file(&path, &Columns::default(), None, None, None, None, &modal).expect("reads")
+    });
+}
