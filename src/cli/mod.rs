@@ -210,8 +210,6 @@ fn is_input_kind(c: &(dyn std::error::Error + 'static)) -> bool {
         || c.is::<NoRideAnalysed>()
         || c.is::<Refused>()
         || c.is::<bikeproc::read::kind::WrongKind>()
-        || c.downcast_ref::<bikeproc::sim::replay::ReplayError>()
-            .is_some_and(|r| r.is_input())
         || matches!(
             c.downcast_ref::<bikeproc::output::OutputError>(),
             Some(bikeproc::output::OutputError::OverInput { .. })

@@ -288,7 +288,9 @@ fn check_calibration(files: &[std::path::PathBuf], per_design: usize, bike: &Pat
     for json in files {
         let text =
             std::fs::read_to_string(json).with_context(|| format!("reading {}", json.display()))?;
-        let records = replay::parse_records(json, &text)?;
+        // A file that is not a calibration's results is the input's fault (exit 2).
+        let records =
+            replay::parse_records(json, &text).map_err(|e| super::Refused(e.to_string()))?;
         let md_path = json.with_extension("md");
         let md = std::fs::read_to_string(&md_path)
             .with_context(|| format!("reading {}", md_path.display()))?;

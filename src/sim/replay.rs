@@ -37,13 +37,6 @@ pub enum ReplayError {
     Run(#[from] BlindError),
 }
 
-impl ReplayError {
-    /// The file is at fault (not JSON, not a calibration's results), not the replay.
-    pub fn is_input(&self) -> bool {
-        !matches!(self, ReplayError::Run(_))
-    }
-}
-
 /// A calibration's results from the text of its JSON file `path`.
 pub fn parse_records(path: &std::path::Path, text: &str) -> Result<Value, ReplayError> {
     let records: Value = serde_json::from_str(text).map_err(|e| ReplayError::Json {
