@@ -38,15 +38,6 @@ pub enum FittedFrom {
     RollRate,
 }
 
-/// The iterations each structure's fit may take in a CSV window's roll-and-steer fit
-/// ([`ModalOptions::search_iterations`]; the chosen structure is then fitted with the full
-/// [`super::modal::SOLVE_ITERATIONS`]): half an IMU ride's. On a window without a real mode the
-/// structures with one creep along their valley to the cap, most of a long recording's time;
-/// at 100 the balance-assist recording's kicks keep their structures. An iteration budget is
-/// an estimator's hidden setting: issue 75 replaces it with fits that converge.
-/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#csv_search_iterations).
-pub const CSV_SEARCH_ITERATIONS: usize = 100;
-
 /// One free decay of a CSV ride, fitted.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct CsvDecay {
@@ -186,12 +177,10 @@ pub fn fit_decay(
         Measured::new(mean, (sd / n.sqrt()).max(change / 12f64.sqrt()))
     });
     let roll_rate_fit = |rate: &[f64]| roll_rate_weave(&t, &pick(rate), path, (a, b));
-    let angles_options = ModalOptions {
-        search_iterations: CSV_SEARCH_ITERATIONS,
-        ..*options
-    };
+    // The same fit and settings as an IMU log's window (issue 75: one estimator for every
+    // instrument).
     let angles_fit = |roll: &[f64], steer: &[f64]| {
-        fit_modes(&t, &pick(roll), &pick(steer), &angles_options)
+        fit_modes(&t, &pick(roll), &pick(steer), options)
             .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))
     };
     let rate_decay = |(weave, vaf): (Eigenvalue, f64)| CsvDecay {
