@@ -228,11 +228,8 @@ fn simulated_ride_10_s_coast(bencher: divan::Bencher) {
 /// `bikeproc dynamic data/rides.toml` runs it.
 #[divan::bench(sample_count = 10)]
 fn dynamic_campaign_16_rides(bencher: divan::Bencher) {
-    use bikeproc::read::rides::RideManifest;
     use bikeproc::ride::dynamic::run_campaign;
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
+    let (manifest, model) = data_campaign();
     let modal = bikeproc::ride::modal::ModalOptions::default();
     bencher.bench(|| run_campaign(&manifest, &model, &modal, &|_, _| {}));
 }
@@ -246,17 +243,26 @@ fn gap_diagnosis_16_rides(bencher: divan::Bencher) {
     bencher.bench(|| diagnose(&rides, &[], &model, &GapOptions::default(), &|_, _| {}));
 }
 
+/// `data/rides.toml` and its bicycle's model.
+fn data_campaign() -> (
+    bikeproc::read::rides::RideManifest,
+    bikeproc::model::uncertain::Parametrized,
+) {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let manifest = bikeproc::read::rides::RideManifest::load(&root.join("data/rides.toml"))
+        .expect("data/rides.toml");
+    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
+    (manifest, model)
+}
+
 /// The model of `data/rides.toml`'s bicycle and its rides' observations (their dynamic tests).
 fn data_campaign_observations() -> (
     bikeproc::model::uncertain::Parametrized,
     Vec<bikeproc::gap::Observation>,
 ) {
     use bikeproc::gap::Observation;
-    use bikeproc::read::rides::RideManifest;
     use bikeproc::ride::dynamic::run_campaign;
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
+    let (manifest, model) = data_campaign();
     let modal = bikeproc::ride::modal::ModalOptions::default();
     let rides = run_campaign(&manifest, &model, &modal, &|_, _| {})
         .iter()
@@ -281,10 +287,7 @@ fn gap_diagnosis_by_rides(bencher: divan::Bencher, n: usize) {
 /// speeds' correction and the diagnosis, on rayon's threads (two on this machine).
 #[divan::bench(sample_count = 10)]
 fn gap_campaign_16_rides(bencher: divan::Bencher) {
-    use bikeproc::read::rides::RideManifest;
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
+    let (manifest, model) = data_campaign();
     bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}));
 }
 
@@ -446,11 +449,8 @@ fn sensitivity_rigid(bencher: divan::Bencher) {
 /// over 16 is one ride's CPU (the bound: 5 ms).
 #[divan::bench(sample_count = 10)]
 fn ride_stage_16_rides_one_thread(bencher: divan::Bencher) {
-    use bikeproc::read::rides::RideManifest;
     use bikeproc::ride::dynamic::run_campaign;
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let manifest = RideManifest::load(&root.join("data/rides.toml")).expect("data/rides.toml");
-    let model = bikeproc::read::bicycle::load(&manifest.bike_path()).expect("the bicycle");
+    let (manifest, model) = data_campaign();
     let modal = bikeproc::ride::modal::ModalOptions::default();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
