@@ -6,26 +6,27 @@
 //! the same check from the command line).
 
 use bikeproc::inertia::bike::LabBike;
-use bikeproc::sim::replay::{calibration_of, made_by, render, replay, Calibration};
+use bikeproc::sim::replay::{calibration_of, check, Calibration};
 use std::path::Path;
 
-fn check(json: &str, expected: Calibration) {
+fn check_file(json: &str, expected: Calibration) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(root.join(json)).unwrap();
     let records: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert_eq!(calibration_of(&records).unwrap(), expected);
     let md_path = root.join(Path::new(json).with_extension("md"));
     let md = std::fs::read_to_string(&md_path).unwrap();
-    let command = made_by(&md).expect("the Markdown names its command");
-    assert!(
-        render(&records, command).unwrap() == md,
-        "{} is not what {json} renders to: make both again with `{command}`",
-        md_path.display()
-    );
     let bike_path = root.join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();
     let bike_text = std::fs::read_to_string(&bike_path).unwrap();
-    let replayed = replay(&records, 1, &lab, &bike_text, &|_| {}).unwrap();
+    let checked = check(&records, &md, 1, &lab, &bike_text, &|_| {}).unwrap();
+    let command = &checked.command;
+    assert!(
+        checked.renders_the_same,
+        "{} is not what {json} renders to: make both again with `{command}`",
+        md_path.display()
+    );
+    let replayed = checked.replayed;
     // Gap: per design its first effect-free campaign and one blind one; study: one per kind.
     let cases = match expected {
         Calibration::Gap => 6,
@@ -45,10 +46,10 @@ fn check(json: &str, expected: Calibration) {
 
 #[test]
 fn the_gap_calibration_replays_its_record() {
-    check("docs/gap-calibration.json", Calibration::Gap);
+    check_file("docs/gap-calibration.json", Calibration::Gap);
 }
 
 #[test]
 fn the_study_calibration_replays_its_record() {
-    check("docs/study-calibration.json", Calibration::Study);
+    check_file("docs/study-calibration.json", Calibration::Study);
 }

@@ -655,12 +655,13 @@ pub enum SimCommand {
         results: Option<PathBuf>,
     },
     /// A calibration file held true to the code: a few of its recorded campaigns (studies) of
-    /// each design (kind) run again and compared with their record (numbers to 1e-9 of their size, all else exactly), and the Markdown
-    /// beside it rendered again from the record. Exits 1 on any difference: the code under
-    /// the file has moved, and the file must be made again by the command it names.
+    /// each design (kind) run again and compared with their record (numbers to 1e-9 of their
+    /// size, all else exactly), and the Markdown beside it rendered again from the record.
+    /// Exits 1 on any difference: the code under the file has moved, and the file must be
+    /// made again by the command it names.
     #[command(
         name = "check-calibration",
-        after_help = "Example (as CI runs it, about 1 min on 2 cores):\n  bikeproc simulate check-calibration docs/gap-calibration.json docs/study-calibration.json"
+        after_help = "Example (as CI runs it, about 30 s on 2 cores):\n  bikeproc simulate check-calibration docs/gap-calibration.json docs/study-calibration.json"
     )]
     CheckCalibration {
         /// The calibrations' results (`NAME.json`, beside `NAME.md`).

@@ -8,7 +8,7 @@ use bikeproc::inertia::bike::LabBike;
 use bikeproc::output::write_atomic_set;
 use bikeproc::read::log::Log;
 use bikeproc::sim::{self, campaign, pendulum, ride};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub fn simulate(s: SimCommand) -> Result<()> {
     let (pendulum, c) = match s {
@@ -279,7 +279,7 @@ fn study_calibration(
 
 /// `simulate check-calibration`: each file's Markdown rendered again from its results, and a
 /// few of its cases replayed against their record; a line per case, exit 1 on a difference.
-fn check_calibration(files: &[std::path::PathBuf], per_design: usize, bike: &Path) -> Result<()> {
+fn check_calibration(files: &[PathBuf], per_design: usize, bike: &Path) -> Result<()> {
     use sim::replay;
     let lab = LabBike::load(bike)?;
     let bike_text =
@@ -294,11 +294,11 @@ fn check_calibration(files: &[std::path::PathBuf], per_design: usize, bike: &Pat
         let md_path = json.with_extension("md");
         let md = std::fs::read_to_string(&md_path)
             .with_context(|| format!("reading {}", md_path.display()))?;
-        let command = replay::made_by(&md)
-            .ok_or_else(|| anyhow::anyhow!("{}: no \"Made by `…`\" line", md_path.display()))?;
-        let rendered =
-            replay::render(&records, command).with_context(|| format!("{}", json.display()))?;
-        if rendered == md {
+        let checked = replay::check(&records, &md, per_design, &lab, &bike_text, &|case| {
+            note!("{}: replaying {case}", json.display())
+        })
+        .with_context(|| format!("{}", json.display()))?;
+        if checked.renders_the_same {
             note!(
                 "{}: rendered again from {}: the same",
                 md_path.display(),
@@ -311,11 +311,7 @@ fn check_calibration(files: &[std::path::PathBuf], per_design: usize, bike: &Pat
                 json.display()
             ));
         }
-        let replayed = replay::replay(&records, per_design, &lab, &bike_text, &|case| {
-            note!("{}: replaying {case}", json.display())
-        })
-        .with_context(|| format!("{}", json.display()))?;
-        for r in replayed {
+        for r in checked.replayed {
             match r.difference {
                 None => note!("{}: {}: the same", json.display(), r.case),
                 Some(d) => differ.push(format!("{}: {}: {d}", json.display(), r.case)),

@@ -13,7 +13,7 @@
 //! ([`crate::ride::csv::ride_decays_file`] finds the kicks and fits them).
 
 use crate::ride::kicks::{KickSeries, MOVING_MPS};
-use crate::ride::read::RideError;
+use crate::ride::read::{err, RideError};
 use std::path::{Path, PathBuf};
 
 /// The quantities a ride's CSV may carry.
@@ -183,13 +183,6 @@ pub struct CsvRide {
     pub wheel_speed_mps: Option<Vec<f64>>,
     /// Which column gave which quantity.
     pub columns: Vec<(Quantity, String)>,
-}
-
-pub(crate) fn err(path: &Path, message: impl Into<String>) -> RideError {
-    RideError::Ride {
-        path: path.to_path_buf(),
-        message: message.into(),
-    }
 }
 
 /// Which column gives which quantity, with its factor to SI, and the time's source.

@@ -14,14 +14,14 @@ use super::kicks::{
     MOVING_MPS,
 };
 use super::modal::{fit_modes, Eigenvalue, ModalFit, ModalOptions, ModeShape};
-use super::read::RideError;
+use super::read::{err, RideError};
 use super::speed::{NotedReading, SpeedSource};
 use crate::model::uncertain::Parametrized;
 pub use crate::read::ride_csv::{
     check_rate_hz, read_csv_ride, read_csv_ride_within, Columns, ColumnsError, CsvRide, Quantity,
     RATE_RANGE_HZ,
 };
-use crate::read::ride_csv::{err, file_stamp, read_marked_windows, FirstPass, RowMark};
+use crate::read::ride_csv::{file_stamp, read_marked_windows, FirstPass, RowMark};
 use crate::stats::number_text;
 use crate::uncertainty::Measured;
 use std::path::Path;

@@ -29,6 +29,14 @@ pub enum RideError {
     Ride { path: PathBuf, message: String },
 }
 
+/// A ride's own error: `path` and what is wrong with it ([`RideError::Ride`]).
+pub(crate) fn err(path: &Path, message: impl Into<String>) -> RideError {
+    RideError::Ride {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
 /// A ride's angles on the sample grid.
 #[derive(Debug, Clone)]
 pub struct RideSignals {
@@ -149,13 +157,6 @@ fn smoothed_rate(
 /// The forward acceleration (m/s²) below which the bicycle is coasting: a push accelerates
 /// it by 1–3 m/s², coasting slows it by 0.05–0.2 m/s².
 pub const RELEASE_MPS2: f64 = 0.3;
-
-fn err(path: &Path, message: impl Into<String>) -> RideError {
-    RideError::Ride {
-        path: path.to_path_buf(),
-        message: message.into(),
-    }
-}
 
 /// The shortest ride log (s): standstill, push, release, kick and a free motion of at least a
 /// second take more.

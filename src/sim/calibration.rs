@@ -40,7 +40,27 @@ pub struct TrueFit {
 /// Numbers of which some are `null` (serde_json's NaN), read with NaN in their place.
 fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
     let values: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
-    Ok(values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+    Ok(nans(values))
+}
+
+fn nans(values: Vec<Option<f64>>) -> Vec<f64> {
+    values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect()
+}
+
+/// A number written `null` (serde_json's NaN) read back as NaN, so that a calibration's JSON
+/// renders its Markdown again.
+pub(super) fn number_nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
+    Ok(v.unwrap_or(f64::NAN))
+}
+
+/// A fit's values and standard errors (a study's motor fit) read back, `null` as NaN.
+#[allow(clippy::type_complexity)]
+pub(super) fn fit_nan_for_null<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<Option<(Vec<f64>, Vec<f64>)>, D::Error> {
+    let v: Option<(Vec<Option<f64>>, Vec<Option<f64>>)> = serde::Deserialize::deserialize(d)?;
+    Ok(v.map(|(a, b)| (nans(a), nans(b))))
 }
 
 /// What the diagnosis said of one blind campaign, beside its truth.

@@ -299,6 +299,36 @@ pub fn render(records: &Value, command: &str) -> Result<String, ReplayError> {
     })
 }
 
+/// What [`check`] found of one calibration file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checked {
+    /// The command its Markdown says it was made by.
+    pub command: String,
+    /// The Markdown is what the results render to, byte for byte.
+    pub renders_the_same: bool,
+    /// The cases replayed ([`replay`]).
+    pub replayed: Vec<Replayed>,
+}
+
+/// A calibration file held to the code: its `markdown` rendered again from its `records` by
+/// the command it names, and `per_design` cases of each design (kind) replayed ([`replay`]).
+pub fn check(
+    records: &Value,
+    markdown: &str,
+    per_design: usize,
+    lab: &LabBike,
+    bike_text: &str,
+    progress: &dyn Fn(&str),
+) -> Result<Checked, ReplayError> {
+    let command = made_by(markdown)
+        .ok_or_else(|| ReplayError::Malformed("its Markdown has no \"Made by `…`\" line".into()))?;
+    Ok(Checked {
+        command: command.to_string(),
+        renders_the_same: render(records, command)? == markdown,
+        replayed: replay(records, per_design, lab, bike_text, progress)?,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

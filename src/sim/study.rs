@@ -221,7 +221,7 @@ pub struct StudyResult {
     pub rides_used: usize,
     pub significant: bool,
     /// NaN (`null` in the JSON) where no candidate was fitted.
-    #[serde(deserialize_with = "nan_for_null")]
+    #[serde(deserialize_with = "super::calibration::number_nan_for_null")]
     pub campaign_p_value: f64,
     pub best: String,
     pub tied: Vec<String>,
@@ -229,29 +229,12 @@ pub struct StudyResult {
     pub named: bool,
     /// The joint diagnosis's `actuator_gain + steer_inertia` (three gains, then the inertia)
     /// with standard errors, wherever it ranks (an error NaN, `null` in the JSON, at a bound).
-    #[serde(deserialize_with = "fit_nan_for_null")]
+    #[serde(deserialize_with = "super::calibration::fit_nan_for_null")]
     pub motor_fit: Option<(Vec<f64>, Vec<f64>)>,
     /// The single-campaign diagnoses of the powered conditions: how many name the pair first
     /// (or tied at the top), and their inertia fits `(value, se)` where they do.
     pub singles_named: usize,
     pub singles_inertia: Vec<(f64, f64)>,
-}
-
-/// A number written `null` (serde_json's NaN) read back as NaN, so that a calibration's JSON
-/// renders its Markdown again.
-fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
-    Ok(v.unwrap_or(f64::NAN))
-}
-
-/// [`StudyResult::motor_fit`] read back, its `null` numbers as NaN.
-#[allow(clippy::type_complexity)]
-fn fit_nan_for_null<'de, D: serde::Deserializer<'de>>(
-    d: D,
-) -> Result<Option<(Vec<f64>, Vec<f64>)>, D::Error> {
-    let v: Option<(Vec<Option<f64>>, Vec<Option<f64>>)> = serde::Deserialize::deserialize(d)?;
-    let nan = |x: Vec<Option<f64>>| x.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect();
-    Ok(v.map(|(a, b)| (nan(a), nan(b))))
 }
 
 /// Simulates the study of `seed` (the motor drawn, or effect-free) into a scratch folder and
