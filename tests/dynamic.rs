@@ -300,6 +300,7 @@ fn the_model_mode_beside_a_measurement_is_the_nearest_oscillatory_one() {
         im_se: se,
         re_se_noise: se,
         im_se_noise: se,
+        noise_inflation: [1.0; 2],
         re_im_corr: 0.0,
         re_se_resampled: se,
         im_se_resampled: se,

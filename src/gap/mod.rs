@@ -340,6 +340,13 @@ pub fn diagnose_study(
     // kicks, a random effect of every kick.
     d.between_kick_scatter =
         observe::between_kick_scatter(rides, &ride_condition, parts.most(), &fit_se);
+    if let Some(s) = d.between_kick_scatter.as_mut() {
+        let white_se = |o: &Observation| {
+            let [_, _, ratio, phase] = fit_se(o);
+            [o.se_if_white[0], o.se_if_white[1], ratio, phase]
+        };
+        observe::with_white_errors(s, rides, &ride_condition, parts.most(), &white_se);
+    }
     let scatter = d
         .between_kick_scatter
         .as_ref()

@@ -26,6 +26,10 @@ pub struct Observation {
     pub weave: Complex<f64>,
     pub re_se: f64,
     pub im_se: f64,
+    /// `re_se`, `im_se` were the fit's residuals white ([`crate::ride::modal::Eigenvalue::se_if_white`]):
+    /// the errors before residual correlation was allowed for, for the between-kick scatter's
+    /// comparison ([`ConditionScatter::q_white`]).
+    pub se_if_white: [f64; 2],
     /// The weave's mode shape |γ/θ| and arg(γ/θ) (rad), with the fit's standard errors.
     pub shape_ratio: crate::fit::Estimate,
     pub shape_phase_rad: crate::fit::Estimate,
@@ -70,6 +74,7 @@ impl Observation {
             weave: Complex::new(t.fit.weave.re, t.fit.weave.im),
             re_se: t.fit.weave.re_se,
             im_se: t.fit.weave.im_se,
+            se_if_white: t.fit.weave.se_if_white(),
             shape_ratio: t.fit.shape.ratio,
             shape_phase_rad: t.fit.shape.phase_rad,
             window_s: t.fit.end_s - t.fit.start_s,
@@ -124,6 +129,7 @@ impl Observation {
             weave: Complex::new(w.re, w.im),
             re_se: w.re_se,
             im_se: w.im_se,
+            se_if_white: w.se_if_white(),
             shape_ratio: d.decay.shape.map_or(none, |s| s.ratio),
             shape_phase_rad: d.decay.shape.map_or(none, |s| s.phase_rad),
             window: None,
@@ -323,6 +329,28 @@ pub struct ConditionScatter {
     pub condition: usize,
     pub q: f64,
     pub q_dof: usize,
+    /// The same Q with the fits' errors as were their residuals white
+    /// ([`Observation::se_if_white`]; NaN until [`with_white_errors`] sets it): how much of the
+    /// scatter the residuals' correlation accounts for.
+    pub q_white: f64,
+}
+
+/// `scatter`'s per-condition Q beside the same Q computed with `white_se` as the fits'
+/// errors ([`ConditionScatter::q_white`]).
+pub fn with_white_errors(
+    scatter: &mut BetweenKickScatter,
+    rides: &[Observation],
+    ride_condition: &[usize],
+    parts: usize,
+    white_se: &dyn Fn(&Observation) -> [f64; 4],
+) {
+    let white = between_kick_scatter(rides, ride_condition, parts, white_se);
+    for c in &mut scatter.by_condition {
+        c.q_white = white
+            .as_ref()
+            .and_then(|w| w.by_condition.iter().find(|w| w.condition == c.condition))
+            .map_or(f64::NAN, |w| w.q);
+    }
 }
 
 /// The between-kick scatter of a campaign's (or study's) repeated kicks: rides of one condition
@@ -413,6 +441,7 @@ pub fn between_kick_scatter(
                             condition,
                             q: q_setup,
                             q_dof: s.len() - 1,
+                            q_white: f64::NAN,
                         }),
                     }
                 }

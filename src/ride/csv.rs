@@ -276,6 +276,7 @@ fn roll_rate_weave(
             im_se: om.se * inflation,
             re_se_noise: sg.se,
             im_se_noise: om.se,
+            noise_inflation: [inflation; 2],
             re_im_corr: -corr,
             re_se_resampled: f64::NAN,
             im_se_resampled: f64::NAN,

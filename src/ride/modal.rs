@@ -19,9 +19,11 @@
 //! 0.2 /s on a ride slowing through the weave speed). Which terms the data support (0–2 real
 //! modes, the trends) is chosen by the Bayesian information criterion
 //! `Σ_s n ln(RSS_s/n) + k ln N` (separate noise levels for θ and γ). Each signal is
-//! weighted by its residual level; standard errors come from the covariance `s² (JᵀWJ)⁻¹`, and
-//! are checked by a moving-block bootstrap of the residuals (one Gauss–Newton step per
-//! resample), which sees correlated residuals the covariance assumes away.
+//! weighted by its residual level; standard errors come from the sandwich covariance
+//! `H⁻¹ (Σ_s v_s J_sᵀ R_s J_s) H⁻¹` of residuals with AR(1) correlation per signal (their
+//! lag-one autocorrelation, [`correlated_meat`]), beside the white residuals' `s² (JᵀWJ)⁻¹`,
+//! and are checked by a moving-block bootstrap of the residuals (one Gauss–Newton step per
+//! resample).
 
 use crate::fit::{levenberg_marquardt, Estimate, LeastSquares};
 use nalgebra::{Complex, DMatrix, DVector};
@@ -77,9 +79,15 @@ pub struct Eigenvalue {
     /// Total standard errors: noise and drift.
     pub re_se: f64,
     pub im_se: f64,
-    /// The noise's standard errors, from the covariance `s² (JᵀWJ)⁻¹`.
+    /// The noise's standard errors were the residuals white: from the covariance
+    /// `s² (JᵀWJ)⁻¹`.
     pub re_se_noise: f64,
     pub im_se_noise: f64,
+    /// How much the noise's errors grow for residuals that are not white (σ, ω): the
+    /// correlated residuals' errors over `re_se_noise`, `im_se_noise` (the AR(1) sandwich of
+    /// a roll-and-steer fit, √((1 + ρ)/(1 − ρ)) of a roll-rate fit). `re_se`, `im_se` hold
+    /// the grown errors.
+    pub noise_inflation: [f64; 2],
     /// Correlation of the real and imaginary parts' noise errors.
     pub re_im_corr: f64,
     /// The noise's standard errors from the moving-block bootstrap of the residuals.
@@ -88,6 +96,24 @@ pub struct Eigenvalue {
     /// The drift's systematic errors: |Re|, |Im| of [`Drift::shift`] (0 when not measured).
     pub re_se_drift: f64,
     pub im_se_drift: f64,
+}
+
+impl Eigenvalue {
+    /// The total standard errors `[re, im]` were the fit's residuals white: each part's
+    /// noise error taken back to `re_se_noise`, `im_se_noise`, every other term (drift,
+    /// and what later stages add in quadrature) kept — the errors as they were before issue 75,
+    /// for the between-kick scatter's comparison.
+    pub fn se_if_white(&self) -> [f64; 2] {
+        let part = |total: f64, white: f64, inflation: f64| {
+            (total.powi(2) - (white * inflation).powi(2) + white.powi(2))
+                .max(0.0)
+                .sqrt()
+        };
+        [
+            part(self.re_se, self.re_se_noise, self.noise_inflation[0]),
+            part(self.im_se, self.im_se_noise, self.noise_inflation[1]),
+        ]
+    }
 }
 
 /// How far the weave's eigenvalue drifted over the window: a second fit with λ(t) = λ(t_ref) +
@@ -1145,14 +1171,17 @@ fn eigenvalue_time(problem: &Problem<'_>, p: &[f64]) -> Option<f64> {
     t.is_finite().then_some(t)
 }
 
-/// The fit's Jacobian, residuals and covariance at `p`.
+/// The fit's Jacobian, residuals and covariances at `p`.
 struct Covariance {
     jac: DMatrix<f64>,
     r: DVector<f64>,
     /// (JᵀJ)⁻¹ of the weighted Jacobian.
     hinv: DMatrix<f64>,
-    /// s² (JᵀJ)⁻¹, s² the weighted residuals' variance.
+    /// The parameters' covariance under AR(1) residuals ([`correlated_meat`]):
+    /// `H⁻¹ (Σ_s v_s J_sᵀ R_s J_s) H⁻¹`.
     cov: DMatrix<f64>,
+    /// s² (JᵀJ)⁻¹, s² the weighted residuals' variance: the covariance were they white.
+    cov_white: DMatrix<f64>,
 }
 
 /// `None` when JᵀJ is singular.
@@ -1164,8 +1193,58 @@ fn covariance(problem: &Problem<'_>, p: &[f64]) -> Option<Covariance> {
     problem.residuals_and_jacobian(p, &mut jac, &mut r);
     let s2 = r.norm_squared() / (2 * n - np) as f64;
     let hinv = (jac.transpose() * &jac).cholesky()?.inverse();
-    let cov = &hinv * s2;
-    Some(Covariance { jac, r, hinv, cov })
+    let cov_white = &hinv * s2;
+    let cov = &hinv * correlated_meat(&jac, &r, n) * &hinv;
+    Some(Covariance {
+        jac,
+        r,
+        hinv,
+        cov,
+        cov_white,
+    })
+}
+
+/// The middle of the sandwich covariance for residuals that are not white: per signal `s`
+/// (rows `s·n .. (s+1)·n` of the weighted Jacobian `jac` and residuals `r`), `v_s J_sᵀ R_s
+/// J_s`, with `v_s` the residuals' variance and `R_s[i][j] = ρ_s^|i−j|` the correlation of an
+/// AR(1) noise of the residuals' lag-one autocorrelation ρ_s (held to [0, 0.99]): the sensors'
+/// filters and what the model leaves out make neighbouring residuals alike, and n samples
+/// then hold fewer independent ones (White 1980; Newey & West 1987 with the AR(1) kernel).
+/// `R_s J_s` is summed in O(n p) by a forward and a backward recursion. With ρ = 0 and equal
+/// levels it is `s² JᵀJ`, and the sandwich is the white covariance. Lags are counted in
+/// samples (a dropped packet shortens no lag).
+fn correlated_meat(jac: &DMatrix<f64>, r: &DVector<f64>, n: usize) -> DMatrix<f64> {
+    let np = jac.ncols();
+    let mut meat = DMatrix::zeros(np, np);
+    let dof = (n as f64 - np as f64 / 2.0).max(1.0);
+    for s in 0..2 {
+        let rs = r.rows(s * n, n);
+        let ss = rs.norm_squared();
+        if ss <= 0.0 {
+            continue;
+        }
+        let lag: f64 = (1..n).map(|i| rs[i] * rs[i - 1]).sum();
+        let rho = (lag / ss).clamp(0.0, 0.99);
+        let v = ss / dof;
+        let js = jac.rows(s * n, n);
+        let mut y = DMatrix::zeros(n, np);
+        for c in 0..np {
+            // y = R j: forward f_i = j_i + ρ f_{i−1}, backward b_i = j_i + ρ b_{i+1},
+            // y = f + b − j.
+            let mut f = 0.0;
+            for i in 0..n {
+                f = js[(i, c)] + rho * f;
+                y[(i, c)] = f;
+            }
+            let mut b = 0.0;
+            for i in (0..n).rev() {
+                b = js[(i, c)] + rho * b;
+                y[(i, c)] += b - js[(i, c)];
+            }
+        }
+        meat += js.transpose() * y * v;
+    }
+    meat
 }
 
 /// Covariance, resampling check, mode shape and fit quality of the final parameters.
@@ -1179,9 +1258,15 @@ fn finish(
     let st = problem.st;
     let n = problem.n();
     let np = st.params();
-    let Covariance { jac, r, hinv, cov } =
-        covariance(problem, &params).ok_or(ModalError::NoWeave)?;
+    let Covariance {
+        jac,
+        r,
+        hinv,
+        cov,
+        cov_white,
+    } = covariance(problem, &params).ok_or(ModalError::NoWeave)?;
     let se = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    let se_white = |i: usize| cov_white[(i, i)].max(0.0).sqrt();
     let resampled = block_bootstrap(&jac, &r, &hinv, n, params[1], problem, options);
     let [re_drift, im_drift] = drift.map_or([0.0; 2], |d| d.shift.map(f64::abs));
     let weave = Eigenvalue {
@@ -1189,8 +1274,12 @@ fn finish(
         im: params[1],
         re_se: se(0).hypot(re_drift),
         im_se: se(1).hypot(im_drift),
-        re_se_noise: se(0),
-        im_se_noise: se(1),
+        re_se_noise: se_white(0),
+        im_se_noise: se_white(1),
+        noise_inflation: [
+            se(0) / se_white(0).max(1e-300),
+            se(1) / se_white(1).max(1e-300),
+        ],
         re_im_corr: cov[(0, 1)] / (se(0) * se(1)).max(1e-300),
         re_se_resampled: resampled[0],
         im_se_resampled: resampled[1],
