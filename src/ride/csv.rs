@@ -258,13 +258,16 @@ fn roll_rate_weave(
     let f = crate::fit::fit_short_decay(t, x, ROLL_RATE_OMEGA_RANGE)
         .map_err(|e| err(path, format!("window {a}–{b} s: {e}")))?;
     let (sg, om) = (f.sigma(), f.omega_d());
-    let corr = f.covariance[(3, 4)] / (sg.se * om.se);
     // The fit's errors assume white residuals; a short record's are correlated (the sensor's
-    // filter, the modes the one sinusoid leaves out), and n samples then hold fewer independent
-    // ones: the errors grow by √((1 + ρ)/(1 − ρ)), ρ the residuals' lag-one autocorrelation (an
-    // AR(1) noise's variance inflation).
-    let resid: Vec<f64> = t.iter().zip(x).map(|(&ti, &xi)| xi - f.eval(ti)).collect();
-    let inflation = ar1_inflation(&resid);
+    // filter, the modes the one sinusoid leaves out), and n samples then hold fewer
+    // independent ones: the errors are those of AR(1) residuals, as every ride fit's
+    // ([`crate::fit::ar1_sandwich`]).
+    let cov = f
+        .correlated_covariance(t, x)
+        .unwrap_or_else(|| f.covariance.clone());
+    let (re_se, im_se) = (cov[(3, 3)].max(0.0).sqrt(), cov[(4, 4)].max(0.0).sqrt());
+    let corr = cov[(3, 4)] / (re_se * im_se).max(1e-300);
+    let inflation = [re_se / sg.se.max(1e-300), im_se / om.se.max(1e-300)];
     let mean = x.iter().sum::<f64>() / x.len() as f64;
     let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
     let vaf = 1.0 - f.residual_rms.powi(2) * (x.len() - f.params.len()) as f64 / var;
@@ -272,11 +275,11 @@ fn roll_rate_weave(
         Eigenvalue {
             re: -sg.value,
             im: om.value,
-            re_se: sg.se * inflation,
-            im_se: om.se * inflation,
+            re_se,
+            im_se,
             re_se_noise: sg.se,
             im_se_noise: om.se,
-            noise_inflation: [inflation; 2],
+            noise_inflation: inflation,
             re_im_corr: -corr,
             re_se_resampled: f64::NAN,
             im_se_resampled: f64::NAN,
@@ -531,26 +534,6 @@ fn decays_of(
             }
         })
         .collect()
-}
-
-/// √((1 + ρ)/(1 − ρ)) for the residuals' lag-one autocorrelation ρ (1 when ρ ≤ 0; ρ capped at
-/// 0.95).
-fn ar1_inflation(resid: &[f64]) -> f64 {
-    let n = resid.len();
-    if n < 3 {
-        return 1.0;
-    }
-    let mean = resid.iter().sum::<f64>() / n as f64;
-    let var: f64 = resid.iter().map(|r| (r - mean).powi(2)).sum();
-    if var <= 0.0 {
-        return 1.0;
-    }
-    let lag: f64 = resid
-        .windows(2)
-        .map(|w| (w[0] - mean) * (w[1] - mean))
-        .sum();
-    let rho = (lag / var).clamp(0.0, 0.95);
-    ((1.0 + rho) / (1.0 - rho)).sqrt()
 }
 
 /// A CSV decay as reported (text and JSON).
