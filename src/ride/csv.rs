@@ -66,9 +66,10 @@ pub struct CsvDecay {
     /// fusion filter's output, which the weave's lateral accelerations pull toward the apparent
     /// vertical; its gyro's rate is measured. On simulated treadmill recordings (`tests/real.rs`,
     /// `the_roll_rates_fit_is_the_calibrated_one`) the roll rate's σ and ω lay within two of
-    /// their standard errors for 37 and 39 of 40 kicks, the roll-and-steer fit's for 19 and 18
-    /// once its roll came through a complementary filter. Shown together so that a disagreement
-    /// is seen ([`CsvDecay::fits_disagree`]).
+    /// their standard errors for 37 and 39 of 40 kicks, the roll-and-steer fit's for 36 and 33
+    /// once its roll came through a complementary filter (19 and 18 with errors of white
+    /// residuals, before the AR(1) sandwich). Shown together so that a disagreement is seen
+    /// ([`CsvDecay::fits_disagree`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub roll_and_steer_weave: Option<Eigenvalue>,
 }
