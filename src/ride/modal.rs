@@ -1396,6 +1396,19 @@ mod tests {
         (t, roll, steer)
     }
 
+    /// Options fitting the weave with offsets (and trends) only, without resampling.
+    fn weave_only(trend: bool) -> ModalOptions {
+        ModalOptions {
+            resamples: 0,
+            only: Some(Structure {
+                real_modes: 0,
+                drift: false,
+                trend,
+            }),
+            ..ModalOptions::default()
+        }
+    }
+
     /// The solver's record tells how the fit ended: a weave with offsets and trends only (no
     /// real mode, whose rate and amplitude make a valley) converges in a few iterations, at the
     /// truth within its errors; the same fit from a start far off, allowed one iteration for
@@ -1404,16 +1417,7 @@ mod tests {
     fn a_fits_solver_record_says_whether_it_converged() {
         let (t, roll, steer) =
             drifting_weave(Complex::new(-0.9, 5.1), Complex::new(0.0, 0.0), 0.002, 11);
-        let only = Structure {
-            real_modes: 0,
-            drift: false,
-            trend: true,
-        };
-        let options = ModalOptions {
-            resamples: 0,
-            only: Some(only),
-            ..ModalOptions::default()
-        };
+        let options = weave_only(true);
         let fit = fit_modes(&t, &roll, &steer, &options).expect("a weave");
         assert!(fit.solver.converged, "{:?}", fit.solver);
         assert!(fit.solver.iterations < 50, "{:?}", fit.solver);
@@ -1451,16 +1455,7 @@ mod tests {
     #[test]
     fn correlated_residuals_errors_are_their_scatter() {
         use crate::sim::draw::Draw;
-        let only = Structure {
-            real_modes: 0,
-            drift: false,
-            trend: false,
-        };
-        let options = ModalOptions {
-            resamples: 0,
-            only: Some(only),
-            ..ModalOptions::default()
-        };
+        let options = weave_only(false);
         let (mut est, mut se, mut white) = (Vec::new(), Vec::new(), Vec::new());
         for seed in 0..300 {
             let mut rng = crate::sim::draw::seeded(100 + seed);
