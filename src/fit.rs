@@ -594,7 +594,7 @@ pub(crate) trait LeastSquares {
 /// (White 1980; the AR(1) case of Newey & West 1987); with ρ = 0 it is the white covariance
 /// `s² H⁻¹`. Lags are counted in rows (a dropped packet shortens none). Every ride fit's
 /// errors come from it (issue 75: one noise model for every instrument).
-pub(crate) fn ar1_sandwich(
+pub fn ar1_sandwich(
     jac: &DMatrix<f64>,
     r: &DVector<f64>,
     blocks: &[std::ops::Range<usize>],
@@ -614,7 +614,7 @@ pub(crate) fn ar1_sandwich(
 
 /// `R J` for `R[i][j] = ρ^|i−j|`, by a forward and a backward recursion in O(n p):
 /// `f_i = j_i + ρ f_{i−1}`, `b_i = j_i + ρ b_{i+1}`, `R j = f + b − j`.
-pub(crate) fn ar1_times(j: &DMatrix<f64>, rho: f64) -> DMatrix<f64> {
+pub fn ar1_times(j: &DMatrix<f64>, rho: f64) -> DMatrix<f64> {
     let (n, np) = j.shape();
     let mut y = DMatrix::zeros(n, np);
     for c in 0..np {
@@ -642,7 +642,7 @@ pub(crate) fn ar1_times(j: &DMatrix<f64>, rho: f64) -> DMatrix<f64> {
 /// the residuals is biased low by what the fit absorbs: on a 2.5 s weave in ρ = 0.8 noise it
 /// reads 0.757 on average, and the errors it gave were 0.83 of the scatter (0.99 with this).
 /// `None` for zero residuals.
-pub(crate) fn ar1_of_residuals(
+pub fn ar1_of_residuals(
     j: &DMatrix<f64>,
     r: &DVector<f64>,
     hinv: &DMatrix<f64>,
