@@ -638,9 +638,9 @@ pub fn ar1_times(j: &DMatrix<f64>, rho: f64) -> DMatrix<f64> {
 /// lag-one sum and sum of squares have expectations `v tr(M A M R(ρ))` with `A` the lag-one
 /// (half the off-diagonals) and the identity; ρ solves `E[lag-one sum]/E[sum of squares]` =
 /// the observed ratio (bisection on [0, 0.99]; 0 when the ratio is at or below the white
-/// noise's), and `v` = sum of squares / `tr(M M R(ρ))`. The plain lag-one autocorrelation of
-/// the residuals is biased low by what the fit absorbs: on a 2.5 s weave in ρ = 0.8 noise it
-/// reads 0.757 on average, and the errors it gave were 0.83 of the scatter (0.99 with this).
+/// noise's), and `v` = sum of squares / `tr(M M R(ρ))`. Why not the residuals' plain lag-one
+/// autocorrelation: it reads low by what the fit absorbs, and its errors fell short of the
+/// scatter ([docs/decisions/2026-12-02-ride-estimator.md](../docs/decisions/2026-12-02-ride-estimator.md#2026-12-02-fourth-session-variable-projection-on-todays-structures-and-the-errors-of-correlated-residuals)).
 /// `None` for zero residuals.
 pub fn ar1_of_residuals(
     j: &DMatrix<f64>,

@@ -517,8 +517,9 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
          eigenvalue (the roll rate) and mode shape (roll and steer), in one likelihood. Repeated kicks of one set-up\n\
          enter with the scatter between them estimated from the repeats{}. Cochran's Q of the\n\
          repeats is shown twice: with each fit's errors as were its residuals white (before issue\n\
-         75), and with the errors of residuals correlated from sample to sample (an AR(1) noise of\n\
-         the residuals' own lag-one autocorrelation, which every fit now carries); what stays\n\
+         75), and with the errors of residuals correlated from sample to sample (an AR(1) noise\n\
+         estimated from the residuals, allowing for what the fit took out, which every fit now\n\
+         carries: `fit::ar1_sandwich`); what stays\n\
          above 1 is the bicycle's own scatter from kick to kick.\n\n\
          | condition | controller | rides | χ² against the model (dof) | repeated kicks' Q/dof of σ and ω, white residuals | the same, correlated residuals |\n|---|---|---|---|---|---|\n",
         d.between_kick_scatter.as_ref().map_or(String::new(), |s| format!(
