@@ -316,7 +316,7 @@ fn ignored_flags() {
     ]);
     assert_eq!(code, 0, "{err}");
     assert!(
-        out.contains("the speed given, 2.000 m/s, is not used"),
+        out.contains("not used: the reading given 2.000 ± 0.035 m/s: the wheel reads +3.0"),
         "{out}"
     );
     refused(

@@ -205,8 +205,12 @@ pub enum Command {
         "The manifest (rides.toml, data/rides.toml for an example): `version = 1`, `bike = ",
         "\"lab_bike.toml\"` (the bicycle, beside it), optionally a `[controller]` table, then one ",
         "`[[ride]]` per ride: `log = \"ride_01.log\"` (the angles log, its `_cal` file beside it, ",
-        "or a CSV with `columns = \"roll_rate=gyro_x,time=time\"`) and `noted_speed_mps` (the ",
-        "speedometer's reading at the release, m/s) where the log has no speed of its own.\n\n",
+        "or a CSV with `columns = \"roll_rate=gyro_x,time=time\"`) and its speed: an IMU log's ",
+        "`noted_speed_mps` (the speedometer's reading at the release, m/s); a CSV's wheel-speed ",
+        "column where it has one, else `set_speed_mps` (the speed the lab set, a treadmill's) or ",
+        "`noted_speed_mps` (a speed given beside a wheel column is shown beside the wheel's). The ",
+        "controller may be a file: `controller = \"gains.toml\"` before the first table. Format: ",
+        "docs/formats/rides-manifest.md.\n\n",
         "Reading the ranking: `before` and `after` are the rides left out one at a time, predicted ",
         "without and with the candidate, as the RMS of their residuals in their standard errors ",
         "(about 1 when the model holds; an explanation brings `after` near 1); `plausible` says ",
@@ -307,6 +311,16 @@ pub struct DynamicArgs {
     /// Campaigns use the readings of their manifest where a log has no `Sync`.
     #[arg(long, value_parser = parse_speed, allow_hyphen_values = true)]
     pub speed: Option<f64>,
+    /// A CSV ride's set speed (m/s): the speed the lab set, a treadmill's, with the display
+    /// step and error of `--speed-resolution` and `--speed-se-fraction`. The wheel-speed
+    /// column's speed is used where the file has one, the set speed shown beside it.
+    #[arg(
+        long,
+        value_parser = parse_speed,
+        allow_hyphen_values = true,
+        conflicts_with = "speed"
+    )]
+    pub set_speed: Option<f64>,
     /// The speedometer's display step (m/s): a reading is uniform within ± half of it.
     #[arg(long, default_value_t = 0.1, value_parser = within(0.0, false, 2.0))]
     pub speed_resolution: f64,

@@ -12,7 +12,7 @@ use bikeproc::read::study::Study;
 use bikeproc::ride::csv::{self, KickReport};
 use bikeproc::ride::dynamic::{self, DynamicOptions};
 use bikeproc::ride::modal::ModalOptions;
-use bikeproc::ride::speed::NotedReading;
+use bikeproc::ride::speed::{GivenSpeed, NotedReading};
 
 pub fn gap(a: GapArgs) -> Result<()> {
     let bar = progress(a.json);
@@ -121,6 +121,11 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
             a.columns.is_some(),
             "--columns is for a CSV ride (a lab log's columns are its sensors')",
         ),
+        (
+            a.set_speed.is_some(),
+            "--set-speed is for a CSV ride (a treadmill's setting; a lab log's ride takes the \
+             reading noted at the release, --speed)",
+        ),
     ] {
         if given {
             return Err(Refused(format!(
@@ -153,11 +158,24 @@ pub fn dynamic(a: DynamicArgs) -> Result<()> {
 
 /// The speedometer reading given with `--speed`, its step and error.
 fn noted(a: &DynamicArgs) -> Option<NotedReading> {
-    a.speed.map(|v| NotedReading {
-        speed_mps: v,
+    a.speed.map(|v| reading(a, v))
+}
+
+/// A reading of `speed_mps` with the display step and error given.
+fn reading(a: &DynamicArgs, speed_mps: f64) -> NotedReading {
+    NotedReading {
+        speed_mps,
         resolution_mps: a.speed_resolution,
         se_fraction: a.speed_se_fraction,
-    })
+    }
+}
+
+/// A CSV ride's speed given: `--set-speed` (a treadmill's setting) or `--speed` (a reading).
+fn given(a: &DynamicArgs) -> Option<GivenSpeed> {
+    match (a.set_speed, noted(a)) {
+        (Some(v), _) => Some(GivenSpeed::set(reading(a, v))),
+        (None, n) => n.map(GivenSpeed::noted),
+    }
 }
 
 /// `bikeproc dynamic rides.toml`: every ride of a campaign manifest.
@@ -196,7 +214,7 @@ fn csv_ride(a: &DynamicArgs, modal: &ModalOptions) -> Result<()> {
         &a.columns.clone().unwrap_or_default(),
         a.rate,
         a.window,
-        noted(a),
+        given(a),
         model.as_ref(),
         modal,
     )?;

@@ -427,7 +427,7 @@ pub fn linear_bike_assuming(
 pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 {
     let s = clock(effects, params);
     match obs.speed_source {
-        SpeedSource::Noted | SpeedSource::WheelSpeed => {
+        SpeedSource::Noted | SpeedSource::WheelSpeed | SpeedSource::Set => {
             let k = first_param(effects, params, Effect::SpeedScale).unwrap_or(1.0);
             (obs.speed_mps - obs.speed_correction_mps) / k + obs.speed_correction_mps / s
         }

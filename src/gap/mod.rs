@@ -316,6 +316,7 @@ pub fn diagnose_study(
                     o.speed_source,
                     crate::ride::dynamic::SpeedSource::Noted
                         | crate::ride::dynamic::SpeedSource::WheelSpeed
+                        | crate::ride::dynamic::SpeedSource::Set
                 )
             }),
         })

@@ -124,7 +124,14 @@ impl Observation {
                 sync: None,
                 kinematic: None,
                 window_accel_mps2: 0.0,
-                disagreements: Vec::new(),
+                // The wheel against the speed given, beyond the disagreement's bar.
+                disagreements: d
+                    .given_beside
+                    .filter(|b| b.z.abs() > crate::ride::speed::DISAGREEMENT_SIGMAS)
+                    .map(|b| b.text())
+                    .into_iter()
+                    .collect(),
+                given_beside_wheel: d.given_beside,
             },
             weave: Complex::new(w.re, w.im),
             re_se: w.re_se,

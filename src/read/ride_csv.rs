@@ -373,6 +373,17 @@ fn open_rows(
     Ok((rows, plan))
 }
 
+/// The quantities a ride's CSV carries, from its header alone (named, or mapped by `given`),
+/// in [`Quantity::ALL`]'s order; the errors of a header that cannot be read as a ride.
+pub fn quantities(
+    path: &Path,
+    given: &Columns,
+    rate_hz: Option<f64>,
+) -> Result<Vec<Quantity>, RideError> {
+    let (_, plan) = open_rows(path, given, rate_hz, u64::MAX)?;
+    Ok(plan.found.iter().map(|f| f.0).collect())
+}
+
 impl Plan {
     /// The quantities found and their columns' names (the time's source last where the table
     /// has none).

@@ -10,7 +10,7 @@ use super::manifest::{from_toml, ManifestError};
 use crate::model::control::{ControlError, ControllerEntry};
 use crate::model::uncertain::Parametrized;
 use crate::model::SteerControl;
-use crate::ride::speed::NotedReading;
+use crate::ride::speed::{GivenSpeed, NotedReading};
 use std::path::{Path, PathBuf};
 
 /// A campaign of rides (`rides.toml`, version 1): the bicycle and each ride's log with the
@@ -63,9 +63,18 @@ fn default_se_fraction() -> f64 {
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RideEntry {
-    /// The IMU log, or another instrument's CSV (by its extension).
+    /// The IMU log, or another instrument's CSV (by its content).
     pub log: PathBuf,
-    pub noted_speed_mps: f64,
+    /// The speedometer's reading noted at the release (m/s): an IMU log's ride needs it. A CSV
+    /// ride needs it, `set_speed_mps` or a wheel-speed column (whose speed is used where
+    /// there is one, the speed given shown beside it).
+    #[serde(default)]
+    pub noted_speed_mps: Option<f64>,
+    /// The speed the lab set for a CSV ride (m/s; a treadmill's setting), with the
+    /// speedometer's display step and error per reading: rides of one set speed repeat one
+    /// set-up.
+    #[serde(default)]
+    pub set_speed_mps: Option<f64>,
     /// A CSV ride: columns by other names (as `--columns`).
     #[serde(default)]
     pub columns: Option<String>,
@@ -83,6 +92,21 @@ impl RideEntry {
     /// one, whatever its name). `dir` is the manifest's folder.
     pub fn is_csv(&self, dir: &Path) -> bool {
         super::kind::recognise(&dir.join(&self.log)) == super::kind::Kind::Table
+    }
+
+    /// The speed given for a CSV ride, with the manifest's display step and error per reading:
+    /// its set speed, else its noted reading.
+    pub fn given_speed(&self, manifest: &RideManifest) -> Option<GivenSpeed> {
+        let reading = |speed_mps| NotedReading {
+            speed_mps,
+            resolution_mps: manifest.speedometer_resolution_mps,
+            se_fraction: manifest.speedometer_se_fraction,
+        };
+        match (self.set_speed_mps, self.noted_speed_mps) {
+            (Some(v), _) => Some(GivenSpeed::set(reading(v))),
+            (None, Some(v)) => Some(GivenSpeed::noted(reading(v))),
+            (None, None) => None,
+        }
     }
 
     /// The ride's name: its log's file name without the extension (`ride_03`), and for a
@@ -131,8 +155,22 @@ impl RideManifest {
         }
         for r in &m.rides {
             let name = r.log.display().to_string();
-            if let Err(e) = crate::ride::speed::check_reading_mps(r.noted_speed_mps) {
-                return Err(err(&name, format!("{name}: noted_speed_mps: {e}")));
+            for (key, v) in [
+                ("noted_speed_mps", r.noted_speed_mps),
+                ("set_speed_mps", r.set_speed_mps),
+            ] {
+                if let Some(Err(e)) = v.map(crate::ride::speed::check_reading_mps) {
+                    return Err(err(&name, format!("{name}: {key}: {e}")));
+                }
+            }
+            if r.noted_speed_mps.is_some() && r.set_speed_mps.is_some() {
+                return Err(err(
+                    &name,
+                    format!(
+                        "{name}: noted_speed_mps and set_speed_mps: give one (a speedometer's \
+                         reading at the release, or the speed the lab set, a treadmill's)"
+                    ),
+                ));
             }
             if !m.allow_outside_folder && !crate::read::manifest::within_folder(&r.log) {
                 return Err(err(
@@ -164,13 +202,59 @@ impl RideManifest {
                     return Err(err("rate_hz", format!("{name}: rate_hz: {e}")));
                 }
             }
-            if !r.is_csv(&m.dir)
-                && (r.columns.is_some() || r.window_s.is_some() || r.rate_hz.is_some())
-            {
-                return Err(err(
-                    &name,
-                    format!("{name}: columns, window_s and rate_hz are for CSV rides"),
-                ));
+            if !r.is_csv(&m.dir) {
+                if r.columns.is_some()
+                    || r.window_s.is_some()
+                    || r.rate_hz.is_some()
+                    || r.set_speed_mps.is_some()
+                {
+                    return Err(err(
+                        &name,
+                        format!(
+                            "{name}: columns, window_s, rate_hz and set_speed_mps are for CSV \
+                             rides (an IMU log's ride takes noted_speed_mps)"
+                        ),
+                    ));
+                }
+                if r.noted_speed_mps.is_none() {
+                    return Err(err(
+                        &name,
+                        format!(
+                            "{name}: no noted_speed_mps: an IMU log's ride needs the \
+                             speedometer's reading at the release (m/s)"
+                        ),
+                    ));
+                }
+            } else if r.given_speed(&m).is_none() {
+                // Without a speed given the file must carry its own: its header is read for a
+                // wheel-speed column (named, or mapped with `columns`).
+                let columns = r
+                    .columns
+                    .as_deref()
+                    .map_or(
+                        Ok(Default::default()),
+                        str::parse::<super::ride_csv::Columns>,
+                    )
+                    .unwrap_or_default();
+                match super::ride_csv::quantities(&m.dir.join(&r.log), &columns, r.rate_hz) {
+                    Ok(found) if found.contains(&super::ride_csv::Quantity::WheelSpeed) => {}
+                    Ok(found) => {
+                        return Err(err(
+                            &name,
+                            format!(
+                                "{name}: no speed: the file has no wheel-speed column (it has {}); \
+                                 give set_speed_mps (a treadmill's setting), noted_speed_mps, \
+                                 or map the wheel's column with columns = \"wheel_speed=NAME\"",
+                                found
+                                    .iter()
+                                    .map(|q| q.key())
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ),
+                        ))
+                    }
+                    Err(e) => return Err(err(&name, format!("{name}: {e}"))),
+                }
             }
         }
         // A ride twice (its log, and for a CSV its window) would count its evidence twice.

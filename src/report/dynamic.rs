@@ -64,6 +64,7 @@ pub(super) fn dynamic_report(
             SpeedSource::Noted => "noted",
             SpeedSource::Kinematic => "kinematic",
             SpeedSource::WheelSpeed => "wheel speed",
+            SpeedSource::Set => "set",
         };
         let _ = writeln!(
             md,

@@ -60,9 +60,12 @@ pub(super) fn gap_report(
             "| {} | {} | {} | {} | {} | {} | {} | {} |",
             r.ride,
             r.speed_source.name(),
-            s.noted
-                .as_ref()
-                .map_or("—".into(), |n| format!("{:.2}", n.reading.speed_mps)),
+            match (&s.noted, &s.given_beside_wheel) {
+                (Some(n), _) => format!("{:.2}", n.reading.speed_mps),
+                // A CSV ride's speed given beside the wheel's that is used.
+                (None, Some(b)) => format!("{:.2} ({})", b.speed_mps.value, b.source.name()),
+                (None, None) => "—".into(),
+            },
             s.noted.as_ref().map_or("—".into(), |n| pm(
                 n.slowing.delta_mps,
                 n.slowing.se_mps,

@@ -15,7 +15,7 @@ use super::kicks::{
 };
 use super::modal::{fit_modes, Eigenvalue, ModalFit, ModalOptions, ModeShape};
 use super::read::{err, RideError};
-use super::speed::{NotedReading, SpeedSource};
+use super::speed::{GivenSpeed, SpeedBeside, SpeedSource};
 use crate::model::uncertain::Parametrized;
 pub use crate::read::ride_csv::{
     check_rate_hz, read_csv_ride, read_csv_ride_within, Columns, ColumnsError, CsvRide, Quantity,
@@ -292,14 +292,15 @@ fn roll_rate_weave(
 }
 
 /// The speed where a decay applies: its wheel-speed column over the window when the file has
-/// one, else the reading `given` (uniform within half its display step, with its own error).
-pub fn decay_speed(
-    decay: &CsvDecay,
-    given: Option<NotedReading>,
-) -> Option<(Measured, SpeedSource)> {
+/// one, else the speed `given` (a set speed or a reading: uniform within half its display step,
+/// with its own error).
+pub fn decay_speed(decay: &CsvDecay, given: Option<GivenSpeed>) -> Option<(Measured, SpeedSource)> {
     match (decay.wheel_speed_mps, given) {
         (Some(v), _) => Some((v, SpeedSource::WheelSpeed)),
-        (None, Some(r)) => Some((Measured::new(r.speed_mps, r.se_mps()), SpeedSource::Noted)),
+        (None, Some(g)) => Some((
+            Measured::new(g.reading.speed_mps, g.reading.se_mps()),
+            g.source(),
+        )),
         (None, None) => None,
     }
 }
@@ -376,7 +377,7 @@ impl KickReport {
 pub fn ride_decays(
     ride: &CsvRide,
     window_s: Option<(f64, f64)>,
-    given: Option<NotedReading>,
+    given: Option<GivenSpeed>,
     model: Option<&Parametrized>,
     options: &ModalOptions,
 ) -> Result<Vec<KickDecay>, RideError> {
@@ -429,7 +430,7 @@ pub fn ride_decays_file(
     columns: &Columns,
     rate_hz: Option<f64>,
     window_s: Option<(f64, f64)>,
-    given: Option<NotedReading>,
+    given: Option<GivenSpeed>,
     model: Option<&Parametrized>,
     options: &ModalOptions,
 ) -> Result<Vec<KickDecay>, RideError> {
@@ -487,7 +488,7 @@ fn within(time_s: &[f64], (a, b): (f64, f64)) -> std::ops::Range<usize> {
 fn decays_of(
     ride: &CsvRide,
     kicks: Vec<Kick>,
-    given: Option<NotedReading>,
+    given: Option<GivenSpeed>,
     model: Option<&Parametrized>,
     options: &ModalOptions,
 ) -> Vec<KickDecay> {
@@ -551,9 +552,13 @@ pub struct DecaySummary {
     /// The model's weave at that speed, when a bicycle was given.
     pub model: Option<super::model_weave::ModelWeave>,
     /// The speed the lab set or noted for the ride (a treadmill's setting), when given: rides
-    /// of one set speed are repeats of one set-up.
+    /// of one given speed are repeats of one set-up.
     #[serde(skip)]
     pub set_speed_mps: Option<f64>,
+    /// The speed given for the ride where the wheel-speed column's is used instead, with how
+    /// far the wheel reads from it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub given_beside: Option<SpeedBeside>,
 }
 
 impl DecaySummary {
@@ -562,7 +567,7 @@ impl DecaySummary {
     pub fn new(
         ride: &CsvRide,
         decay: CsvDecay,
-        given: Option<NotedReading>,
+        given: Option<GivenSpeed>,
         model: Option<&Parametrized>,
     ) -> Result<DecaySummary, RideError> {
         let speed = decay_speed(&decay, given);
@@ -598,7 +603,11 @@ impl DecaySummary {
             speed_mps: speed.map(|s| s.0),
             speed_source: speed.map(|s| s.1),
             model,
-            set_speed_mps: given.map(|g| g.speed_mps),
+            set_speed_mps: given.map(|g| g.reading.speed_mps),
+            given_beside: match (speed, given) {
+                (Some((v, SpeedSource::WheelSpeed)), Some(g)) => Some(SpeedBeside::of(g, v)),
+                _ => None,
+            },
         })
     }
 
@@ -691,16 +700,12 @@ impl DecaySummary {
                     v.se,
                     match src {
                         SpeedSource::WheelSpeed => "the wheel-speed column over the window",
+                        SpeedSource::Set => "the set speed",
                         _ => "the reading given",
                     }
                 );
-                if let (SpeedSource::WheelSpeed, Some(set)) = (src, self.set_speed_mps) {
-                    let _ = writeln!(
-                        out,
-                        "                 the speed given, {set:.3} m/s, is not used: the wheel \
-                         reads {:+.3} m/s from it",
-                        v.value - set
-                    );
+                if let Some(b) = &self.given_beside {
+                    let _ = writeln!(out, "                 not used: {}", b.text());
                 }
             }
             _ => {

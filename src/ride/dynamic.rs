@@ -16,7 +16,7 @@ use super::modal::{
 use super::model_weave::{model_weave_at, ModelWeave};
 use super::read::{read_ride, RideError, RideSignals};
 pub use super::speed::SpeedSource;
-use super::speed::{Geometry, NotedReading, SpeedSources};
+use super::speed::{Geometry, GivenSpeed, NotedReading, SpeedSources};
 use crate::model::uncertain::Parametrized;
 use crate::model::weave::{weave_near, LinearWeave};
 use crate::model::Canonical;
@@ -1000,18 +1000,15 @@ pub fn run_campaign(
 ) -> Vec<CampaignRide> {
     let run = |i: usize| -> Vec<CampaignRide> {
         let ride = &manifest.rides[i];
-        let noted = NotedReading {
-            speed_mps: ride.noted_speed_mps,
-            resolution_mps: manifest.speedometer_resolution_mps,
-            se_fraction: manifest.speedometer_se_fraction,
-        };
+        let given = ride.given_speed(manifest);
         let path = manifest.dir.join(&ride.log);
         let name = ride.name();
         if ride.is_csv(&manifest.dir) {
-            return csv_campaign_ride(&path, &name, ride, noted, model, modal);
+            return csv_campaign_ride(&path, &name, ride, given, model, modal);
         }
+        // An IMU log's ride has its noted reading (the manifest's reader requires it).
         let options = DynamicOptions {
-            noted: Some(noted),
+            noted: given.map(|g| g.reading),
             prefer_sync: true,
             modal: *modal,
         };
@@ -1057,7 +1054,7 @@ fn csv_campaign_ride(
     path: &Path,
     name: &str,
     ride: &RideEntry,
-    noted: NotedReading,
+    given: Option<GivenSpeed>,
     model: &Parametrized,
     modal: &ModalOptions,
 ) -> Vec<CampaignRide> {
@@ -1072,7 +1069,7 @@ fn csv_campaign_ride(
             &c,
             ride.rate_hz,
             ride.window_s.map(|[a, b]| (a, b)),
-            Some(noted),
+            given,
             Some(model),
             modal,
         )
@@ -1176,6 +1173,7 @@ impl Summary {
             SpeedSource::Sync => "the reed switch",
             SpeedSource::Kinematic => "the yaw rate against the steer",
             SpeedSource::WheelSpeed => "the wheel-speed column",
+            SpeedSource::Set => "the speed the lab set",
         };
         out += &format!(
             "  speed            {:.3} ± {:.3} m/s at t = {:.2} s, from {source}\n",

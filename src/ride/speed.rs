@@ -27,6 +27,7 @@
 
 use super::modal::ModalFit;
 use super::read::{sync_speed, LeverSample, RideSignals};
+use crate::uncertainty::Measured;
 
 /// Sources further apart than this many combined standard errors are reported.
 pub const DISAGREEMENT_SIGMAS: f64 = 3.0;
@@ -97,6 +98,92 @@ impl NotedReading {
     }
 }
 
+/// A speed the lab gives for another instrument's ride (a CSV), beside any wheel-speed column
+/// the file has: a speedometer's reading ([`SpeedSource::Noted`]) or the speed the lab set, a
+/// treadmill's setting ([`SpeedSource::Set`]). Either is a reading with a display step and an
+/// error per reading ([`NotedReading`]); no slowing carries it (the window is the ride's own).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GivenSpeed {
+    pub reading: NotedReading,
+    /// The treadmill's setting (`true`) or a speedometer's reading.
+    pub set: bool,
+}
+
+impl GivenSpeed {
+    /// A speedometer's reading.
+    pub fn noted(reading: NotedReading) -> GivenSpeed {
+        GivenSpeed {
+            reading,
+            set: false,
+        }
+    }
+
+    /// The speed the lab set (a treadmill's), its display step and error per setting.
+    pub fn set(reading: NotedReading) -> GivenSpeed {
+        GivenSpeed { reading, set: true }
+    }
+
+    /// Where the speed comes from when it is used.
+    pub fn source(&self) -> SpeedSource {
+        if self.set {
+            SpeedSource::Set
+        } else {
+            SpeedSource::Noted
+        }
+    }
+
+    /// What it is, in words (`the set speed`, `the reading given`).
+    pub fn words(&self) -> &'static str {
+        if self.set {
+            "the set speed"
+        } else {
+            "the reading given"
+        }
+    }
+}
+
+/// A speed given for a ride (a treadmill's setting, a speedometer's reading) beside the
+/// wheel-speed column whose speed is used: both shown, with their disagreement.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SpeedBeside {
+    /// `set` or `noted`.
+    pub source: SpeedSource,
+    pub speed_mps: Measured,
+    /// The wheel's speed less the given one (m/s).
+    pub wheel_less_given_mps: f64,
+    /// That difference in its combined standard error.
+    pub z: f64,
+}
+
+impl SpeedBeside {
+    /// `given` beside the `wheel`'s speed.
+    pub fn of(given: GivenSpeed, wheel: Measured) -> SpeedBeside {
+        let speed = Measured::new(given.reading.speed_mps, given.reading.se_mps());
+        let d = wheel.value - speed.value;
+        SpeedBeside {
+            source: given.source(),
+            speed_mps: speed,
+            wheel_less_given_mps: d,
+            z: d / wheel.se.hypot(speed.se),
+        }
+    }
+
+    /// In words: `the set speed 5.000 ± 0.050 m/s: the wheel reads +0.031 m/s (+0.6σ) from it`.
+    pub fn text(&self) -> String {
+        format!(
+            "{} {:.3} ± {:.3} m/s: the wheel reads {:+.3} m/s ({:+.1}σ) from it",
+            match self.source {
+                SpeedSource::Set => "the set speed",
+                _ => "the reading given",
+            },
+            self.speed_mps.value,
+            self.speed_mps.se,
+            self.wheel_less_given_mps,
+            self.z
+        )
+    }
+}
+
 /// A speed with its standard error, where it applies.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct SpeedEstimate {
@@ -138,6 +225,9 @@ pub enum SpeedSource {
     Kinematic,
     /// Another instrument's wheel-speed column over the window (a CSV ride).
     WheelSpeed,
+    /// The speed the lab set for the ride (a treadmill's setting; a CSV ride without a
+    /// wheel-speed column).
+    Set,
 }
 
 impl SpeedSource {
@@ -148,6 +238,7 @@ impl SpeedSource {
             SpeedSource::Sync => "sync",
             SpeedSource::Kinematic => "kinematic",
             SpeedSource::WheelSpeed => "wheel_speed",
+            SpeedSource::Set => "set",
         }
     }
 }
@@ -166,6 +257,9 @@ pub struct SpeedSources {
     pub window_accel_mps2: f64,
     /// Pairs of sources more than [`DISAGREEMENT_SIGMAS`] apart, in words.
     pub disagreements: Vec<String>,
+    /// A CSV ride's speed given (set or noted) where its wheel-speed column's is used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub given_beside_wheel: Option<SpeedBeside>,
 }
 
 impl SpeedSources {
@@ -221,6 +315,7 @@ impl SpeedSources {
         let kinematic = kinematic_speed(s, fit, geometry, window_accel_mps2)
             .filter(|e| check_reading_mps(e.speed_mps).is_ok());
         let mut out = SpeedSources {
+            given_beside_wheel: None,
             at_s,
             noted,
             sync,
