@@ -1259,13 +1259,8 @@ fn a_push_that_lasts_past_its_peak_starts_the_decay_at_the_swing_back() {
 /// above 1 (the repeats scatter beyond their fits' errors: 1,118 on 88 pooled).
 #[test]
 fn the_studys_repeated_kicks_scatter_per_condition() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let study =
-        bikeproc::read::study::Study::load(&root.join("fixtures/real/balanceassist_study.toml"))
-            .unwrap();
-    let model = bikeproc::read::bicycle::load(&study.bike_path().unwrap()).unwrap();
-    let d = bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {}).unwrap();
-    let s = d.between_kick_scatter.expect("repeated kicks");
+    let d = balance_assist_study();
+    let s = d.between_kick_scatter.as_ref().expect("repeated kicks");
     let q: f64 = s.by_condition.iter().map(|c| c.q).sum();
     let dof: usize = s.by_condition.iter().map(|c| c.q_dof).sum();
     assert!((q - s.q).abs() <= 1e-9 * s.q, "{q} against {}", s.q);
@@ -1277,4 +1272,48 @@ fn the_studys_repeated_kicks_scatter_per_condition() {
         }
         assert!(c.q / c.q_dof as f64 > 1.0, "{c:?}");
     }
+}
+
+/// The balance-assist study's diagnosis (`fixtures/real/balanceassist_study.toml`), made once
+/// for the tests that read it.
+fn balance_assist_study() -> &'static bikeproc::gap::Diagnosis {
+    static D: std::sync::OnceLock<bikeproc::gap::Diagnosis> = std::sync::OnceLock::new();
+    D.get_or_init(|| {
+        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+        let study = bikeproc::read::study::Study::load(
+            &root.join("fixtures/real/balanceassist_study.toml"),
+        )
+        .unwrap();
+        let model = bikeproc::read::bicycle::load(&study.bike_path().unwrap()).unwrap();
+        bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {}).unwrap()
+    })
+}
+
+/// Issue 76, item 2: in the balance-assist study no candidate with a parameter of the bicycle
+/// where its search stopped at an edge (the fit would go beyond the range searched) ranks
+/// above one whose bicycle is inside its ranges; the first is such a fit. On landed main before
+/// the change the first was frame_cg_height + frame_cg_x, frame_cg_x at the edge 0.5.
+#[test]
+fn the_studys_ranking_puts_no_bound_above_an_interior_fit() {
+    let d = balance_assist_study();
+    let bounded: Vec<bool> = d.ranking.iter().map(|r| r.bicycle_at_edge()).collect();
+    assert!(
+        !bounded.is_empty() && !bounded[0],
+        "first: {}",
+        d.ranking[0].effect
+    );
+    let first_bound = bounded.iter().position(|&b| b).unwrap_or(bounded.len());
+    assert!(
+        bounded[first_bound..].iter().all(|&b| b),
+        "an interior fit below a bound: {:?}",
+        d.ranking
+            .iter()
+            .map(|r| (r.effect.as_str(), r.bicycle_at_edge()))
+            .collect::<Vec<_>>()
+    );
+    // The bounded fits are still shown, below: the search found them.
+    assert!(d
+        .ranking
+        .iter()
+        .any(|r| r.effect == "frame_cg_height + frame_cg_x"));
 }

@@ -287,7 +287,7 @@ pub fn copies(
 }
 
 /// A campaign's analysed rides as observations, and the names and reasons of those that gave
-/// none.
+/// none (a CSV decay without a speed, or whose fit resolves no weave).
 pub fn observations(
     results: &[crate::ride::dynamic::CampaignRide],
 ) -> (Vec<Observation>, Vec<String>) {
@@ -298,6 +298,11 @@ pub fn observations(
         let name = &r.name;
         match &r.result {
             Ok(Analysed::Log(t)) => rides.push(Observation::from_test(name, t)),
+            // A decay whose fit resolves no oscillation observes no weave: it never enters.
+            Ok(Analysed::Csv(d)) if !d.decay.resolves_weave() => failed.push(format!(
+                "{name}: no weave resolved (ω {:.3} ± {:.3} rad/s: its standard error exceeds it)",
+                d.decay.weave.im, d.decay.weave.im_se
+            )),
             Ok(Analysed::Csv(d)) => match Observation::from_decay(name, d) {
                 Some(o) => rides.push(o),
                 None => failed.push(format!("{name}: no speed")),

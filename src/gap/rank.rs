@@ -36,6 +36,11 @@ pub struct Ranked {
     /// candidate.
     #[serde(skip)]
     pub held_back: Vec<bool>,
+    /// Each parameter whose search stopped at an edge ([`pinned`]): the fit would go beyond
+    /// the range searched, so its value is a bound, not an estimate. In a study a candidate
+    /// with one of the bicycle's ranks below every candidate without
+    /// ([`Ranked::bicycle_at_edge`], [`Ranked::standing`]).
+    pub at_edge: Vec<bool>,
     /// χ² of the fit to every ride, its degrees of freedom and the BIC `χ² + k ln(2N)`.
     pub chi2: f64,
     pub bic: f64,
@@ -291,15 +296,32 @@ impl Ranked {
 
     /// Whether it ranks among the first: in a single campaign, a plausible candidate (a value
     /// no real bicycle or lab would have explains nothing, however well it fits); in a study,
-    /// one whose fit no search edge holds back ([`Ranked::held_back_by_an_edge`]) — there
-    /// the conditions, not a prior, decide, and a best fit outside its plausible range is
-    /// shown first and flagged.
+    /// one with no parameter of the bicycle where its search stopped at an edge
+    /// ([`Ranked::bicycle_at_edge`]) — there the conditions, not a prior, decide, and a best
+    /// fit outside its plausible range is shown first and flagged, but a bicycle that the fit
+    /// would take beyond the range searched is no estimate to rank above one. (A value merely
+    /// within its standard error of an edge is a fit inside the range, shown as a bound.)
     pub fn standing(&self) -> bool {
         if self.in_study() {
-            !self.held_back_by_an_edge()
+            !self.bicycle_at_edge()
         } else {
             self.plausible
         }
+    }
+
+    /// Whether a parameter of the bicycle (an effect the conditions share) stopped at its
+    /// search's edge ([`Ranked::at_edge`]). A condition's own equipment (its controller's
+    /// delivered gain, its speedometer's scale, its clock: [`Effect::per_condition`]) is fitted
+    /// from that condition's rides alone, which may barely tell it: at G = 1 a bicycle with a
+    /// large rotor falls within a cycle in most rides, and a blind study's gain there came out
+    /// at the edge, 0.1 ± 0.49, beside the best-predicting pair of all (`tests/study.rs`,
+    /// `a_gain_its_rides_barely_tell_does_not_hide_the_motor`). It is shown as a bound; the
+    /// ranking rests on the bicycle's parameters.
+    pub fn bicycle_at_edge(&self) -> bool {
+        self.param_effect
+            .iter()
+            .zip(&self.at_edge)
+            .any(|(&j, &edge)| edge && !self.effects[j].per_condition())
     }
 
     /// Whether a parameter's search edge holds the fit back ([`Ranked::held_back`]).
@@ -423,9 +445,15 @@ pub(super) fn rank(
                 0.5 * slope * se[k] > PINNED_SE
             })
             .collect();
+        let at_edge: Vec<bool> = specs
+            .iter()
+            .zip(&f.params)
+            .map(|(spec, &p)| pinned(spec, p))
+            .collect();
         Some(Ranked {
             effect: name,
             held_back,
+            at_edge,
             plausible: !bounded.contains(&true)
                 && specs
                     .iter()

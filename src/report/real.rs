@@ -562,9 +562,30 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
     }
     let _ = write!(
         md,
-        "\n| candidate | parameters | each condition predicted from the others (RMS) | all | rides left out one at a time |\n|---|---|---|---|---|\n"
+        "\nThe first five of the {} candidates ranked (every single effect, pairs of the best, three \
+         effects where no pair passes): a candidate with a parameter where its search stopped at an \
+         edge is a bound, not a fit, and ranks below every fit inside its ranges.\n\n\
+         | candidate | parameters | fit or bound | each condition predicted from the others (RMS) | all | rides left out one at a time |\n|---|---|---|---|---|---|\n",
+        d.ranking.len()
     );
-    for r in d.ranking.iter().take(6) {
+    for r in d.ranking.iter().take(5) {
+        let named = |flags: &[bool]| -> String {
+            let mut names: Vec<&str> = r
+                .param_effect
+                .iter()
+                .zip(flags)
+                .filter(|(_, &e)| e)
+                .map(|(&j, _)| r.effects[j].name())
+                .collect();
+            names.dedup();
+            names.join(", ")
+        };
+        let (edges, near) = (named(&r.at_edge), named(&r.at_bound));
+        let fit = match (edges.is_empty(), near.is_empty()) {
+            (false, _) => format!("bound: {edges} at the search's edge"),
+            (true, false) => format!("fit inside its ranges ({near} within its SE of an edge)"),
+            (true, true) => "fit inside its ranges".to_string(),
+        };
         let by: Vec<String> = r
             .heldout_rms_by_condition
             .iter()
@@ -572,9 +593,10 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
             .collect();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.2} | {} |",
+            "| {} | {} | {} | {} | {:.2} | {} |",
             r.effect,
             r.param_texts().join("; "),
+            fit,
             by.join(", "),
             r.heldout_rms_after,
             r.heldout_rms_rides_out
