@@ -1317,3 +1317,37 @@ fn the_studys_ranking_puts_no_bound_above_an_interior_fit() {
         .iter()
         .any(|r| r.effect == "frame_cg_height + frame_cg_x"));
 }
+
+/// Issue 76, item 4: a condition's χ² in the study and alone differ, and the study says why.
+/// Each controlled condition's `scatter_alone` is the between-kick scatter that condition gets
+/// diagnosed alone (the same estimator on the same rides: to 1e-9), and where it differs from
+/// the study's pooled scatter the study names both beside that condition's χ².
+#[test]
+fn a_conditions_chi2_in_the_study_says_why_it_differs_alone() {
+    let d = balance_assist_study();
+    let pooled = &d.between_kick_scatter.as_ref().expect("repeats").per_part;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    for name in ["gain6", "gain8", "gain10"] {
+        let path = root.join(format!("fixtures/real/balanceassist_{name}.toml"));
+        let m = bikeproc::read::rides::RideManifest::load(&path).unwrap();
+        let model = bikeproc::read::bicycle::load(&m.bike_path()).unwrap();
+        let alone =
+            bikeproc::gap::diagnose_manifests(&[(name.to_string(), m)], &model, &|_, _, _| {})
+                .unwrap();
+        let own = &alone
+            .between_kick_scatter
+            .as_ref()
+            .expect("repeats")
+            .per_part;
+        let c = d
+            .conditions
+            .iter()
+            .find(|c| c.name.ends_with(name))
+            .expect("the condition");
+        for (a, b) in c.scatter_alone.iter().zip(own).take(2) {
+            assert!((a - b).abs() <= 1e-9 * b.abs(), "{name}: {a} against {b}");
+        }
+        let why = c.why_chi2_differs(pooled).expect("the scatters differ");
+        assert!(why.contains("pooled"), "{why}");
+    }
+}

@@ -89,4 +89,39 @@ pub struct ConditionSummary {
     /// degrees of freedom.
     pub chi2: f64,
     pub dof: usize,
+    /// The scatter between its own repeated kicks (per part, as
+    /// [`super::observe::BetweenKickScatter::per_part`]; empty without repeats): diagnosed
+    /// alone, its χ² takes this; in the study it takes the scatter pooled over every
+    /// condition's repeats, so the two χ² differ where these differ
+    /// ([`ConditionSummary::why_chi2_differs`]).
+    pub scatter_alone: Vec<f64>,
+}
+
+impl ConditionSummary {
+    /// Why this condition's χ² in a study differs from its χ² diagnosed alone, in words, when
+    /// its own repeats scatter otherwise than the study's pooled ones (`pooled`): `None` when
+    /// they agree to 5 %.
+    pub fn why_chi2_differs(&self, pooled: &[f64]) -> Option<String> {
+        let differs = self
+            .scatter_alone
+            .iter()
+            .zip(pooled)
+            .take(2)
+            .any(|(a, p)| (a - p).abs() > 0.05 * p.abs().max(1e-12));
+        let alone = |s: &[f64]| -> String {
+            if s.len() < 2 {
+                "none (no repeated kicks)".into()
+            } else {
+                format!("σ {:.3} 1/s, ω {:.3} rad/s", s[0], s[1])
+            }
+        };
+        (differs || (self.scatter_alone.is_empty() && pooled.iter().any(|&p| p > 0.0))).then(|| {
+            format!(
+                "its χ² here takes the scatter between repeated kicks pooled over the study's \
+                 conditions ({}); alone it would take its own, {}",
+                alone(pooled),
+                alone(&self.scatter_alone)
+            )
+        })
+    }
 }

@@ -480,6 +480,17 @@ pub fn diagnose_study(
                         .subset(own.clone())
                         .map_or(f64::NAN, |s| s.chi2(&[], &[])),
                     dof: parts.count(&own),
+                    scatter_alone: {
+                        let own_rides: Vec<Observation> =
+                            own.iter().map(|&i| rides[i].clone()).collect();
+                        observe::between_kick_scatter(
+                            &own_rides,
+                            &vec![0; own_rides.len()],
+                            parts.most(),
+                            &fit_se,
+                        )
+                        .map_or(Vec::new(), |s| s.per_part)
+                    },
                 }
             })
             .collect();

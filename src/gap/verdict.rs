@@ -403,6 +403,22 @@ impl Diagnosis {
                 b.speeds_mps[0], b.speeds_mps[1], b.rides, b.re.value, b.re.se, b.im.value, b.im.se
             );
         }
+        let pooled = self
+            .between_kick_scatter
+            .as_ref()
+            .map_or(Vec::new(), |s| s.per_part.clone());
+        for c in &self.conditions {
+            let _ = writeln!(
+                out,
+                "  condition {}: {} rides, χ² {:.1} / {}{}",
+                c.name,
+                c.rides_used,
+                c.chi2,
+                c.dof,
+                c.why_chi2_differs(&pooled)
+                    .map_or(String::new(), |w| format!(" ({w})"))
+            );
+        }
         let _ = writeln!(
             out,
             "  χ² {:.1} / {} (p {}); without the parameters' uncertainty {:.1} (p {})",

@@ -520,8 +520,10 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
          75), and with the errors of residuals correlated from sample to sample (an AR(1) noise\n\
          estimated from the residuals, allowing for what the fit took out, which every fit now\n\
          carries: `fit::ar1_sandwich`); what stays\n\
-         above 1 is the bicycle's own scatter from kick to kick.\n\n\
-         | condition | controller | rides | χ² against the model (dof) | repeated kicks' Q/dof of σ and ω, white residuals | the same, correlated residuals |\n|---|---|---|---|---|---|\n",
+         above 1 is the bicycle's own scatter from kick to kick. A condition's χ² here takes the\n\
+         scatter pooled over the four conditions; diagnosed alone it takes its own repeats' (the\n\
+         last column), so the two χ² differ.\n\n\
+         | condition | controller | rides | χ² against the model (dof) | repeated kicks' Q/dof of σ and ω, white residuals | the same, correlated residuals | its own scatter between kicks, σ (1/s), ω (rad/s) |\n|---|---|---|---|---|---|---|\n",
         d.between_kick_scatter.as_ref().map_or(String::new(), |s| format!(
             " ({} set-ups, {} kicks: σ {:.3} 1/s, ω {:.3} rad/s between kicks; Cochran's Q {:.0} for {} dof)",
             s.setups,
@@ -549,9 +551,13 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
                     r.q_dof
                 )
             });
+        let own = match &c.scatter_alone[..] {
+            [s, w, ..] => format!("{s:.3}, {w:.3}"),
+            _ => "—".to_string(),
+        };
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.0} ({}) | {} |",
+            "| {} | {} | {} | {:.0} ({}) | {} | {own} |",
             c.name,
             if c.controlled { "on" } else { "off" },
             c.rides_used,
