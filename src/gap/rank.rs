@@ -316,7 +316,8 @@ impl Ranked {
     /// large rotor falls within a cycle in most rides, and a blind study's gain there came out
     /// at the edge, 0.1 ± 0.49, beside the best-predicting pair of all (`tests/study.rs`,
     /// `a_gain_its_rides_barely_tell_does_not_hide_the_motor`). It is shown as a bound; the
-    /// ranking rests on the bicycle's parameters.
+    /// ranking rests on the bicycle's parameters. The measurements behind it:
+    /// [docs/decisions/2026-12-02-study-ranking-edges.md](../../docs/decisions/2026-12-02-study-ranking-edges.md).
     pub fn bicycle_at_edge(&self) -> bool {
         self.param_effect
             .iter()
