@@ -78,21 +78,6 @@ const DESIGN_LAB: [&str; 5] = [
 ];
 const CSV_RIDE: &str = "../shared/reference/rides/balanceassist_uncontrolled_18kmh.csv";
 
-/// A short CSV ride: a weave (σ −0.5, ω 5 rad/s) in roll and steer, and the wheel's speed.
-fn csv_ride(path: &Path, wheel_mps: f64) {
-    let mut text = String::from("time_s,roll_rad,steer_rad,rear_wheel_speed_m_per_s\n");
-    for i in 0..400 {
-        let t = i as f64 / 100.0;
-        let e = (-0.5 * t).exp();
-        text += &format!(
-            "{t},{},{},{wheel_mps}\n",
-            0.05 * e * (5.0 * t).sin(),
-            0.08 * e * (5.0 * t + 1.0).sin()
-        );
-    }
-    std::fs::write(path, text).unwrap();
-}
-
 /// The whole replay, one case after another, and then `data/` and `reports/` as they were.
 #[test]
 fn the_audits_cases_are_refused_or_answered() {
@@ -286,7 +271,7 @@ fn silently_wrong() {
     );
     let dir = scratch("wrong");
     let backward = dir.join("backward.csv");
-    csv_ride(&backward, -0.5);
+    common::weave_csv(&backward, Some(-0.5));
     refused(&["dynamic", s(&backward)], "not a riding speed");
 
     // The same rides in two manifests of one study.

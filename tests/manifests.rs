@@ -18,25 +18,8 @@ fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::copy(root().join("data/lab_bike.toml"), dir.join("lab_bike.toml")).unwrap();
-    for (file, wheel) in [("w.csv", true), ("nw.csv", false)] {
-        let mut text = String::from("time_s,roll_rad,steer_rad");
-        text += if wheel {
-            ",rear_wheel_speed_m_per_s\n"
-        } else {
-            "\n"
-        };
-        for i in 0..400 {
-            let t = i as f64 / 100.0;
-            let e = (-0.5 * t).exp();
-            text += &format!(
-                "{t},{},{}",
-                0.05 * e * (5.0 * t).sin(),
-                0.08 * e * (5.0 * t + 1.0).sin()
-            );
-            text += if wheel { ",4.2\n" } else { "\n" };
-        }
-        std::fs::write(dir.join(file), text).unwrap();
-    }
+    common::weave_csv(&dir.join("w.csv"), Some(4.2));
+    common::weave_csv(&dir.join("nw.csv"), None);
     dir
 }
 

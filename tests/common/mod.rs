@@ -152,3 +152,26 @@ pub fn torsion_logs(receiver_jitter: bool) -> Vec<TorsionLogs> {
     }
     out
 }
+
+/// A short CSV ride at `path`: 4 s at 100 Hz of a weave (σ −0.5 1/s, ω 5 rad/s) in roll and
+/// steer (`time_s`, `roll_rad`, `steer_rad`), and the rear wheel's speed where `wheel_mps` is
+/// given (`rear_wheel_speed_m_per_s`, constant).
+pub fn weave_csv(path: &std::path::Path, wheel_mps: Option<f64>) {
+    let mut text = String::from("time_s,roll_rad,steer_rad");
+    text += if wheel_mps.is_some() {
+        ",rear_wheel_speed_m_per_s\n"
+    } else {
+        "\n"
+    };
+    for i in 0..400 {
+        let t = i as f64 / 100.0;
+        let e = (-0.5 * t).exp();
+        text += &format!(
+            "{t},{},{}",
+            0.05 * e * (5.0 * t).sin(),
+            0.08 * e * (5.0 * t + 1.0).sin()
+        );
+        text += &wheel_mps.map_or("\n".to_string(), |w| format!(",{w}\n"));
+    }
+    std::fs::write(path, text).unwrap();
+}
