@@ -148,3 +148,39 @@ fn a_ride_without_a_speed_or_with_two_is_refused_at_its_line() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 76, item 4: a kick without a resolved weave never enters the diagnosis. A roll-rate
+/// record of a decay without oscillation (0.3 e^{−6t} rad/s in 0.02 rad/s of seeded noise,
+/// 1.5 s) fits a weave whose ω's standard error exceeds ω (measured: ω 0.02–0.07 ± 130–900
+/// rad/s over eight seeds); `bikeproc gap` lists it among the rides not analysed, with that
+/// reason, and uses the other ride alone.
+#[test]
+fn a_decay_that_resolves_no_weave_never_enters_the_diagnosis() {
+    use bikeproc::sim::draw::{seeded, Draw};
+    let dir = scratch("unresolved");
+    let mut rng = seeded(1);
+    let mut text = String::from("time_s,roll_rate_rad_per_s,rear_wheel_speed_m_per_s\n");
+    for i in 0..150 {
+        let t = i as f64 / 100.0;
+        text += &format!("{t},{},4.0\n", 0.3 * (-6.0 * t).exp() + 0.02 * rng.normal());
+    }
+    std::fs::write(dir.join("rr.csv"), text).unwrap();
+    let path = dir.join("rides.toml");
+    std::fs::write(
+        &path,
+        "version = 1\nbike = \"lab_bike.toml\"\n\n[[ride]]\nlog = \"w.csv\"\n\n[[ride]]\nlog = \"rr.csv\"\n",
+    )
+    .unwrap();
+    let d = run_json(["gap", path.to_str().unwrap(), "--json"]);
+    assert_eq!(d["rides_used"], 1, "{d}");
+    let failed = d["rides_failed"].as_array().unwrap();
+    assert_eq!(failed.len(), 1, "{d}");
+    assert!(
+        failed[0]
+            .as_str()
+            .unwrap()
+            .starts_with("rr: no weave resolved"),
+        "{failed:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
