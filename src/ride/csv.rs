@@ -297,10 +297,7 @@ fn roll_rate_weave(
 pub fn decay_speed(decay: &CsvDecay, given: Option<GivenSpeed>) -> Option<(Measured, SpeedSource)> {
     match (decay.wheel_speed_mps, given) {
         (Some(v), _) => Some((v, SpeedSource::WheelSpeed)),
-        (None, Some(g)) => Some((
-            Measured::new(g.reading.speed_mps, g.reading.se_mps()),
-            g.source(),
-        )),
+        (None, Some(g)) => Some((g.measured(), g.source())),
         (None, None) => None,
     }
 }
@@ -700,8 +697,7 @@ impl DecaySummary {
                     v.se,
                     match src {
                         SpeedSource::WheelSpeed => "the wheel-speed column over the window",
-                        SpeedSource::Set => "the set speed",
-                        _ => "the reading given",
+                        other => super::speed::given_words(other),
                     }
                 );
                 if let Some(b) = &self.given_beside {

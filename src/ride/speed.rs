@@ -132,13 +132,19 @@ impl GivenSpeed {
         }
     }
 
-    /// What it is, in words (`the set speed`, `the reading given`).
-    pub fn words(&self) -> &'static str {
-        if self.set {
-            "the set speed"
-        } else {
-            "the reading given"
-        }
+    /// The speed with its standard error (uniform within half the display step, with the
+    /// error per reading).
+    pub fn measured(&self) -> Measured {
+        Measured::new(self.reading.speed_mps, self.reading.se_mps())
+    }
+}
+
+/// A speed given for a CSV ride, in words, by where it comes from: `the set speed` for
+/// [`SpeedSource::Set`], else `the reading given`.
+pub fn given_words(source: SpeedSource) -> &'static str {
+    match source {
+        SpeedSource::Set => "the set speed",
+        _ => "the reading given",
     }
 }
 
@@ -158,7 +164,7 @@ pub struct SpeedBeside {
 impl SpeedBeside {
     /// `given` beside the `wheel`'s speed.
     pub fn of(given: GivenSpeed, wheel: Measured) -> SpeedBeside {
-        let speed = Measured::new(given.reading.speed_mps, given.reading.se_mps());
+        let speed = given.measured();
         let d = wheel.value - speed.value;
         SpeedBeside {
             source: given.source(),
@@ -172,10 +178,7 @@ impl SpeedBeside {
     pub fn text(&self) -> String {
         format!(
             "{} {:.3} ± {:.3} m/s: the wheel reads {:+.3} m/s ({:+.1}σ) from it",
-            match self.source {
-                SpeedSource::Set => "the set speed",
-                _ => "the reading given",
-            },
+            given_words(self.source),
             self.speed_mps.value,
             self.speed_mps.se,
             self.wheel_less_given_mps,
