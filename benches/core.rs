@@ -291,6 +291,29 @@ fn gap_campaign_16_rides(bencher: divan::Bencher) {
     bencher.bench(|| bikeproc::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}));
 }
 
+/// Issue 76, item 1: the real balance-assist study (`fixtures/real/balanceassist_study.toml`,
+/// four conditions, 66 kicks) as `bikeproc gap` runs it, with the pairs a study screens and
+/// with every pair of the library (`--every-pair`): the difference is the pairs' stage.
+#[divan::bench(sample_count = 2, args = ["screen", "every pair"])]
+fn gap_balance_assist_study_by_pair_search(bencher: divan::Bencher, pairs: &str) {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let study =
+        bikeproc::read::study::Study::load(&root.join("fixtures/real/balanceassist_study.toml"))
+            .expect("the study");
+    let model = bikeproc::read::bicycle::load(&study.bike_path().expect("its bicycle"))
+        .expect("its bicycle");
+    let options = bikeproc::gap::GapOptions {
+        pairs: match pairs {
+            "screen" => bikeproc::gap::PairSearch::Screen,
+            _ => bikeproc::gap::PairSearch::Every,
+        },
+        ..Default::default()
+    };
+    bencher.bench(|| {
+        bikeproc::gap::diagnose_manifests_with(&study.conditions, &model, &options, &|_, _, _| {})
+    });
+}
+
 /// Issue 15: `bikeproc measured` on one bicycle (Rigid: the table-top geometry, handlebar and
 /// fork measured apart), from its file's bytes to the benchmark parameters with standard errors.
 #[divan::bench]

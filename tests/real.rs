@@ -1318,6 +1318,38 @@ fn the_studys_ranking_puts_no_bound_above_an_interior_fit() {
         .any(|r| r.effect == "frame_cg_height + frame_cg_x"));
 }
 
+/// Issue 76, item 1: the balance-assist study's screen (26 candidates ranked) returns the
+/// first five of fitting every pair of the library (39 ranked; `bikeproc gap --every-pair`),
+/// in order, each needed or not alike, with the same fitted values.
+#[test]
+fn the_studys_screen_finds_the_first_five_of_every_pair() {
+    let screened = balance_assist_study();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let study =
+        bikeproc::read::study::Study::load(&root.join("fixtures/real/balanceassist_study.toml"))
+            .unwrap();
+    let model = bikeproc::read::bicycle::load(&study.bike_path().unwrap()).unwrap();
+    let options = bikeproc::gap::GapOptions {
+        pairs: bikeproc::gap::PairSearch::Every,
+        ..Default::default()
+    };
+    let every =
+        bikeproc::gap::diagnose_manifests_with(&study.conditions, &model, &options, &|_, _, _| {})
+            .unwrap();
+    assert!(screened.ranking.len() < every.ranking.len());
+    for (a, b) in screened.ranking.iter().zip(&every.ranking).take(5) {
+        assert_eq!((&a.effect, a.not_needed), (&b.effect, b.not_needed));
+        // The same fit of the same candidate: only rounding in a different order of work.
+        for (x, y) in a.params.iter().zip(&b.params) {
+            assert!(
+                (x - y).abs() <= 1e-9 * x.abs().max(1.0),
+                "{}: {x} {y}",
+                a.effect
+            );
+        }
+    }
+}
+
 /// Issue 76, item 4: a condition's χ² in the study and alone differ, and the study says why.
 /// Each controlled condition's `scatter_alone` is the between-kick scatter that condition gets
 /// diagnosed alone (the same estimator on the same rides: to 1e-9), and where it differs from

@@ -36,6 +36,14 @@ pub fn gap(a: GapArgs) -> Result<()> {
             None
         }
     };
+    let options = bikeproc::gap::GapOptions {
+        pairs: if a.every_pair {
+            bikeproc::gap::PairSearch::Every
+        } else {
+            bikeproc::gap::PairSearch::Standard
+        },
+        ..Default::default()
+    };
     let d = if let (None, [file]) = (&study_file, &a.files[..]) {
         let manifest = RideManifest::load(file)?;
         let model = manifest.model(a.bike.as_deref())?;
@@ -43,7 +51,7 @@ pub fn gap(a: GapArgs) -> Result<()> {
             &model,
             &a.bike.clone().unwrap_or_else(|| manifest.bike_path()),
         );
-        bikeproc::gap::diagnose_campaign(&manifest, &model, &|what, done, total| {
+        bikeproc::gap::diagnose_campaign_with(&manifest, &model, &options, &|what, done, total| {
             advance(&bar, what, done, total)
         })?
     } else {
@@ -57,9 +65,12 @@ pub fn gap(a: GapArgs) -> Result<()> {
         };
         let model = bikeproc::read::bicycle::load(&bike)?;
         warn_if_exact(&model, &bike);
-        bikeproc::gap::diagnose_manifests(&study.conditions, &model, &|what, done, total| {
-            advance(&bar, what, done, total)
-        })?
+        bikeproc::gap::diagnose_manifests_with(
+            &study.conditions,
+            &model,
+            &options,
+            &|what, done, total| advance(&bar, what, done, total),
+        )?
     };
     bar.finish_and_clear();
     emit(a.json, &d, || d.to_text())?;

@@ -76,6 +76,9 @@ pub struct Campaign<'a> {
     /// Whether a condition with many rides is predicted from a grid of speeds
     /// ([`super::GapOptions::speed_grid`]).
     pub speed_grid: bool,
+    /// Whether every pair of the library is fitted where no single effect closes the gap,
+    /// not the screen's ([`super::PairSearch`]).
+    pub every_pair: bool,
 }
 
 /// χ² of a subset of rides.
@@ -308,6 +311,7 @@ impl<'a> Campaign<'a> {
             coasting_shift,
             trusted_newton_rides: self.trusted_newton_rides,
             speed_grid: self.speed_grid,
+            every_pair: self.every_pair,
         }
     }
 

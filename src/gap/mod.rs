@@ -15,7 +15,7 @@
 //! - **which**: every effect of [`effects`] fitted to the campaign by generalized least squares
 //!   on the eigenvalues and mode shapes, ranked by the BIC of that fit (in a study, by
 //!   predicting each condition from the others), tested by leave-one-ride-out prediction (each
-//!   ride predicted by the effect fitted to the others), pairs of the best effects when no single
+//!   ride predicted by the effect fitted to the others), pairs ([`PairSearch`]) when no single
 //!   one closes the gap, effects the held-out test cannot tell apart reported as tied with the
 //!   two rides to make next; an explanation only when the rides left out are predicted within
 //!   [`EXPLAINED_HELDOUT_RMS`] and the fit passes the χ² test, "not explained" otherwise;
@@ -80,6 +80,8 @@ pub struct GapOptions {
     /// Predict a condition with many rides from a grid of speeds where that is exact to
     /// [`speed_grid::TOLERANCE`] (true by default; false to solve every ride's eigenproblem).
     pub speed_grid: bool,
+    /// Which pairs are fitted where no single effect closes the gap ([`PairSearch`]).
+    pub pairs: PairSearch,
 }
 
 impl Default for GapOptions {
@@ -88,6 +90,38 @@ impl Default for GapOptions {
             shape: true,
             trusted_newton_rides: fit::TRUSTED_NEWTON_RIDES,
             speed_grid: true,
+            pairs: PairSearch::Standard,
+        }
+    }
+}
+
+/// Which pairs of effects a campaign or study fits where no single effect closes the gap.
+/// Every way admits a pair under the same rule (it beats the best single's held-out Σz² by
+/// [`thresholds::PAIR_GAIN_CHI2`] and its BIC); they differ in which pairs are fitted at all.
+/// The record: docs/decisions/2026-12-02-pair-search.md.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PairSearch {
+    /// Every pair in a single campaign, the screen in a study: the screen missed the
+    /// exhaustive search's first pair in 2 of the 4 blind campaigns that tried pairs, and
+    /// matched its first five on the real balance-assist study and every blind study checked,
+    /// where fitting every pair takes twice the time (`tests/pair_search.rs`).
+    #[default]
+    Standard,
+    /// The screen everywhere: the best single (held out) with every other effect, the next
+    /// [`PAIR_POOL`]` − 1` among themselves and, in a study, the single of the lowest χ² with
+    /// every other: 20–40 pairs.
+    Screen,
+    /// Every pair of the library everywhere (17 effects: 136 pairs).
+    Every,
+}
+
+impl PairSearch {
+    /// Whether every pair is fitted, in a study (`is_study`) or a single campaign.
+    pub fn every_pair(self, is_study: bool) -> bool {
+        match self {
+            PairSearch::Standard => !is_study,
+            PairSearch::Screen => false,
+            PairSearch::Every => true,
         }
     }
 }
@@ -100,13 +134,24 @@ pub fn diagnose_campaign(
     model: &Parametrized,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
+    diagnose_campaign_with(manifest, model, &GapOptions::default(), progress)
+}
+
+/// [`diagnose_campaign`] with `options`.
+pub fn diagnose_campaign_with(
+    manifest: &crate::read::rides::RideManifest,
+    model: &Parametrized,
+    options: &GapOptions,
+    progress: &(dyn Fn(&str, usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
     let results = crate::ride::dynamic::run_campaign(
         manifest,
         model,
         &crate::ride::modal::ModalOptions::default(),
         &|done, total| progress("rides", done, total),
     );
-    diagnose_analysed(&results, model, &|done, total| {
+    let (rides, failed) = observations(&results);
+    diagnose(&rides, &failed, model, options, &|done, total| {
         progress("candidates", done, total)
     })
 }
@@ -161,33 +206,53 @@ pub fn diagnose_manifests(
     model: &Parametrized,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
-    let mut conditions = Vec::with_capacity(manifests.len());
-    for (name, manifest) in manifests {
-        let controlled = model
-            .clone()
-            .with_masses(&manifest.known_masses)
-            .with_control(manifest.control);
-        let results = crate::ride::dynamic::run_campaign(
-            manifest,
-            &controlled,
-            &crate::ride::modal::ModalOptions::default(),
-            &|done, total| progress(&format!("rides of {name}"), done, total),
-        );
-        let (rides, failed) = observations(&results);
-        conditions.push(StudyCondition {
-            name: name.clone(),
-            control: manifest.control,
-            masses: manifest.known_masses.clone(),
-            rides,
-            failed,
-        });
-    }
-    diagnose_study(
-        &conditions,
-        model,
-        &GapOptions::default(),
-        &|done, total| progress("candidates", done, total),
-    )
+    diagnose_manifests_with(manifests, model, &GapOptions::default(), progress)
+}
+
+/// [`diagnose_manifests`] with `options`.
+pub fn diagnose_manifests_with(
+    manifests: &[(String, crate::read::rides::RideManifest)],
+    model: &Parametrized,
+    options: &GapOptions,
+    progress: &(dyn Fn(&str, usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
+    let conditions = study_conditions(manifests, model, progress);
+    diagnose_study(&conditions, model, options, &|done, total| {
+        progress("candidates", done, total)
+    })
+}
+
+/// The conditions of a study as they enter the diagnosis: each manifest's rides run through
+/// their dynamic tests (in parallel) on `model` with the condition's known masses and
+/// controller, named by the manifest's stem; `progress("rides of NAME", done, total)`.
+pub fn study_conditions(
+    manifests: &[(String, crate::read::rides::RideManifest)],
+    model: &Parametrized,
+    progress: &(dyn Fn(&str, usize, usize) + Sync),
+) -> Vec<StudyCondition> {
+    manifests
+        .iter()
+        .map(|(name, manifest)| {
+            let controlled = model
+                .clone()
+                .with_masses(&manifest.known_masses)
+                .with_control(manifest.control);
+            let results = crate::ride::dynamic::run_campaign(
+                manifest,
+                &controlled,
+                &crate::ride::modal::ModalOptions::default(),
+                &|done, total| progress(&format!("rides of {name}"), done, total),
+            );
+            let (rides, failed) = observations(&results);
+            StudyCondition {
+                name: name.clone(),
+                control: manifest.control,
+                masses: manifest.known_masses.clone(),
+                rides,
+                failed,
+            }
+        })
+        .collect()
 }
 
 /// Diagnoses the conditions of a study together (one condition: a single campaign, as
@@ -451,6 +516,7 @@ pub fn diagnose_study(
         coasting_shift: None,
         trusted_newton_rides: options.trusted_newton_rides,
         speed_grid: options.speed_grid,
+        every_pair: options.pairs.every_pair(is_study),
     };
     d.parts_per_ride = parts.most();
     d.dof = total;

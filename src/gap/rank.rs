@@ -352,7 +352,8 @@ impl Ranked {
     }
 }
 
-/// Fits and tests every effect, then pairs of the best ones; in the order of [`sort`].
+/// Fits and tests every effect, then pairs (every pair, or a screen's: [`super::PairSearch`]); in the
+/// order of [`sort`].
 pub(super) fn rank(
     campaign: &Campaign<'_>,
     progress: &(dyn Fn(usize, usize) + Sync),
@@ -364,15 +365,28 @@ pub(super) fn rank(
     let parts = campaign.parts.total();
     let rms = |s: f64| (s / parts as f64).sqrt();
     let library = campaign.library();
-    let total = 2 * library.len() - 1
-        + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2
-        + if campaign.is_study() {
-            library.len() - 1
-        } else {
-            0
-        };
+    let total = if campaign.every_pair {
+        library.len() * (library.len() + 1) / 2
+    } else {
+        2 * library.len() - 1
+            + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2
+            + if campaign.is_study() {
+                library.len() - 1
+            } else {
+                0
+            }
+    };
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let evaluate = |effects: &[Effect]| -> Option<Ranked> {
+    let tick = || {
+        progress(
+            done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
+            total,
+        )
+    };
+    // A candidate is fitted to every ride, then tested out of sample; one whose BIC is not
+    // below `bic_below` (a larger candidate that can never be admitted, `admit`) is not
+    // tested: `None`, as the exhaustive search would leave it out, at half the cost.
+    let evaluate = |effects: &[Effect], bic_below: f64| -> Option<Ranked> {
         let effects = effects.to_vec();
         let first = fit_effects(&campaign.subset((0..n).collect())?, &effects);
         // Fitted again with the model's covariance where the first fit puts the bicycle
@@ -388,6 +402,11 @@ pub(super) fn rank(
             &steps(campaign, &effects),
             &[],
         );
+        let bic = f.chi2 + f.params.len() as f64 * (parts as f64).ln();
+        if bic >= bic_below {
+            tick();
+            return None;
+        }
         let se: Vec<f64> = param_se(&full, &effects, &f)
             .iter()
             .zip(assumed_se(campaign, &effects, &f))
@@ -412,10 +431,7 @@ pub(super) fn rank(
         };
         let per_ride: Vec<f64> = whitened.iter().map(chi2_of).collect();
         let held: f64 = per_ride.iter().sum();
-        progress(
-            done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
-            total,
-        );
+        tick();
         let name = effects
             .iter()
             .map(|e| e.name())
@@ -486,7 +502,7 @@ pub(super) fn rank(
             heldout_rms_rides_out: rides_out_rms,
             specs,
             effects,
-            bic: f.chi2 + f.params.len() as f64 * (parts as f64).ln(),
+            bic,
             chi2: f.chi2,
             chi2_test: first.chi2,
             params: f.params,
@@ -501,9 +517,9 @@ pub(super) fn rank(
         })
     };
     let singles: Vec<Vec<Effect>> = library.iter().map(|&e| vec![e]).collect();
-    let over = |list: &[Vec<Effect>]| -> Vec<Ranked> {
+    let over = |list: &[Vec<Effect>], bic_below: f64| -> Vec<Ranked> {
         use rayon::prelude::*;
-        let all: Vec<Option<Ranked>> = list.par_iter().map(|e| evaluate(e)).collect();
+        let all: Vec<Option<Ranked>> = list.par_iter().map(|e| evaluate(e, bic_below)).collect();
         all.into_iter().flatten().collect()
     };
     // Candidates of one more effect than `against`, kept when they beat it out of sample by
@@ -511,7 +527,7 @@ pub(super) fn rank(
     // when the rides left out tell them apart (the tie test); otherwise it is listed after it,
     // as not needed.
     let admit = |larger: &[Vec<Effect>], against: &Ranked, ranked: &mut Vec<Ranked>| {
-        for mut r in over(larger) {
+        for mut r in over(larger, against.bic) {
             if against.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2
                 && r.bic < against.bic
             {
@@ -521,7 +537,7 @@ pub(super) fn rank(
         }
         sort(ranked);
     };
-    let mut ranked = over(&singles);
+    let mut ranked = over(&singles, f64::INFINITY);
     sort(&mut ranked);
     // The singles as the rides left out order them (a study's own order): whether one closes
     // the gap, which are paired and what a pair must beat are questions of prediction. (Pairs
@@ -605,6 +621,13 @@ pub(super) fn rank(
     for a in 1..pool.len() {
         for b in a + 1..pool.len() {
             add(pool[a], pool[b]);
+        }
+    }
+    if campaign.every_pair {
+        for (k, &a) in library.iter().enumerate() {
+            for &b in &library[k + 1..] {
+                add(a, b);
+            }
         }
     }
     if let Some(b) = held.first() {

@@ -34,8 +34,8 @@ pub const TIE_SE: f64 = 2.0;
 pub const MIN_RIDES: usize = 4;
 /// Speeds spanning less than this (m/s) are "a single speed".
 pub const MIN_SPEED_SPAN_MPS: f64 = 0.5;
-/// Pairs tried: the best single effect with every other, and the next `PAIR_POOL − 1` best
-/// among themselves.
+/// A study's pair screen ([`super::PairSearch::Screen`]): the best single effect with every
+/// other, and the next `PAIR_POOL − 1` best among themselves. A campaign fits every pair.
 pub const PAIR_POOL: usize = 4;
 /// A single effect closes the gap when the rides left out are predicted within this RMS
 /// normalized residual (two standard errors); pairs are tried only when none does.
