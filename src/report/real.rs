@@ -122,6 +122,7 @@ pub(super) fn real_report(
     }
     uncontrolled_section(reference, progress, &mut md)?;
     controlled_section(reference, root, progress, &mut md)?;
+    study_section(root, progress, &mut md, files)?;
     files.push(("real.md".into(), md.into_bytes()));
     Ok(paths.len())
 }
@@ -492,19 +493,30 @@ pub(super) fn controlled_section(
          kicks of one gain and speed), which no model of one weave per speed can follow: a fit's χ² then fails whatever the effect, and bikeproc does not call the gap\n\
          explained unless the held-out segments are predicted within their errors.\n"
     );
-    study_section(root, progress, md)
+    Ok(())
 }
 
 /// `real.md`'s joint diagnosis of the balance-assist bicycle's four conditions
 /// (`fixtures/real/balanceassist_study.toml`): what is shared, what differs per condition, each
 /// condition predicted from the others.
-fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -> Result<()> {
+fn study_section(
+    root: &Path,
+    progress: &mut dyn FnMut(&str),
+    md: &mut String,
+    files: &mut Files,
+) -> Result<()> {
     use crate::read::study::Study;
     let path = root.join("fixtures/real/balanceassist_study.toml");
     progress("the balance-assist study: four conditions together");
     let study = Study::load(&path)?;
     let model = crate::read::bicycle::load(&study.bike_path()?)?;
-    let d = crate::gap::diagnose_manifests(&study.conditions, &model, &|_, _, _| {})?;
+    let conditions = crate::gap::study_conditions(&study.conditions, &model, &|_, _, _| {});
+    let d = crate::gap::diagnose_study(
+        &conditions,
+        &model,
+        &crate::gap::GapOptions::default(),
+        &|_, _| {},
+    )?;
     let _ = write!(
         md,
         "\n### The four conditions together\n\n\
@@ -610,7 +622,140 @@ fn study_section(root: &Path, progress: &mut dyn FnMut(&str), md: &mut String) -
         );
     }
     let _ = write!(md, "\n{}\n", verdict_list(&d.verdict));
+    if let Some(svg) = study_figure(&conditions, &d)? {
+        files.push(("real/balanceassist_study.svg".into(), svg.into_bytes()));
+        let _ = write!(
+            md,
+            "\n![each condition's weave against speed, measured and the model before and after \
+             the first candidate](real/balanceassist_study.svg)\n"
+        );
+    }
     Ok(())
+}
+
+/// A study's figure: each condition's measured weave (σ = −Re λ and ω against speed, bars ±2
+/// of each fit's standard errors, so that the scatter between kicks shows beyond them) in its
+/// colour, with the model at each ride's speed before (thin) and with the first candidate at
+/// its fit to every ride (thick): the model's values are the measured ones less the study's
+/// residuals. `None` for a study without a ranking or whose residuals do not match its rides.
+fn study_figure(
+    conditions: &[crate::gap::StudyCondition],
+    d: &crate::gap::Diagnosis,
+) -> Result<Option<String>> {
+    use crate::plot::{error_bars, Chart, Mark, Series};
+    use plotters::style::RGBColor;
+    let rides: Vec<(usize, &crate::gap::Observation)> = conditions
+        .iter()
+        .enumerate()
+        .flat_map(|(c, cond)| cond.rides.iter().map(move |o| (c, o)))
+        .collect();
+    let (Some(best), true, true) = (
+        d.ranking.first(),
+        d.residuals.len() == rides.len(),
+        d.residuals_after.len() == rides.len(),
+    ) else {
+        return Ok(None);
+    };
+    const COLORS: [RGBColor; 6] = [
+        RGBColor(0, 0, 0),
+        RGBColor(0, 114, 178),
+        RGBColor(213, 94, 0),
+        RGBColor(0, 158, 115),
+        RGBColor(204, 121, 167),
+        RGBColor(230, 159, 0),
+    ];
+    // Per panel: the measured value and its fit's error, and the residual's part.
+    type Measured = fn(&crate::gap::Observation) -> (f64, f64);
+    type Residual = fn(&crate::gap::RideResidual) -> f64;
+    let parts: [(&str, Measured, Residual); 2] = [
+        ("σ (1/s)", |o| (-o.weave.re, o.re_se), |r| -r.re),
+        ("ω (rad/s)", |o| (o.weave.im, o.im_se), |r| r.im),
+    ];
+    let panels: Vec<(String, Vec<Series>)> = parts
+        .iter()
+        .map(|(label, value, residual)| {
+            let mut series = Vec::new();
+            for (c, cond) in conditions.iter().enumerate() {
+                let color = COLORS[c % COLORS.len()];
+                let mine: Vec<usize> = (0..rides.len()).filter(|&i| rides[i].0 == c).collect();
+                let measured: Vec<(f64, f64, f64, f64)> = mine
+                    .iter()
+                    .map(|&i| {
+                        let (v, se) = value(rides[i].1);
+                        (rides[i].1.speed_mps, v, 0.0, se)
+                    })
+                    .collect();
+                series.extend(error_bars(&measured, color, &cond.name));
+                let model = |residuals: &[crate::gap::RideResidual]| -> Vec<(f64, f64)> {
+                    let mut points: Vec<(f64, f64)> = mine
+                        .iter()
+                        .map(|&i| {
+                            let o = rides[i].1;
+                            (o.speed_mps, value(o).0 - residual(&residuals[i]))
+                        })
+                        .collect();
+                    points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                    points
+                };
+                let first = c == 0;
+                series.push(Series {
+                    name: if first {
+                        "the model as measured (thin)".into()
+                    } else {
+                        String::new()
+                    },
+                    points: model(&d.residuals),
+                    color,
+                    mark: Mark::Thin,
+                });
+                series.push(Series {
+                    name: if first {
+                        format!("with {} (thick)", best.effect)
+                    } else {
+                        String::new()
+                    },
+                    points: model(&d.residuals_after),
+                    color,
+                    mark: Mark::Line,
+                });
+            }
+            (label.to_string(), series)
+        })
+        .collect();
+    let title = "the weave by condition: measured (bars ±2 fit SE), the model before and after";
+    // Both axes from the values, not the bars: a kick at a low speed whose weave is barely
+    // resolved has bars many times the rest's, clipped at the frame.
+    let range = |v: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
+        let pad = 0.08 * (hi - lo).max(1e-3);
+        (lo - pad, hi + pad)
+    };
+    let x_range = range(&mut rides.iter().map(|(_, o)| o.speed_mps));
+    let charts: Vec<(u32, Chart<'_>)> = panels
+        .iter()
+        .enumerate()
+        .map(|(k, (label, series))| {
+            let values = series
+                .iter()
+                .filter(|s| !matches!(s.mark, Mark::Bar))
+                .flat_map(|s| s.points.iter().map(|p| p.1));
+            (
+                if k == 0 { 300 } else { 260 },
+                Chart {
+                    title: if k == 0 { title } else { "" },
+                    x_label: "speed (m/s)",
+                    y_label: label,
+                    series,
+                    x_range: Some(x_range),
+                    y_range: Some(range(&mut values.into_iter())),
+                    ..Chart::default()
+                },
+            )
+        })
+        .collect();
+    Ok(Some(crate::plot::stacked_svg(&charts)?))
 }
 
 /// A found window's start and end in two words each.
