@@ -352,8 +352,8 @@ impl Ranked {
     }
 }
 
-/// Fits and tests every effect, then pairs (every pair, or a screen's: [`super::PairSearch`]); in the
-/// order of [`sort`].
+/// Fits and tests every effect, then pairs (every pair, or a screen's: [`super::PairSearch`]);
+/// in the order of [`sort`].
 pub(super) fn rank(
     campaign: &Campaign<'_>,
     progress: &(dyn Fn(usize, usize) + Sync),
