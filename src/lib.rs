@@ -20,13 +20,16 @@
 //! - [`gap`]: a campaign's eigenvalues and the measured bicycle → where they part, which
 //!   unmodelled effect explains it, how far it shrinks on rides left out.
 //! - [`sim`]: the lab simulated from physics (never calls the estimators; no analysis module
-//!   uses it, `tests/layering.rs`).
+//!   uses it, and it uses none, `tests/layering.rs`).
+//! - [`blind`]: simulated campaigns and studies diagnosed from their files and compared with
+//!   their sealed truth: the calibrations, above both.
 //! - [`report`]: the checked-in reports, regenerated from `data/` and the reference signals
 //!   (one file per report).
 //! - `plot` (feature `plot`): SVG figures for the reports.
 //! - [`output`]: every file written whole, a report folder replaced as a whole.
 //! - [`fuzzing`]: the readers of outside files as fuzz targets.
 
+pub mod blind;
 pub mod fit;
 
 /// The most sweeps an iterative decomposition (SVD, symmetric eigen) may take: they converge

@@ -5,8 +5,8 @@
 //! the file is made again by the command it names (`bikeproc simulate check-calibration` runs
 //! the same check from the command line).
 
+use bikeproc::blind::replay::{calibration_of, check, Calibration};
 use bikeproc::inertia::bike::LabBike;
-use bikeproc::sim::replay::{calibration_of, check, Calibration};
 use std::path::Path;
 
 fn check_file(json: &str, expected: Calibration) {

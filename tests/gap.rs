@@ -2,10 +2,10 @@
 //! which) against their sealed truth; the campaign in data/; campaigns that support no
 //! conclusion; the diagnosis's tyres against the simulator's.
 
+use bikeproc::blind::campaigns::{diagnose_blind, run_case, Case};
 use bikeproc::gap::{diagnose_campaign, ride_contrasts, Diagnosis, GapOptions};
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::read::rides::RideManifest;
-use bikeproc::sim::calibration::{diagnose_blind, run_case, Case};
 use bikeproc::sim::campaign::{BlindDesign, BlindTruth, Draws, Withheld};
 use common::root;
 use std::path::PathBuf;
@@ -609,8 +609,8 @@ fn eigenvalue_only_rides_take_their_own_coasting_errors() {
         Draws::Broad,
     )
     .unwrap();
-    let d = bikeproc::sim::calibration::in_scratch("eigenvalue_only", &files, &text, &|dir| {
-        use bikeproc::sim::calibration::stage;
+    let d = bikeproc::blind::in_scratch("eigenvalue_only", &files, &text, &|dir| {
+        use bikeproc::blind::stage;
         let manifest = RideManifest::load(&dir.join("rides.toml")).map_err(stage)?;
         let model = bikeproc::read::bicycle::load(&dir.join("bike.toml")).map_err(stage)?;
         let results = run_campaign(&manifest, &model, &ModalOptions::default(), &|_, _| {});

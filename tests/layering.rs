@@ -35,6 +35,7 @@ fn no_analysis_module_uses_the_simulator() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let allowed = [
         src.join("sim"),
+        src.join("blind"),
         src.join("cli/simulate.rs"),
         src.join("cli/args.rs"),
     ];
@@ -49,6 +50,29 @@ fn no_analysis_module_uses_the_simulator() {
         let text = std::fs::read_to_string(f).expect("a source file");
         for (n, line) in code_lines(&text) {
             if ["crate::sim", "bikeproc::sim", "super::sim", "use sim"]
+                .iter()
+                .any(|p| line.contains(p))
+            {
+                offences.push(format!("{}:{n}: {}", f.display(), line.trim()));
+            }
+        }
+    }
+    assert!(offences.is_empty(), "{}", offences.join("\n"));
+}
+
+/// The simulator is the lab: it never runs the analysis (`gap`, the ride stage's fits). The
+/// calibrations that diagnose its campaigns live above both, in `blind/`.
+#[test]
+fn the_simulator_runs_no_analysis() {
+    let sim = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/sim");
+    let mut files = Vec::new();
+    sources(&sim, &mut files);
+    assert!(files.len() >= 10, "{} simulator files found", files.len());
+    let mut offences = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).expect("a source file");
+        for (n, line) in code_lines(&text) {
+            if ["crate::gap", "crate::ride", "crate::blind"]
                 .iter()
                 .any(|p| line.contains(p))
             {

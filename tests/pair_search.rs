@@ -3,13 +3,13 @@
 //! pair of the library ([`PairSearch::Every`]) on the real balance-assist study and on blind
 //! campaigns and studies, each diagnosed from the same files both ways.
 
+use bikeproc::blind::{in_scratch, stage};
 use bikeproc::gap::{
     diagnose_campaign_with, diagnose_manifests_with, Diagnosis, GapOptions, PairSearch,
 };
 use bikeproc::inertia::bike::LabBike;
 use bikeproc::read::rides::RideManifest;
 use bikeproc::read::study::Study;
-use bikeproc::sim::calibration::{in_scratch, stage};
 use bikeproc::sim::campaign::{blind_campaign_plus, BlindDesign, Draws, Withheld};
 use bikeproc::sim::study::blind_study_with;
 use common::root;

@@ -224,7 +224,7 @@ fn study_calibration(
     bike: &Path,
     out: &Path,
 ) -> Result<()> {
-    use sim::study::{run_study, study_markdown, StudyKind};
+    use bikeproc::blind::studies::{run_study, study_markdown, StudyKind};
     let command = format!(
         "bikeproc simulate study-calibration --studies {studies} --near-nominal {near_nominal} \
          --controls {controls} --out {}",
@@ -233,7 +233,7 @@ fn study_calibration(
     let lab = LabBike::load(bike)?;
     let text =
         std::fs::read_to_string(bike).with_context(|| format!("reading {}", bike.display()))?;
-    let n0 = sim::study::NEAR_NOMINAL_SEEDS;
+    let n0 = bikeproc::blind::studies::NEAR_NOMINAL_SEEDS;
     let cases: Vec<(u64, StudyKind)> = (1..=studies)
         .map(|s| (s, StudyKind::Blind))
         .chain((n0..n0 + near_nominal).map(|s| (s, StudyKind::NearNominal)))
@@ -280,7 +280,7 @@ fn study_calibration(
 /// `simulate check-calibration`: each file's Markdown rendered again from its results, and a
 /// few of its cases replayed against their record; a line per case, exit 1 on a difference.
 fn check_calibration(files: &[PathBuf], per_design: usize, bike: &Path) -> Result<()> {
-    use sim::replay;
+    use bikeproc::blind::replay;
     let lab = LabBike::load(bike)?;
     let bike_text =
         std::fs::read_to_string(bike).with_context(|| format!("reading {}", bike.display()))?;
@@ -336,8 +336,8 @@ fn gap_calibration(
     out: &Path,
     rendered_from: Option<&Path>,
 ) -> Result<()> {
+    use bikeproc::blind::campaigns as calibration;
     use campaign::Withheld;
-    use sim::calibration;
     let mut command =
         format!("bikeproc simulate gap-calibration --campaigns {campaigns} --controls {controls}");
     if !only.is_empty() {

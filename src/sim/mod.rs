@@ -9,14 +9,12 @@
 //! ([`crate::spectral`], [`crate::fit`]) or the analysis model: a test that recovers what the
 //! simulator put in then proves something.
 
-pub mod calibration;
 pub mod campaign;
 pub mod draw;
 pub mod imu;
 pub mod linearize;
 pub mod ode;
 pub mod pendulum;
-pub mod replay;
 pub mod ride;
 pub mod study;
 pub mod whipple;

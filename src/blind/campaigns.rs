@@ -1,7 +1,7 @@
 //! The gap diagnosis checked on many blind campaigns at once: how often it names the withheld
 //! effect at its size, how often its standard errors cover the truth, and whether its
 //! campaign test's p-value is uniform when nothing is withheld. In: the measured bicycle and
-//! a list of blind campaigns (effect, design, seed; [`super::campaign::blind_campaign_plus`]
+//! a list of blind campaigns (effect, design, seed; [`crate::sim::campaign::blind_campaign_plus`]
 //! with [`Draws::Broad`]). Out: one [`CaseResult`] per campaign, and the tallies as Markdown
 //! ([`markdown`], `docs/gap-calibration.md`).
 //!
@@ -9,11 +9,12 @@
 //! alone (`gap::diagnose_campaign`, as `bikeproc gap` does), and only then compared with its
 //! sealed truth.
 
-use super::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Draws, Withheld};
+use super::{in_scratch, nan_for_null, stage, BlindError};
 use crate::gap::effects::Effect;
 use crate::gap::significance::DETECTION_POWER;
 use crate::gap::Diagnosis;
 use crate::inertia::bike::LabBike;
+use crate::sim::campaign::{blind_campaign_plus, BlindDesign, BlindTruth, Draws, Withheld};
 use std::fmt::Write as _;
 
 /// One blind campaign to run.
@@ -35,32 +36,6 @@ pub struct TrueFit {
     pub at_bound: Vec<bool>,
     /// Its place in the ranking (0 first).
     pub rank: usize,
-}
-
-/// Numbers of which some are `null` (serde_json's NaN), read with NaN in their place.
-fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
-    let values: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
-    Ok(nans(values))
-}
-
-fn nans(values: Vec<Option<f64>>) -> Vec<f64> {
-    values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect()
-}
-
-/// A number written `null` (serde_json's NaN) read back as NaN, so that a calibration's JSON
-/// renders its Markdown again.
-pub(super) fn number_nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
-    Ok(v.unwrap_or(f64::NAN))
-}
-
-/// A fit's values and standard errors (a study's motor fit) read back, `null` as NaN.
-#[allow(clippy::type_complexity)]
-pub(super) fn fit_nan_for_null<'de, D: serde::Deserializer<'de>>(
-    d: D,
-) -> Result<Option<(Vec<f64>, Vec<f64>)>, D::Error> {
-    let v: Option<(Vec<Option<f64>>, Vec<Option<f64>>)> = serde::Deserialize::deserialize(d)?;
-    Ok(v.map(|(a, b)| (nans(a), nans(b))))
 }
 
 /// What the diagnosis said of one blind campaign, beside its truth.
@@ -196,53 +171,6 @@ pub fn diagnose_blind(
         crate::gap::diagnose_campaign(&manifest, &model, &|_, _, _| {}).map_err(stage)
     })?;
     Ok((diagnosis, truth))
-}
-
-/// Why a blind campaign or study could not be simulated into its scratch folder or diagnosed
-/// from it.
-#[derive(Debug, thiserror::Error)]
-pub enum BlindError {
-    #[error("{}: {source}", path.display())]
-    Scratch {
-        path: std::path::PathBuf,
-        source: std::io::Error,
-    },
-    /// A stage's own error (the simulator's, a reader's, the gap's), as it says it.
-    #[error(transparent)]
-    Stage(Box<dyn std::error::Error + Send + Sync>),
-}
-
-/// A stage's error as a [`BlindError`].
-pub fn stage(e: impl std::error::Error + Send + Sync + 'static) -> BlindError {
-    BlindError::Stage(Box::new(e))
-}
-
-/// Runs `analyse` on a scratch folder (`name`, made unique to the process) holding a blind
-/// campaign's or study's `files` without its sealed `truth.json`, and the measured bicycle as
-/// `bike.toml`; the folder is removed afterwards.
-pub fn in_scratch<T>(
-    name: &str,
-    files: &super::campaign::Files,
-    bike_text: &str,
-    analyse: &dyn Fn(&std::path::Path) -> Result<T, BlindError>,
-) -> Result<T, BlindError> {
-    let dir = std::env::temp_dir().join(format!("bikeproc_{name}_{}", std::process::id()));
-    let scratch = |path: std::path::PathBuf| {
-        move |source: std::io::Error| BlindError::Scratch { path, source }
-    };
-    std::fs::create_dir_all(&dir).map_err(scratch(dir.clone()))?;
-    let result = (|| {
-        for (p, text) in files {
-            if p.as_os_str() != "truth.json" {
-                std::fs::write(dir.join(p), text).map_err(scratch(dir.join(p)))?;
-            }
-        }
-        let bike = dir.join("bike.toml");
-        std::fs::write(&bike, bike_text).map_err(scratch(bike.clone()))?;
-        analyse(&dir)
-    })();
-    std::fs::remove_dir_all(&dir).ok();
-    result
 }
 
 /// One campaign of the calibration: simulated with [`Draws::Broad`], diagnosed, compared.

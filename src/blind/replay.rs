@@ -8,10 +8,11 @@
 //! so a replay that differs means the code under the file has moved and the file must be made
 //! again (issue 75: "a change that moves a calibration fails CI until the file is made again").
 
-use super::calibration::{self, BlindError, Case, CaseResult};
-use super::campaign::{BlindDesign, Withheld};
-use super::study::{self, StudyKind, StudyResult};
+use super::campaigns::{self, Case, CaseResult};
+use super::studies::{self, StudyKind, StudyResult};
+use super::BlindError;
 use crate::inertia::bike::LabBike;
+use crate::sim::campaign::{BlindDesign, Withheld};
 use serde_json::Value;
 
 /// Errors of a calibration file.
@@ -251,7 +252,7 @@ pub fn replay(
                     case.seed
                 );
                 progress(&label);
-                let result = calibration::run_case(lab, bike_text, case)?;
+                let result = campaigns::run_case(lab, bike_text, case)?;
                 out.push(compared(label, &entries[index], &result));
             }
         }
@@ -259,7 +260,7 @@ pub fn replay(
             for (index, seed, kind) in study_cases(entries, per_design)? {
                 let label = format!("{} seed {seed}", kind.label());
                 progress(&label);
-                let result = study::run_study(lab, bike_text, seed, kind)?;
+                let result = studies::run_study(lab, bike_text, seed, kind)?;
                 out.push(compared(label, &entries[index], &result));
             }
         }
@@ -289,12 +290,12 @@ pub fn render(records: &Value, command: &str) -> Result<String, ReplayError> {
         Calibration::Gap => {
             let results: Vec<CaseResult> =
                 serde_json::from_value(records.clone()).map_err(malformed)?;
-            calibration::markdown(&results, &[], command)
+            campaigns::markdown(&results, &[], command)
         }
         Calibration::Study => {
             let results: Vec<StudyResult> =
                 serde_json::from_value(records.clone()).map_err(malformed)?;
-            study::study_markdown(&results, &[], command)
+            studies::study_markdown(&results, &[], command)
         }
     })
 }
