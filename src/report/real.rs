@@ -622,6 +622,9 @@ fn study_section(
         );
     }
     let _ = write!(md, "\n{}\n", verdict_list(&d.verdict));
+    #[cfg(not(feature = "plot"))]
+    let _ = files;
+    #[cfg(feature = "plot")]
     if let Some(svg) = study_figure(&conditions, &d)? {
         files.push(("real/balanceassist_study.svg".into(), svg.into_bytes()));
         let _ = write!(
@@ -638,6 +641,7 @@ fn study_section(
 /// colour, with the model at each ride's speed before (thin) and with the first candidate at
 /// its fit to every ride (thick): the model's values are the measured ones less the study's
 /// residuals. `None` for a study without a ranking or whose residuals do not match its rides.
+#[cfg(feature = "plot")]
 fn study_figure(
     conditions: &[crate::gap::StudyCondition],
     d: &crate::gap::Diagnosis,
