@@ -63,6 +63,11 @@ pub struct CaseResult {
     /// (`None` for effects of more than one parameter and outside the library).
     #[serde(default)]
     pub detection_limit: Option<f64>,
+    /// The instrument check found the campaign's mode shape missing every candidate by a
+    /// common factor and set it aside ([`crate::gap::instrument`]): none of these campaigns
+    /// records its shape otherwise than the model assumes, so each is a false alarm.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub shape_set_aside: bool,
 }
 
 /// The library effect a withheld one is (none for the control and the effects outside the
@@ -229,6 +234,7 @@ pub fn compare(d: &Diagnosis, case: Case, truth: Vec<f64>) -> CaseResult {
         true_fit,
         named,
         right,
+        shape_set_aside: d.instrument.iter().any(|c| c.misses),
     }
 }
 
@@ -565,6 +571,27 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
             );
         }
     }
+    let _ = writeln!(md, "\n## The instrument checked first\n");
+    let set_aside: Vec<&CaseResult> = results.iter().filter(|c| c.shape_set_aside).collect();
+    let _ = writeln!(
+        md,
+        "Every campaign here records its mode shape as the model assumes, so the instrument check (`gap::instrument`: a shape that misses every candidate by a common factor, χ² over {} on 2 degrees of freedom, is set aside and the campaign diagnosed on its eigenvalue) should never fire. It fired in {} of {} campaigns{}.",
+        crate::gap::instrument::SHAPE_MISS_CHI2,
+        set_aside.len(),
+        results.len(),
+        if set_aside.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ": {}",
+                set_aside
+                    .iter()
+                    .map(|c| format!("{} {} seed {}", c.design.label(), c.effect, c.seed))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    );
     if !failures.is_empty() {
         let _ = writeln!(md, "\n## Campaigns that could not be run\n");
         for f in failures {

@@ -73,6 +73,11 @@ pub struct StudyResult {
     /// (or tied at the top), and their inertia fits `(value, se)` where they do.
     pub singles_named: usize,
     pub singles_inertia: Vec<(f64, f64)>,
+    /// The conditions whose mode shape the instrument check set aside
+    /// ([`crate::gap::instrument`]), in the joint diagnosis or alone: false alarms, since
+    /// every simulated study records its shape as the model assumes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shapes_set_aside: Vec<String>,
 }
 
 /// Simulates the study of `seed` (the motor drawn, or effect-free) into a scratch folder and
@@ -110,6 +115,14 @@ pub fn run_study(
             .find(|r| r.effect == PAIR)
             .map(|r| (r.params.clone(), r.params_se.clone()));
         let (mut singles_named, mut singles_inertia) = (0, Vec::new());
+        let set_aside = |d: &crate::gap::Diagnosis| {
+            d.instrument
+                .iter()
+                .filter(|c| c.misses)
+                .map(|c| c.condition.clone())
+                .collect::<Vec<_>>()
+        };
+        let mut shapes_set_aside = set_aside(&d);
         // The powered conditions one at a time, for the blind studies' comparison only.
         for (_, m) in study
             .conditions
@@ -118,6 +131,7 @@ pub fn run_study(
         {
             let one = m.model(None).map_err(stage)?;
             let s = crate::gap::diagnose_campaign(m, &one, &|_, _, _| {}).map_err(stage)?;
+            shapes_set_aside.extend(set_aside(&s).into_iter().map(|c| format!("{c} alone")));
             if names(&s, PAIR) {
                 singles_named += 1;
                 if let Some(r) = s.ranking.iter().find(|r| r.effect == PAIR) {
@@ -148,6 +162,7 @@ pub fn run_study(
             motor_fit,
             singles_named,
             singles_inertia,
+            shapes_set_aside,
         })
     })
 }
@@ -327,6 +342,26 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
         let _ = write!(md, " {n} |");
     }
     md.push('\n');
+    let set_aside: Vec<String> = results
+        .iter()
+        .flat_map(|r| {
+            r.shapes_set_aside
+                .iter()
+                .map(move |c| format!("seed {} ({}): {c}", r.seed, r.kind.label()))
+        })
+        .collect();
+    let _ = write!(
+        md,
+        "\n## The instrument checked first\n\nEvery simulated study records its mode shape as the model assumes, so the instrument check (`gap::instrument`: a condition's shape that misses every candidate by a common factor, χ² over {} on 2 degrees of freedom, is set aside and the condition diagnosed on its eigenvalue) should never fire, in the joint diagnosis or in a condition alone. It fired {} times in {} studies{}.\n",
+        crate::gap::instrument::SHAPE_MISS_CHI2,
+        set_aside.len(),
+        results.len(),
+        if set_aside.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", set_aside.join("; "))
+        }
+    );
     if !failures.is_empty() {
         let _ = write!(md, "\n## Studies that could not be run\n\n");
         for f in failures {

@@ -74,6 +74,11 @@ pub struct Diagnosis {
     /// Each one-parameter candidate's smallest size these rides would have detected (the
     /// campaign's test, 80 % power): with no significant gap, what the quiet campaign rules out.
     pub detection_limits: Vec<DetectionLimit>,
+    /// The instrument checked before the bicycle: each condition's mode shape against the
+    /// model and the candidates ([`super::instrument`]). A condition whose shape misses every
+    /// candidate by a common factor (`misses`) is diagnosed on its eigenvalue alone.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub instrument: Vec<super::instrument::ShapeCheck>,
     pub verdict: String,
 }
 

@@ -28,10 +28,16 @@
 //! ([`linear`], [`effects`]); the simulator's nonlinear effects are separate code, and
 //! `sim::campaign::blind_campaign` makes the campaigns it is checked on blind.
 //!
+//! - **the instrument first**: each condition's mode shape against the model and the
+//!   candidates; a shape that misses every one by a common factor is recorded otherwise than
+//!   the model assumes (a sign, a unit, a controller's model), and the condition is
+//!   diagnosed on its eigenvalue alone ([`instrument`]).
+//!
 //! The stages, one file each: [`observe`] (the rides as observations, their residual types),
 //! [`significance`] (too thin to conclude on; the campaign's test), [`fit`] (the candidates'
 //! generalized least squares), [`rank`] (fitted, held out, ordered), [`ties`] (which the rides
-//! cannot tell apart, and the rides to make next), [`verdict`] (the words); this file runs them
+//! cannot tell apart, and the rides to make next), [`instrument`] (the shape's conventions
+//! checked), [`verdict`] (the words); this file runs them
 //! in order ([`diagnose`]).
 
 pub mod coasting;
@@ -40,6 +46,7 @@ pub mod diagnosis;
 pub mod effects;
 pub mod error;
 pub mod fit;
+pub mod instrument;
 pub mod linear;
 pub mod observe;
 pub mod rank;
@@ -258,12 +265,113 @@ pub fn study_conditions(
 /// Diagnoses the conditions of a study together (one condition: a single campaign, as
 /// [`diagnose`]): the bicycle's effects shared, each condition's own equipment fitted per
 /// condition ([`conditions`]), and with two or more conditions each predicted from the others.
+/// The instrument is checked first ([`instrument`]): a condition whose mode shape misses
+/// every candidate by a common factor is diagnosed again on its eigenvalue alone, and the
+/// diagnosis says why ([`Diagnosis::instrument`]).
 pub fn diagnose_study(
     study: &[StudyCondition],
     model: &Parametrized,
     options: &GapOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
+    let mut shape_off = vec![false; study.len()];
+    let mut missed: Vec<instrument::ShapeCheck> = Vec::new();
+    loop {
+        match diagnose_pass(study, model, options, &shape_off, progress)? {
+            Pass::Diagnosed(mut d, checks) => {
+                // Each shape set aside, against the best candidate of the eigenvalues alone.
+                let (after, best) = match d.ranking.first() {
+                    Some(b) if !d.residuals_after.is_empty() => {
+                        (&d.residuals_after, b.effect.as_str())
+                    }
+                    _ => (&d.residuals, "none"),
+                };
+                for check in &mut missed {
+                    let c = study.iter().position(|c| c.name == check.condition);
+                    let ratio = |r: &RideResidual| {
+                        let cond = c.map(|c| &study[c])?;
+                        let o = cond.rides.iter().find(|o| o.ride == r.ride)?;
+                        Some(o.shape_ratio.value)
+                    };
+                    let condition = (study.len() > 1).then_some(check.condition.as_str());
+                    check.against_eigenvalue_fit =
+                        instrument::common_factor_of(after, condition, best, &ratio);
+                    check.convention = check
+                        .against_eigenvalue_fit
+                        .as_ref()
+                        .and_then(instrument::convention);
+                    if let (None, Some(c)) = (check.convention, c) {
+                        if without_controller(&study[c], model)
+                            .is_some_and(|f| instrument::agrees(&f))
+                        {
+                            check.convention = Some(instrument::Convention::ControllerModel);
+                        }
+                    }
+                }
+                missed.extend(checks);
+                let order = |name: &str| study.iter().position(|c| c.name == name);
+                missed.sort_by_key(|c| order(&c.condition));
+                d.instrument = missed;
+                d.verdict = verdict(&d);
+                return Ok(*d);
+            }
+            Pass::ShapeMisses(checks) => {
+                for check in checks.into_iter().filter(|c| c.misses) {
+                    if let Some(c) = study.iter().position(|c| c.name == check.condition) {
+                        shape_off[c] = true;
+                    }
+                    missed.push(check);
+                }
+            }
+        }
+    }
+}
+
+/// A controlled condition's measured shapes against the bicycle's without its controller
+/// (the measured one, with the condition's known masses), at each ride's speed and nearest
+/// weave; `None` for an uncontrolled condition or without two rides to compare.
+fn without_controller(
+    condition: &StudyCondition,
+    model: &Parametrized,
+) -> Option<instrument::CommonFactor> {
+    if condition.control.is_none() {
+        return None;
+    }
+    let m = model.clone().with_masses(&condition.masses);
+    let bike = linear::LinearBike::whipple(&m.benchmark_at(m.inputs.values()));
+    let rows: Vec<instrument::ShapeRow> = condition
+        .rides
+        .iter()
+        .filter_map(|o| {
+            let (_, shape) = bike.weave_and_shape(o.speed_mps, o.weave, true)?;
+            let s = shape?;
+            instrument::ShapeRow::new(
+                o.shape_ratio.value,
+                o.shape_ratio.value - s.norm(),
+                o.shape_ratio.se,
+                crate::signal::wrap_pi(o.shape_phase_rad.value - s.arg()),
+                o.shape_phase_rad.se,
+            )
+        })
+        .collect();
+    instrument::factor_of_rows(&rows, "the bicycle without its controller")
+}
+
+/// One pass of [`diagnose_study`]: the diagnosis with the shape of the conditions `shape_off`
+/// left out, and its shape checks; or, as soon as the ranking shows a condition's shape
+/// missing every candidate, those checks alone (the pass to make again without it).
+enum Pass {
+    Diagnosed(Box<Diagnosis>, Vec<instrument::ShapeCheck>),
+    ShapeMisses(Vec<instrument::ShapeCheck>),
+}
+
+fn diagnose_pass(
+    study: &[StudyCondition],
+    model: &Parametrized,
+    options: &GapOptions,
+    shape_off: &[bool],
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Pass, GapError> {
     let is_study = study.len() > 1;
     let rides: Vec<Observation> = study.iter().flat_map(|c| c.rides.clone()).collect();
     let ride_condition: Vec<usize> = study
@@ -315,12 +423,13 @@ pub fn diagnose_study(
         next_rides: NextRides::default(),
         next_conditions: Vec::new(),
         detection_limits: Vec::new(),
+        instrument: Vec::new(),
         verdict: String::new(),
     };
     if let Some(reason) = insufficiency(rides, failed) {
         d.verdict = format!("No conclusion: {reason}.");
         d.reason = Some(reason);
-        return Ok(d);
+        return Ok(Pass::Diagnosed(Box::new(d), Vec::new()));
     }
     // The model at the rides' speeds under each condition's controller, its covariance (one
     // parameter set for every condition), and the speeds' contribution.
@@ -344,7 +453,11 @@ pub fn diagnose_study(
                 .all(|e| e.value.is_finite() && e.se.is_finite() && e.se > 0.0)
     };
     let condition_shapes: Vec<bool> = (0..study.len())
-        .map(|c| options.shape && (0..n).filter(|&i| ride_condition[i] == c).all(shape_usable))
+        .map(|c| {
+            options.shape
+                && !shape_off[c]
+                && (0..n).filter(|&i| ride_condition[i] == c).all(shape_usable)
+        })
         .collect();
     let parts = observe::Parts::new(
         (0..n)
@@ -590,6 +703,11 @@ pub fn diagnose_study(
     d.bands = speed_bands(&d.residuals);
     d.conclusive = true;
     d.ranking = rank(&campaign, progress)?;
+    let names: Vec<String> = study.iter().map(|c| c.name.clone()).collect();
+    let checks = instrument::check_shapes(&campaign, &condition_shapes, &names, &d.ranking);
+    if checks.iter().any(|c| c.misses) {
+        return Ok(Pass::ShapeMisses(checks));
+    }
     let mut singles: Vec<effects::Effect> = d
         .ranking
         .iter()
@@ -681,6 +799,5 @@ pub fn diagnose_study(
                 .collect();
         }
     }
-    d.verdict = verdict(&d);
-    Ok(d)
+    Ok(Pass::Diagnosed(Box::new(d), checks))
 }

@@ -487,8 +487,10 @@ fn rows_from<R: std::io::Read>(
                             line,
                             k + 1,
                             format!(
-                                "{} `{name}` = {x} {unit}: expected from {lo:.4} to {hi} {unit}",
-                                q.key()
+                                "{} `{name}` = {x} {unit}: expected from {} to {} {unit}",
+                                q.key(),
+                                short(*lo),
+                                short(*hi)
                             ),
                         )
                         .into());
@@ -931,6 +933,13 @@ impl KickSeries {
         }
         Some(series.finish(plan.columns(), marks))
     }
+}
+
+/// A range's end in a message: four decimals at most, trailing zeros dropped (±π is
+/// "3.1416", 30 is "30").
+fn short(x: f64) -> String {
+    let s = format!("{x:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 #[cfg(test)]
