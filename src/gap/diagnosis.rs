@@ -82,6 +82,45 @@ pub struct Diagnosis {
     pub verdict: String,
 }
 
+impl Diagnosis {
+    /// A campaign of `rides_used` rides (and `rides_failed`) before any stage has run: no
+    /// conclusion, nothing ranked, every number NaN.
+    pub(super) fn unconcluded(rides_used: usize, rides_failed: Vec<String>) -> Diagnosis {
+        Diagnosis {
+            conclusive: false,
+            reason: None,
+            rides_used,
+            rides_failed,
+            conditions: Vec::new(),
+            between_kick_scatter: None,
+            residuals: Vec::new(),
+            residuals_after: Vec::new(),
+            bands: Vec::new(),
+            chi2: f64::NAN,
+            dof: 2 * rides_used,
+            parts_per_ride: 2,
+            targeted: None,
+            campaign_p_value: f64::NAN,
+            p_value: f64::NAN,
+            chi2_without_parameter_error: f64::NAN,
+            p_value_without_parameter_error: f64::NAN,
+            heldout_vaf_before: None,
+            heldout_vaf_after: None,
+            significant: false,
+            parameters_could_explain: false,
+            ranking: Vec::new(),
+            tied: Vec::new(),
+            explained: false,
+            best_fit_p_value: f64::NAN,
+            next_rides: NextRides::default(),
+            next_conditions: Vec::new(),
+            detection_limits: Vec::new(),
+            instrument: Vec::new(),
+            verdict: String::new(),
+        }
+    }
+}
+
 /// One condition of a study in the diagnosis.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ConditionSummary {

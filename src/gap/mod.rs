@@ -45,6 +45,7 @@ pub mod conditions;
 pub mod diagnosis;
 pub mod effects;
 pub mod error;
+pub mod experiment;
 pub mod fit;
 pub mod instrument;
 pub mod linear;
@@ -68,7 +69,7 @@ pub use ties::{NextRide, NextRides, UNTIE_SEPARATION};
 
 use crate::model::uncertain::{Parametrized, WEAVE_PARTS};
 use fit::Campaign;
-use nalgebra::{Complex, DMatrix, DVector};
+use nalgebra::Complex;
 use observe::{shape_residual, speed_bands};
 use rank::{rank, ride_vaf};
 use significance::{insufficiency, targeted_test};
@@ -327,6 +328,213 @@ pub fn diagnose_study(
     }
 }
 
+/// A study's rides pooled in the order of its conditions, each ride's condition, and the rides
+/// that failed (in a study named with their condition).
+fn pooled(study: &[StudyCondition]) -> (Vec<Observation>, Vec<usize>, Vec<String>) {
+    let is_study = study.len() > 1;
+    let rides: Vec<Observation> = study.iter().flat_map(|c| c.rides.clone()).collect();
+    let ride_condition: Vec<usize> = study
+        .iter()
+        .enumerate()
+        .flat_map(|(c, cond)| std::iter::repeat_n(c, cond.rides.len()))
+        .collect();
+    let failed: Vec<String> = study
+        .iter()
+        .flat_map(|c| {
+            c.failed.iter().map(move |f| {
+                if is_study {
+                    format!("{}: {f}", c.name)
+                } else {
+                    f.clone()
+                }
+            })
+        })
+        .collect();
+    (rides, ride_condition, failed)
+}
+
+/// Each condition's model as the candidates extend it: the measured bicycle with its known
+/// masses at their values (the nominal's errors kept), its controller, and whether its rides'
+/// speeds were read (a speedometer's scale can apply).
+fn condition_models(
+    study: &[StudyCondition],
+    per_condition: &[(Parametrized, Vec<f64>)],
+    model: &Parametrized,
+) -> Vec<conditions::ConditionModel> {
+    let base = model.nominal();
+    study
+        .iter()
+        .zip(per_condition)
+        .map(|(c, (m, _))| conditions::ConditionModel {
+            name: c.name.clone(),
+            base: crate::model::Benchmark {
+                se: base.se,
+                ..m.benchmark_at(m.inputs.values())
+            },
+            control: c.control,
+            read_speeds: c.rides.iter().any(|o| {
+                matches!(
+                    o.speed_source,
+                    crate::ride::dynamic::SpeedSource::Noted
+                        | crate::ride::dynamic::SpeedSource::WheelSpeed
+                        | crate::ride::dynamic::SpeedSource::Set
+                )
+            }),
+        })
+        .collect()
+}
+
+/// Each condition of a study on its own: its rides, its χ² against the unextended model (its
+/// block of the campaign's covariance) and the scatter between its own repeated kicks.
+fn condition_summaries(study: &[StudyCondition], campaign: &Campaign<'_>) -> Vec<ConditionSummary> {
+    let (rides, parts) = (campaign.obs, &campaign.parts);
+    study
+        .iter()
+        .enumerate()
+        .map(|(c, cond)| {
+            let own = campaign.rides_of(c);
+            ConditionSummary {
+                name: cond.name.clone(),
+                controlled: !cond.control.is_none(),
+                rides_used: cond.rides.len(),
+                rides_failed: cond.failed.clone(),
+                chi2: campaign
+                    .subset(own.clone())
+                    .map_or(f64::NAN, |s| s.chi2(&[], &[])),
+                dof: parts.count(&own),
+                scatter_alone: {
+                    let own_rides: Vec<Observation> =
+                        own.iter().map(|&i| rides[i].clone()).collect();
+                    observe::between_kick_scatter(
+                        &own_rides,
+                        &vec![0; own_rides.len()],
+                        parts.most(),
+                        &experiment::fit_se,
+                    )
+                    .map_or(Vec::new(), |s| s.per_part)
+                },
+            }
+        })
+        .collect()
+}
+
+/// Each ride's residual against the unextended model (`r0`, in the order of the campaign's
+/// parts) with its combined standard errors; a ride whose shape the diagnosis leaves out gets
+/// its shape's residual against `unextended` with the fit's own errors.
+fn residuals_before(
+    campaign: &Campaign<'_>,
+    r0: &nalgebra::DVector<f64>,
+    unextended: &[linear::LinearBike],
+    study: &[StudyCondition],
+) -> Vec<RideResidual> {
+    let (rides, parts, ride_condition) = (campaign.obs, &campaign.parts, &campaign.ride_condition);
+    let is_study = study.len() > 1;
+    rides
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let at = parts.start(i);
+            let se = |a: usize| campaign.cov()[(at + a, at + a)].sqrt();
+            let (re_se, im_se) = (se(0), se(1));
+            let (ratio_se, phase_se) = if parts.of(i) > 2 {
+                (se(2), se(3))
+            } else {
+                (o.shape_ratio.se, o.shape_phase_rad.se)
+            };
+            let model_weave = Complex::new(o.weave.re - r0[at], o.weave.im - r0[at + 1]);
+            let (dr, dp) = if parts.of(i) > 2 {
+                (r0[at + 2], r0[at + 3])
+            } else {
+                shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave)
+            };
+            RideResidual::of(
+                o,
+                is_study.then(|| study[ride_condition[i]].name.clone()),
+                [r0[at], r0[at + 1], dr, dp],
+                [re_se, im_se, ratio_se, phase_se],
+            )
+        })
+        .collect()
+}
+
+/// What the best candidate makes of the campaign: its goodness of fit, whether it explains the
+/// gap, the variance of θ and γ the eigenvalues account for before and with it (each ride from
+/// the fit without it), and each ride's residual with it.
+fn with_best(d: &mut Diagnosis, campaign: &Campaign<'_>, unextended: &[linear::LinearBike]) {
+    let Some(best) = d.ranking.first() else {
+        return;
+    };
+    let (rides, parts, ride_condition) = (campaign.obs, &campaign.parts, &campaign.ride_condition);
+    let guesses = &campaign.guesses;
+    let all: Vec<usize> = (0..rides.len()).collect();
+    let k = best.params.len();
+    d.best_fit_p_value = stats::chi2_sf(best.chi2, d.dof.saturating_sub(k).max(1));
+    d.explained = d.significant
+        && best.heldout_rms_after <= EXPLAINED_HELDOUT_RMS
+        && best.heldout_rms_after < best.heldout_rms_before
+        && d.best_fit_p_value >= SIGNIFICANCE;
+    let mean = |v: Vec<Option<f64>>| -> Option<f64> {
+        let v: Option<Vec<f64>> = v.into_iter().collect();
+        v.filter(|v| !v.is_empty())
+            .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    d.heldout_vaf_before = mean(
+        rides
+            .iter()
+            .enumerate()
+            .map(|(i, o)| ride_vaf(&unextended[ride_condition[i]], &[], &[], o, guesses[i]))
+            .collect(),
+    );
+    let layout = campaign.layout(&best.effects);
+    d.heldout_vaf_after = mean(
+        rides
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                let params = best.heldout_params.get(i)?;
+                let (bike, own) = campaign.bike(&best.effects, &layout, params, ride_condition[i]);
+                ride_vaf(&bike, &best.effects, &own, o, guesses[i])
+            })
+            .collect(),
+    );
+    let at_best = campaign.with_coasting(&best.effects, &best.params);
+    let shift_error = at_best.coasting_error();
+    if let Some(r) = at_best.residuals(&best.effects, &best.params, &all) {
+        d.residuals_after = d
+            .residuals
+            .iter()
+            .enumerate()
+            .map(|(i, before)| {
+                let o = &rides[i];
+                let at = parts.start(i);
+                let (bike, own) =
+                    campaign.bike(&best.effects, &layout, &best.params, ride_condition[i]);
+                let clock = effects::clock(&best.effects, &own);
+                let weave = Complex::new(o.weave.re - r[at], o.weave.im - r[at + 1]);
+                let v = effects::true_speed(&best.effects, &own, o);
+                let (dr, dp) = if parts.of(i) > 2 {
+                    (r[at + 2], r[at + 3])
+                } else {
+                    shape_residual(&bike, o, v, weave * clock)
+                };
+                // A candidate's coasting shift carries its own error (on the parts the
+                // ride has: a ride without its shape has no shift there).
+                let se = |a: usize, own: f64| match &shift_error {
+                    Some(e) if a < parts.of(i) => own.hypot(e[at + a]),
+                    _ => own,
+                };
+                let (re_se, im_se) = (se(0, before.re_se), se(1, before.im_se));
+                let ratio_se = se(2, before.shape_ratio_se);
+                let phase_se = se(3, before.shape_phase_se_rad);
+                before.with(
+                    [r[at], r[at + 1], dr, dp],
+                    [re_se, im_se, ratio_se, phase_se],
+                )
+            })
+            .collect();
+    }
+}
+
 /// A controlled condition's measured shapes against the bicycle's without its controller
 /// (the measured one, with the condition's known masses), at each ride's speed and nearest
 /// weave; `None` for an uncontrolled condition or without two rides to compare.
@@ -373,59 +581,11 @@ fn diagnose_pass(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Pass, GapError> {
     let is_study = study.len() > 1;
-    let rides: Vec<Observation> = study.iter().flat_map(|c| c.rides.clone()).collect();
-    let ride_condition: Vec<usize> = study
-        .iter()
-        .enumerate()
-        .flat_map(|(c, cond)| std::iter::repeat_n(c, cond.rides.len()))
-        .collect();
-    let failed: Vec<String> = study
-        .iter()
-        .flat_map(|c| {
-            c.failed.iter().map(move |f| {
-                if is_study {
-                    format!("{}: {f}", c.name)
-                } else {
-                    f.clone()
-                }
-            })
-        })
-        .collect();
+    let (rides, ride_condition, failed) = pooled(study);
     let rides = &rides[..];
     let failed = &failed[..];
     let n = rides.len();
-    let mut d = Diagnosis {
-        conclusive: false,
-        reason: None,
-        rides_used: n,
-        rides_failed: failed.to_vec(),
-        conditions: Vec::new(),
-        between_kick_scatter: None,
-        residuals: Vec::new(),
-        residuals_after: Vec::new(),
-        bands: Vec::new(),
-        chi2: f64::NAN,
-        dof: 2 * n,
-        parts_per_ride: 2,
-        targeted: None,
-        campaign_p_value: f64::NAN,
-        p_value: f64::NAN,
-        chi2_without_parameter_error: f64::NAN,
-        p_value_without_parameter_error: f64::NAN,
-        heldout_vaf_before: None,
-        heldout_vaf_after: None,
-        significant: false,
-        parameters_could_explain: false,
-        ranking: Vec::new(),
-        tied: Vec::new(),
-        explained: false,
-        best_fit_p_value: f64::NAN,
-        next_rides: NextRides::default(),
-        next_conditions: Vec::new(),
-        detection_limits: Vec::new(),
-        instrument: Vec::new(),
-        verdict: String::new(),
-    };
+    let mut d = Diagnosis::unconcluded(n, failed.to_vec());
     if let Some(reason) = insufficiency(rides, failed) {
         d.verdict = format!("No conclusion: {reason}.");
         d.reason = Some(reason);
@@ -478,50 +638,18 @@ fn diagnose_pass(
         .cov
         .select_rows(model_idx.iter())
         .select_columns(model_idx.iter());
-    let base = model.nominal();
-    let condition_models: Vec<conditions::ConditionModel> = study
-        .iter()
-        .zip(&per_condition)
-        .map(|(c, (m, _))| conditions::ConditionModel {
-            name: c.name.clone(),
-            base: crate::model::Benchmark {
-                se: base.se,
-                ..m.benchmark_at(m.inputs.values())
-            },
-            control: c.control,
-            read_speeds: c.rides.iter().any(|o| {
-                matches!(
-                    o.speed_source,
-                    crate::ride::dynamic::SpeedSource::Noted
-                        | crate::ride::dynamic::SpeedSource::WheelSpeed
-                        | crate::ride::dynamic::SpeedSource::Set
-                )
-            }),
-        })
-        .collect();
+    let condition_models = condition_models(study, &per_condition, model);
     let unextended: Vec<linear::LinearBike> = condition_models
         .iter()
         .map(|c| linear::LinearBike::whipple(&c.base).with_control(c.control))
         .collect();
-    let total = parts.total();
-    let mut exp_cov = DMatrix::zeros(total, total);
-    let fit_se = |o: &Observation| {
-        [
-            o.re_se,
-            o.im_se,
-            o.shape_ratio
-                .se
-                .hypot(SHAPE_RATIO_FLOOR * o.shape_ratio.value),
-            o.shape_phase_rad.se.hypot(SHAPE_PHASE_FLOOR_RAD),
-        ]
-    };
     // Repeated kicks of one set-up that scatter beyond their fits' errors: the scatter between
     // kicks, a random effect of every kick.
     d.between_kick_scatter =
-        observe::between_kick_scatter(rides, &ride_condition, parts.most(), &fit_se);
+        observe::between_kick_scatter(rides, &ride_condition, parts.most(), &experiment::fit_se);
     if let Some(s) = d.between_kick_scatter.as_mut() {
         let white_se = |o: &Observation| {
-            let [_, _, ratio, phase] = fit_se(o);
+            let [_, _, ratio, phase] = experiment::fit_se(o);
             [o.se_if_white[0], o.se_if_white[1], ratio, phase]
         };
         observe::with_white_errors(s, rides, &ride_condition, parts.most(), &white_se);
@@ -530,82 +658,15 @@ fn diagnose_pass(
         .between_kick_scatter
         .as_ref()
         .map_or(vec![0.0; parts.most()], |s| s.per_part.clone());
-    for (i, o) in rides.iter().enumerate() {
-        let standard_errors = fit_se(o);
-        let (start, p) = (parts.start(i), parts.of(i));
-        for a in 0..p {
-            exp_cov[(start + a, start + a)] = standard_errors[a].powi(2) + scatter[a].powi(2);
-        }
-        // The model's weave and shape per m/s of speed at the ride's.
-        let h = 1e-4;
-        let unextended = &unextended[ride_condition[i]];
-        let at = |v: f64| -> Option<[f64; 4]> {
-            let (w, s) = unextended.weave_and_shape(v, guesses[i], true)?;
-            let s = s?;
-            Some([
-                w.re,
-                w.im,
-                s.norm(),
-                crate::signal::wrap_near(s.arg(), wm.shapes[i].arg()),
-            ])
-        };
-        let per_mps: [f64; 4] = match (at(o.speed_mps + h), at(o.speed_mps - h)) {
-            (Some(a), Some(b)) => std::array::from_fn(|k| (a[k] - b[k]) / (2.0 * h)),
-            _ => [0.0; 4],
-        };
-        // The shape drifts as the bicycle slows over the window (the fit holds it constant):
-        // the model's change over half the window's slowing (as the eigenvalue's drift when its
-        // own fit fails). Near the weave speed the shape changes fast with speed: without this,
-        // rides there made effect-free campaigns "significant". Before a coasting ride's shape
-        // was corrected for the slowing (`ride::dynamic::COASTING_SHAPE_APPLIED`) it took the
-        // whole window's change to keep 200 effect-free noted campaigns' χ² from rejecting;
-        // with the correction that made the χ² test conservative (a third of them in its last
-        // p bin, none below 0.05 of the targeted test's), and half the window gives it back its
-        // uniform histogram (0.5 % below 0.01, docs/gap-calibration.md).
-        let window_change_mps = 0.5 * o.window_accel_mps2.abs() * o.window_s.max(0.0);
-        for a in 2..p {
-            exp_cov[(start + a, start + a)] += (per_mps[a] * window_change_mps).powi(2);
-        }
-        if o.speed_se_mps > 0.0 {
-            let g = per_mps.map(|d| d * o.speed_se_mps);
-            for a in 0..p {
-                for b in 0..p {
-                    exp_cov[(start + a, start + b)] += g[a] * g[b];
-                }
-            }
-        }
-    }
-    let corrections: Vec<[f64; 4]> = rides.iter().map(|o| o.coasting_error_scale).collect();
-    exp_cov += coasting::correction_cov(&corrections, &parts);
-    // The motion's size: each ride's fit differs from the small motion's by κ times its
-    // size, κ one per condition and part.
-    let n_conditions = ride_condition.iter().copied().max().map_or(1, |m| m + 1);
-    let nonlinear: Vec<DVector<f64>> = (0..n_conditions)
-        .flat_map(|c| (0..4).map(move |a| (c, a)))
-        .map(|(c, a)| {
-            let mut w = DVector::zeros(total);
-            for (i, o) in rides.iter().enumerate() {
-                if parts.of(i) > a && ride_condition[i] == c {
-                    let se =
-                        crate::ride::dynamic::nonlinear_se(o.motion_sq_rad2, o.shape_ratio.value);
-                    w[parts.start(i) + a] = NONLINEAR_COMMON_FACTOR * se[a];
-                }
-            }
-            w
-        })
-        .collect();
-    for w in &nonlinear {
-        exp_cov += w * w.transpose();
-    }
-    // Those common parts, W Wᵀ (the rest of exp_cov is block-diagonal over the rides).
-    let exp_common = {
-        let mut w = DMatrix::zeros(total, 1 + nonlinear.len());
-        w.set_column(0, &coasting::correction_common(&corrections, &parts));
-        for (k, n) in nonlinear.iter().enumerate() {
-            w.set_column(k + 1, n);
-        }
-        w
-    };
+    let (exp_cov, exp_common) = experiment::covariance(
+        rides,
+        &ride_condition,
+        &parts,
+        &unextended,
+        &guesses,
+        &wm.shapes,
+        &scatter,
+    );
     // The coasting rides' replays on the measured bicycle, for the candidates' shifts.
     let coasting = coasting::CoastingBase::new(rides, &condition_models, &ride_condition);
     let all: Vec<usize> = (0..n).collect();
@@ -632,7 +693,7 @@ fn diagnose_pass(
         every_pair: options.pairs.every_pair(is_study),
     };
     d.parts_per_ride = parts.most();
-    d.dof = total;
+    d.dof = parts.total();
     let full = campaign.subset(all.clone()).ok_or(GapError::Covariance)?;
     let r0 = campaign
         .residuals(&[], &[], &all)
@@ -645,61 +706,9 @@ fn diagnose_pass(
         .map_or(f64::NAN, |w| w.norm_squared());
     d.p_value_without_parameter_error = stats::chi2_sf(d.chi2_without_parameter_error, d.dof);
     if is_study {
-        d.conditions = study
-            .iter()
-            .enumerate()
-            .map(|(c, cond)| {
-                let own = campaign.rides_of(c);
-                ConditionSummary {
-                    name: cond.name.clone(),
-                    controlled: !cond.control.is_none(),
-                    rides_used: cond.rides.len(),
-                    rides_failed: cond.failed.clone(),
-                    chi2: campaign
-                        .subset(own.clone())
-                        .map_or(f64::NAN, |s| s.chi2(&[], &[])),
-                    dof: parts.count(&own),
-                    scatter_alone: {
-                        let own_rides: Vec<Observation> =
-                            own.iter().map(|&i| rides[i].clone()).collect();
-                        observe::between_kick_scatter(
-                            &own_rides,
-                            &vec![0; own_rides.len()],
-                            parts.most(),
-                            &fit_se,
-                        )
-                        .map_or(Vec::new(), |s| s.per_part)
-                    },
-                }
-            })
-            .collect();
+        d.conditions = condition_summaries(study, &campaign);
     }
-    d.residuals = rides
-        .iter()
-        .enumerate()
-        .map(|(i, o)| {
-            let at = parts.start(i);
-            let se = |a: usize| campaign.cov()[(at + a, at + a)].sqrt();
-            let (re_se, im_se) = (se(0), se(1));
-            let (ratio_se, phase_se) = if parts.of(i) > 2 {
-                (se(2), se(3))
-            } else {
-                (o.shape_ratio.se, o.shape_phase_rad.se)
-            };
-            let model_weave = Complex::new(o.weave.re - r0[at], o.weave.im - r0[at + 1]);
-            let (dr, dp) = if parts.of(i) > 2 {
-                (r0[at + 2], r0[at + 3])
-            } else {
-                shape_residual(&unextended[ride_condition[i]], o, o.speed_mps, model_weave)
-            };
-            RideResidual::of(
-                o,
-                is_study.then(|| study[ride_condition[i]].name.clone()),
-                [r0[at], r0[at + 1], dr, dp],
-                [re_se, im_se, ratio_se, phase_se],
-            )
-        })
-        .collect();
+    d.residuals = residuals_before(&campaign, &r0, &unextended, study);
     d.bands = speed_bands(&d.residuals);
     d.conclusive = true;
     d.ranking = rank(&campaign, progress)?;
@@ -730,74 +739,6 @@ fn diagnose_pass(
         d.next_rides = next_rides(&campaign, &exp_cov, model, &d.ranking, &d.tied);
         d.next_conditions = ties::next_conditions(&campaign, &d.ranking, &d.tied);
     }
-    if let Some(best) = d.ranking.first() {
-        let k = best.params.len();
-        d.best_fit_p_value = stats::chi2_sf(best.chi2, d.dof.saturating_sub(k).max(1));
-        d.explained = d.significant
-            && best.heldout_rms_after <= EXPLAINED_HELDOUT_RMS
-            && best.heldout_rms_after < best.heldout_rms_before
-            && d.best_fit_p_value >= SIGNIFICANCE;
-        let mean = |v: Vec<Option<f64>>| -> Option<f64> {
-            let v: Option<Vec<f64>> = v.into_iter().collect();
-            v.filter(|v| !v.is_empty())
-                .map(|v| v.iter().sum::<f64>() / v.len() as f64)
-        };
-        d.heldout_vaf_before = mean(
-            rides
-                .iter()
-                .enumerate()
-                .map(|(i, o)| ride_vaf(&unextended[ride_condition[i]], &[], &[], o, guesses[i]))
-                .collect(),
-        );
-        let layout = campaign.layout(&best.effects);
-        d.heldout_vaf_after = mean(
-            rides
-                .iter()
-                .enumerate()
-                .map(|(i, o)| {
-                    let params = best.heldout_params.get(i)?;
-                    let (bike, own) =
-                        campaign.bike(&best.effects, &layout, params, ride_condition[i]);
-                    ride_vaf(&bike, &best.effects, &own, o, guesses[i])
-                })
-                .collect(),
-        );
-        let at_best = campaign.with_coasting(&best.effects, &best.params);
-        let shift_error = at_best.coasting_error();
-        if let Some(r) = at_best.residuals(&best.effects, &best.params, &all) {
-            d.residuals_after = d
-                .residuals
-                .iter()
-                .enumerate()
-                .map(|(i, before)| {
-                    let o = &rides[i];
-                    let at = parts.start(i);
-                    let (bike, own) =
-                        campaign.bike(&best.effects, &layout, &best.params, ride_condition[i]);
-                    let clock = effects::clock(&best.effects, &own);
-                    let weave = Complex::new(o.weave.re - r[at], o.weave.im - r[at + 1]);
-                    let v = effects::true_speed(&best.effects, &own, o);
-                    let (dr, dp) = if parts.of(i) > 2 {
-                        (r[at + 2], r[at + 3])
-                    } else {
-                        shape_residual(&bike, o, v, weave * clock)
-                    };
-                    // A candidate's coasting shift carries its own error (on the parts the
-                    // ride has: a ride without its shape has no shift there).
-                    let se = |a: usize, own: f64| match &shift_error {
-                        Some(e) if a < parts.of(i) => own.hypot(e[at + a]),
-                        _ => own,
-                    };
-                    let (re_se, im_se) = (se(0, before.re_se), se(1, before.im_se));
-                    let ratio_se = se(2, before.shape_ratio_se);
-                    let phase_se = se(3, before.shape_phase_se_rad);
-                    before.with(
-                        [r[at], r[at + 1], dr, dp],
-                        [re_se, im_se, ratio_se, phase_se],
-                    )
-                })
-                .collect();
-        }
-    }
+    with_best(&mut d, &campaign, &unextended);
     Ok(Pass::Diagnosed(Box::new(d), checks))
 }
