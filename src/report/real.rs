@@ -578,6 +578,34 @@ fn study_section(
             repeats
         );
     }
+    // The instrument checked before the bicycle: each condition with a mode shape.
+    for check in &d.instrument {
+        let k = check.log_ratio.value.exp();
+        let _ = write!(
+            md,
+            "\n**The instrument first.** The mode shape of {} ({} decays) against the model and the \
+             candidates in turn: {}; against {}, |γ/θ| × {k:.2} ± {:.2} and arg γ/θ {:+.1} ± {:.1}° in \
+             common (χ² {:.1} on 2 degrees of freedom; the shape is set aside as the instrument's \
+             only where every candidate leaves over {}).\n",
+            check.condition,
+            check.rides,
+            if check.misses {
+                "it misses every one, and the condition is diagnosed on its eigenvalue alone"
+            } else {
+                "a candidate of the library accounts for it, so the shape stays in the diagnosis"
+            },
+            if check.against == "none" {
+                "the model as it is".to_string()
+            } else {
+                check.against.clone()
+            },
+            k * check.log_ratio.se,
+            check.phase_rad.value.to_degrees(),
+            check.phase_rad.se.to_degrees(),
+            check.chi2,
+            crate::gap::instrument::SHAPE_MISS_CHI2
+        );
+    }
     let _ = write!(
         md,
         "\nThe first five of the {} candidates ranked (every single effect, pairs of the best, three \
