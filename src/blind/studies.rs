@@ -74,8 +74,9 @@ pub struct StudyResult {
     pub singles_named: usize,
     pub singles_inertia: Vec<(f64, f64)>,
     /// The conditions whose mode shape the instrument check set aside
-    /// ([`crate::gap::instrument`]), in the joint diagnosis or alone: false alarms, since
-    /// every simulated study records its shape as the model assumes.
+    /// ([`crate::gap::instrument`]), in the joint diagnosis or alone: every simulated study
+    /// records its shape as the model assumes, so each is a false alarm or a shape no
+    /// candidate follows.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub shapes_set_aside: Vec<String>,
 }
@@ -352,7 +353,7 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
         .collect();
     let _ = write!(
         md,
-        "\n## The instrument checked first\n\nEvery simulated study records its mode shape as the model assumes, so the instrument check (`gap::instrument`: a condition's shape that misses every candidate by a common factor, χ² over {} on 2 degrees of freedom, is set aside and the condition diagnosed on its eigenvalue) should never fire, in the joint diagnosis or in a condition alone. It fired {} times in {} studies{}.\n",
+        "\n## The instrument checked first\n\nEvery simulated study records its mode shape as the model assumes, so the instrument check (`gap::instrument`: a condition's shape that misses every candidate by a common factor, χ² over {} on 2 degrees of freedom, is set aside and the condition diagnosed on its eigenvalue) fires only on a false alarm or where no candidate can follow the shape the motor gives, in the joint diagnosis or in a condition alone. It fired {} times in {} studies{}.\n",
         crate::gap::instrument::SHAPE_MISS_CHI2,
         set_aside.len(),
         results.len(),
