@@ -353,7 +353,7 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
         .collect();
     let _ = write!(
         md,
-        "\n## The instrument checked first\n\nEvery simulated study records its mode shape as the model assumes, so the instrument check (`gap::instrument`: a condition's shape that misses every candidate by a common factor, χ² over {} on 2 degrees of freedom, is set aside and the condition diagnosed on its eigenvalue) fires only on a false alarm or where no candidate can follow the shape the motor gives, in the joint diagnosis or in a condition alone. It fired {} times in {} studies{}.\n",
+        "\n## The instrument checked first\n\nEvery simulated study records its mode shape as the model assumes, so the instrument check (`gap::instrument`: a condition's shape that misses every candidate by a common factor, χ² over {} on 2 degrees of freedom, is set aside and the condition diagnosed on its eigenvalue) should never fire, in the joint diagnosis or in a condition alone. It fired {} times in {} studies{}.\n",
         crate::gap::instrument::SHAPE_MISS_CHI2,
         set_aside.len(),
         results.len(),
