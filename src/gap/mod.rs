@@ -313,7 +313,10 @@ pub fn diagnose_study(
                 let order = |name: &str| study.iter().position(|c| c.name == name);
                 missed.sort_by_key(|c| order(&c.condition));
                 d.instrument = missed;
-                d.verdict = verdict(&d);
+                // (A campaign too thin to conclude on keeps its pass's "No conclusion".)
+                if d.conclusive {
+                    d.verdict = verdict(&d);
+                }
                 return Ok(*d);
             }
             Pass::ShapeMisses(checks) => {
