@@ -139,6 +139,15 @@ impl ShapeCheck {
     }
 }
 
+/// The weighted circular mean of `(phase, weight)` pairs (rad): where phase residuals near
+/// ±180° are averaged without cancelling, before they are unwrapped near it.
+fn circular_mean(phases: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let (s, c) = phases.fold((0.0, 0.0), |(s, c), (p, w)| {
+        (s + w * p.sin(), c + w * p.cos())
+    });
+    s.atan2(c)
+}
+
 /// The common factor by which the shapes of `rides` miss a prediction: generalized least
 /// squares of y = X β, β = (ln k, φ), in `cov` (the rides' shape parts' covariance, factored).
 /// For ride i with measured |γ/θ| ρᵢ and residual (Δρᵢ, Δφᵢ), y holds ρᵢ ln(ρᵢ/(ρᵢ − Δρᵢ)) (≈ Δρᵢ
@@ -161,13 +170,7 @@ fn common_factor(
         .iter()
         .map(|v| 1.0 / v.max(f64::MIN_POSITIVE))
         .collect();
-    let (s, c) = phases
-        .iter()
-        .zip(&weights)
-        .fold((0.0, 0.0), |(s, c), (p, w)| {
-            (s + w * p.sin(), c + w * p.cos())
-        });
-    let centre = s.atan2(c);
+    let centre = circular_mean(phases.iter().copied().zip(weights.iter().copied()));
     let mut y = DVector::zeros(2 * n);
     let mut x = DMatrix::zeros(2 * n, 2);
     for (k, &i) in rides.iter().enumerate() {
@@ -379,11 +382,7 @@ pub fn factor_of_rows(rows: &[ShapeRow], against: &str) -> Option<CommonFactor> 
     if rows.len() < 2 {
         return None;
     }
-    let (s, c) = rows.iter().fold((0.0, 0.0), |(s, c), r| {
-        let w = r.3.powi(-2);
-        (s + w * r.2.sin(), c + w * r.2.cos())
-    });
-    let centre = s.atan2(c);
+    let centre = circular_mean(rows.iter().map(|r| (r.2, r.3.powi(-2))));
     let mean = |xs: &[(f64, f64)]| -> Estimate {
         let sw: f64 = xs.iter().map(|(_, se)| se.powi(-2)).sum();
         let m = xs.iter().map(|(x, se)| x * se.powi(-2)).sum::<f64>() / sw;
