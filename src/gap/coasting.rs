@@ -37,7 +37,7 @@
 //! not the ride's.
 
 use super::conditions::ConditionModel;
-use super::effects::{linear_bike, true_speed, Effect};
+use super::effects::{any_change, linear_bike, true_speed, Change, Effect};
 use super::linear::LinearBike;
 use super::observe::Observation;
 use crate::ride::dynamic::{
@@ -95,7 +95,7 @@ impl CoastingBase {
     /// (its own bias), and the effects that move the speed a ride applies at (where the ride
     /// stage made its correction).
     pub fn applies_to(effects: &[Effect]) -> bool {
-        effects.contains(&Effect::SteerDamping) || Self::moves_speed(effects)
+        Self::damped(effects) || Self::moves_speed(effects)
     }
 
     /// Whether `effects` is a speedometer's scale or a clock alone: the candidates whose
@@ -104,7 +104,12 @@ impl CoastingBase {
     /// candidate, and with the pairs too `bikeproc gap data/rides.toml` took 0.79 s against
     /// 0.70 (divan `gap_campaign_16_rides`, its bar 0.74 s).
     fn moves_speed(effects: &[Effect]) -> bool {
-        matches!(effects, [Effect::SpeedScale] | [Effect::TimeScale])
+        matches!(effects, [e] if matches!(e.change(), Change::Speedometer | Change::Clock))
+    }
+
+    /// Whether `effects` damp the steer: the candidates that carry their own replay.
+    fn damped(effects: &[Effect]) -> bool {
+        any_change(effects, |c| matches!(c, Change::SteerDamping))
     }
 
     /// What `effects` at `params` add to each ride's prediction (`params_of(c)`, condition
@@ -130,7 +135,7 @@ impl CoastingBase {
         if !Self::applies_to(effects) || self.rides.iter().all(Option::is_none) {
             return vec![[0.0; 4]; obs.len()];
         }
-        let damped = effects.contains(&Effect::SteerDamping);
+        let damped = Self::damped(effects);
         let moves_speed = Self::moves_speed(effects);
         obs.par_iter()
             .enumerate()

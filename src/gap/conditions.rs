@@ -9,7 +9,7 @@
 //! A single campaign is a study of one condition: every parameter is then fitted once, as the
 //! library lists them.
 
-use super::effects::{Effect, ParamSpec};
+use super::effects::{Acts, Effect, ParamSpec};
 use crate::model::{Benchmark, SteerControl};
 
 /// One condition's model.
@@ -26,13 +26,13 @@ pub struct ConditionModel {
 }
 
 impl ConditionModel {
-    /// Whether `effect` acts on this condition's rides: the actuator's gain only with a
-    /// controller, the speedometer's scale only on read speeds.
+    /// Whether `effect` acts on this condition's rides ([`Acts`]): the actuator's gain only
+    /// with a controller, the speedometer's scale only on read speeds.
     pub fn acts(&self, effect: Effect) -> bool {
-        match effect {
-            Effect::ActuatorGain => !self.control.is_none(),
-            Effect::SpeedScale => self.read_speeds,
-            _ => true,
+        match effect.definition().acts {
+            Acts::Always => true,
+            Acts::WithController => !self.control.is_none(),
+            Acts::OnReadSpeeds => self.read_speeds,
         }
     }
 }
@@ -77,7 +77,7 @@ impl Layout {
         };
         let mut at = 0;
         for (j, &e) in effects.iter().enumerate() {
-            for spec in e.params() {
+            for &spec in e.params() {
                 let study = conditions.len() > 1 && e.per_condition();
                 if study {
                     for (c, cond) in conditions.iter().enumerate() {

@@ -2,7 +2,9 @@
 //! parameters, bounds, the value that means "no effect" and a plausible range. In: the
 //! measured bicycle's benchmark parameters and an effect's parameter values. Out: the extended
 //! linear bicycle, and the weave it predicts for a ride (at the ride's speed as the ride
-//! reported it).
+//! reported it). Each effect's definition is in [`library`]: one place per effect.
+
+mod library;
 
 use super::linear::{LinearBike, LinearTyres};
 use super::observe::Observation;
@@ -37,43 +39,27 @@ impl ParamSpec {
     }
 }
 
-/// An effect the Whipple model of the measured bicycle leaves out.
+/// An effect the Whipple model of the measured bicycle leaves out: its identity. What it is
+/// and does is its [`Definition`], in [`library`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
-    /// Viscous friction in the steering head: a torque −c δ̇.
     SteerDamping,
-    /// A point mass at the front frame's centre of mass (a lamp, a bag, a sensor box).
     FrontMass,
-    /// A point mass at the rear frame's centre of mass.
     FrameMass,
-    /// A measured parameter off by a factor.
     FrameIxx,
     FrameIzz,
     FrameIxz,
     FrontIxx,
     FrontIzz,
     Trail,
-    /// Both wheels' spin inertias.
     WheelSpin,
-    /// The rear frame's centre of mass height (−z_B).
     FrameCgHeight,
-    /// The rear frame's centre of mass, x_B.
     FrameCgX,
-    /// The speedometer (or a treadmill's display, another instrument's wheel sensor) reads `k`
-    /// times the true speed (rides whose speed is a reading or such a column).
     SpeedScale,
-    /// The sensors sample at `s` times the nominal rate: every rate read from the logs (the
-    /// eigenvalue, the `Sync` speed) is the true one over `s`.
     TimeScale,
-    /// Lateral tyre compliance with a relaxation length, in place of rolling without lateral
-    /// slip (two parameters; the camber stiffness held at [`CAMBER_PER_RAD`]).
     Tyres,
-    /// The steer motor delivers `a` times the torque its controller commands (campaigns whose
-    /// bicycle carries a controller only).
     ActuatorGain,
-    /// Inertia `J` added about the steer axis: a steer motor's rotor and gears, reflected
-    /// through the gear ratio (campaigns whose bicycle carries a controller only).
     SteerInertia,
 }
 
@@ -100,37 +86,65 @@ impl Assumed {
     };
 }
 
-/// A measured parameter off by a factor: inertias (a component forgotten or counted twice, a
-/// pendulum misread) plausibly by up to half. The search reaches well beyond that (0.25–2.2),
-/// so that a fit of 0.5 ± 0.1 or 1.7 ± 0.12 is an estimate and not a bound at the search's
-/// edge.
-/// The measurements behind it: [docs/decisions/constants.md](../../docs/decisions/constants.md#inertia_factor).
-const INERTIA_FACTOR: ParamSpec = ParamSpec {
-    name: "factor",
-    unit: "× measured",
-    lo: 0.25,
-    hi: 2.2,
-    none: 1.0,
-    plausible: (0.6, 1.5),
-};
+/// Everything the diagnosis knows of one effect ([`Effect::definition`]; each is written in
+/// [`library`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Definition {
+    /// The name used in reports and JSON.
+    pub name: &'static str,
+    /// What it is, in words.
+    pub describe: &'static str,
+    /// Its parameters, in order.
+    pub params: &'static [ParamSpec],
+    /// How it changes the linear model or the rides' readings.
+    pub change: Change,
+    /// Which conditions' rides it acts on.
+    pub acts: Acts,
+    /// It belongs to a condition's own equipment (a controller's actuator, a speedometer, a
+    /// clock) and is fitted per condition in a study; otherwise it is the bicycle's, shared.
+    pub per_condition: bool,
+    /// It belongs to a steer motor: in the library only for a bicycle that carries one.
+    pub needs_controller: bool,
+    /// The measured quantity a factor multiplies and its unit, for detection limits in that
+    /// unit; `None` for an effect that is not a factor on one.
+    pub measured: Option<Quantity>,
+}
 
-/// Lengths measured with a tape and a plumb line (the trail, the centre of mass from hanging
-/// tests): plausibly within 15 %.
-const LENGTH_FACTOR: ParamSpec = ParamSpec {
-    name: "factor",
-    unit: "× measured",
-    lo: 0.5,
-    hi: 1.6,
-    none: 1.0,
-    plausible: (0.85, 1.15),
-};
+/// A measured quantity of the bicycle: how to read it off the parameters, and its unit.
+#[derive(Debug, Clone, Copy)]
+pub struct Quantity {
+    pub of: fn(&Benchmark) -> f64,
+    pub unit: &'static str,
+}
 
-/// The trail, built from the head angle, the fork's offset and the wheel's radius: 1.5° of
-/// head angle and 5 mm of offset already make 20 %.
-const TRAIL_FACTOR: ParamSpec = ParamSpec {
-    plausible: (0.8, 1.2),
-    ..LENGTH_FACTOR
-};
+/// How an effect at parameters `p` changes the model ([`linear_bike`]) or what the rides
+/// report ([`true_speed`], [`predict_weave`]).
+#[derive(Debug, Clone, Copy)]
+pub enum Change {
+    /// The bicycle's parameters, by its one parameter.
+    Bicycle(fn(&mut Benchmark, f64)),
+    /// The controller, by its one parameter.
+    Control(fn(&mut SteerControl, f64)),
+    /// Viscous steer damping added (N·m·s/rad).
+    SteerDamping,
+    /// Compliant tyres (cornering stiffness, relaxation length).
+    Tyres,
+    /// A speed read off an instrument is its scale times the true one.
+    Speedometer,
+    /// The sensors' clock runs at a scale of the nominal.
+    Clock,
+}
+
+/// Which conditions' rides an effect acts on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Acts {
+    /// Every ride.
+    Always,
+    /// Rides whose bicycle carries a controller.
+    WithController,
+    /// Rides whose speed is a reading or another instrument's wheel speed.
+    OnReadSpeeds,
+}
 
 impl Effect {
     /// Every candidate, in a fixed order.
@@ -154,12 +168,12 @@ impl Effect {
         Effect::SteerInertia,
     ];
 
-    /// The candidates for a bicycle with or without a controller: the steer motor's gain and
-    /// its inertia only with one.
+    /// The candidates for a bicycle with or without a controller: a steer motor's effects
+    /// only with one.
     pub fn library(controlled: bool) -> Vec<Effect> {
         Effect::ALL
             .into_iter()
-            .filter(|&e| controlled || !matches!(e, Effect::ActuatorGain | Effect::SteerInertia))
+            .filter(|&e| controlled || !e.definition().needs_controller)
             .collect()
     }
 
@@ -168,174 +182,38 @@ impl Effect {
     /// controller), the speedometer's scale and the sensors' clock are fitted per condition;
     /// the bicycle's effects are shared by all.
     pub fn per_condition(self) -> bool {
-        matches!(
-            self,
-            Effect::ActuatorGain | Effect::SpeedScale | Effect::TimeScale
-        )
+        self.definition().per_condition
     }
 
     /// The name used in reports and JSON.
     pub fn name(self) -> &'static str {
-        match self {
-            Effect::SteerDamping => "steer_damping",
-            Effect::FrontMass => "front_mass",
-            Effect::FrameMass => "frame_mass",
-            Effect::FrameIxx => "frame_ixx",
-            Effect::FrameIzz => "frame_izz",
-            Effect::FrameIxz => "frame_ixz",
-            Effect::FrontIxx => "front_ixx",
-            Effect::FrontIzz => "front_izz",
-            Effect::Trail => "trail",
-            Effect::WheelSpin => "wheel_spin",
-            Effect::FrameCgHeight => "frame_cg_height",
-            Effect::FrameCgX => "frame_cg_x",
-            Effect::SpeedScale => "speed_scale",
-            Effect::TimeScale => "time_scale",
-            Effect::Tyres => "tyres",
-            Effect::ActuatorGain => "actuator_gain",
-            Effect::SteerInertia => "steer_inertia",
-        }
+        self.definition().name
     }
 
     /// What it is, in words.
     pub fn describe(self) -> &'static str {
-        match self {
-            Effect::SteerDamping => "viscous steer damping",
-            Effect::FrontMass => "added mass on the front frame",
-            Effect::FrameMass => "added mass on the rear frame",
-            Effect::FrameIxx => "the rear frame's I_xx off by a factor",
-            Effect::FrameIzz => "the rear frame's I_zz off by a factor",
-            Effect::FrameIxz => "the rear frame's I_xz off by a factor",
-            Effect::FrontIxx => "the front frame's I_xx off by a factor",
-            Effect::FrontIzz => "the front frame's I_zz off by a factor",
-            Effect::Trail => "the trail off by a factor",
-            Effect::WheelSpin => "the wheels' spin inertia off by a factor",
-            Effect::FrameCgHeight => "the rear frame's centre of mass height off by a factor",
-            Effect::FrameCgX => "the rear frame's centre of mass x off by a factor",
-            Effect::SpeedScale => "a speedometer scale error",
-            Effect::TimeScale => "a sensor clock error (time scale)",
-            Effect::Tyres => "lateral tyre compliance with a relaxation length",
-            Effect::ActuatorGain => "the steer motor's torque off from the commanded one",
-            Effect::SteerInertia => "inertia added about the steer axis (a steer motor's rotor)",
-        }
+        self.definition().describe
     }
 
     /// Its parameters, in order.
-    pub fn params(self) -> Vec<ParamSpec> {
-        match self {
-            Effect::Tyres => vec![
-                ParamSpec {
-                    name: "cornering",
-                    unit: "1/rad",
-                    lo: 3.0,
-                    hi: 40.0,
-                    none: f64::INFINITY,
-                    plausible: (5.0, 30.0),
-                },
-                ParamSpec {
-                    name: "relaxation",
-                    unit: "m",
-                    lo: 0.01,
-                    hi: 0.6,
-                    none: 0.0,
-                    plausible: (0.02, 0.4),
-                },
-            ],
-            e => vec![e.param()],
-        }
+    pub fn params(self) -> &'static [ParamSpec] {
+        self.definition().params
     }
 
-    /// The parameter of a one-parameter effect.
-    fn param(self) -> ParamSpec {
-        match self {
-            Effect::SteerDamping => ParamSpec {
-                name: "c",
-                unit: "N·m·s/rad",
-                lo: 0.0,
-                hi: 3.0,
-                none: 0.0,
-                plausible: (0.0, 1.0),
-            },
-            Effect::FrontMass | Effect::FrameMass => ParamSpec {
-                name: "mass",
-                unit: "kg",
-                lo: 0.0,
-                hi: 8.0,
-                none: 0.0,
-                // A lock, a lamp, a bag, a sensor box: up to 5 kg.
-                plausible: (0.0, 5.0),
-            },
-            Effect::SpeedScale => ParamSpec {
-                name: "k",
-                unit: "× nominal",
-                lo: 0.8,
-                hi: 1.25,
-                none: 1.0,
-                plausible: (0.9, 1.1),
-            },
-            Effect::TimeScale => ParamSpec {
-                name: "s",
-                unit: "× nominal",
-                lo: 0.9,
-                hi: 1.1,
-                none: 1.0,
-                // A logger that stamps samples by their count at a nominal rate inherits its
-                // sensor's oscillator: a MEMS sensor's internal RC oscillator is specified
-                // to a few per cent and drifts with temperature. At ±3 % a clock 1.04 slow,
-                // fitted at 1.0415 ± 0.009 with the best χ² and held-out RMS of all
-                // candidates, was ranked tenth behind the speedometer it mimics.
-                plausible: (0.95, 1.05),
-            },
-            Effect::ActuatorGain => ParamSpec {
-                name: "a",
-                unit: "× nominal",
-                lo: 0.1,
-                hi: 3.0,
-                none: 1.0,
-                // A motor's torque constant, its driver's current loop and limit, and a
-                // gearbox's losses (a worm or planetary stage passes 50–90 % of the torque):
-                // from under a third of the nominal to half again.
-                plausible: (0.3, 1.5),
-            },
-            Effect::SteerInertia => ParamSpec {
-                name: "J",
-                unit: "kg·m²",
-                lo: 0.0,
-                hi: 1.0,
-                none: 0.0,
-                // A motor's rotor (1e-4 to 5e-4 kg·m²) through a 10–50:1 gearbox: its inertia
-                // times the ratio squared, up to ~0.5 kg·m², powered or not.
-                plausible: (0.0, 0.5),
-            },
-            Effect::Trail => TRAIL_FACTOR,
-            Effect::FrameCgHeight | Effect::FrameCgX => LENGTH_FACTOR,
-            _ => INERTIA_FACTOR,
-        }
+    /// How it changes the model or the rides' readings.
+    pub fn change(self) -> Change {
+        self.definition().change
     }
 }
 
-/// Adds a point mass `m` at the body's own centre of mass: the mass grows, the centre of mass
-/// and the inertia about it stay.
-fn add_mass(b: &mut Benchmark, front: bool, m: f64) {
-    if front {
-        b.m_h += m;
-    } else {
-        b.m_b += m;
-    }
-}
-
-/// Adds inertia `j` about the steer axis to the front frame: `J d dᵀ` with the axis'
-/// direction `d = (sin λ, 0, cos λ)` (x forward, z down; the axis tilted back by λ).
-fn add_steer_inertia(b: &mut Benchmark, j: f64) {
-    let (s, c) = b.lambda.sin_cos();
-    b.i_hxx += j * s * s;
-    b.i_hzz += j * c * c;
-    b.i_hxz += j * s * c;
+/// Whether any of `effects` changes the model by `kind`.
+pub fn any_change(effects: &[Effect], kind: fn(Change) -> bool) -> bool {
+    effects.iter().any(|e| kind(e.change()))
 }
 
 /// The parameters of several effects, in order.
 pub fn specs(effects: &[Effect]) -> Vec<ParamSpec> {
-    effects.iter().flat_map(|e| e.params()).collect()
+    effects.iter().flat_map(|e| e.params()).copied().collect()
 }
 
 /// Each effect with its slice of `params`.
@@ -374,36 +252,18 @@ pub fn linear_bike_assuming(
     let mut damping = 0.0;
     let mut tyres = None;
     for (e, ps) in split(effects, params) {
-        if e == Effect::Tyres {
-            if let [cornering, relaxation] = ps {
+        match (e.change(), ps) {
+            (Change::Tyres, &[cornering, relaxation]) => {
                 tyres = Some(LinearTyres {
-                    cornering_per_rad: *cornering,
+                    cornering_per_rad: cornering,
                     camber_per_rad: assumed.camber_per_rad,
-                    relaxation_length_m: *relaxation,
+                    relaxation_length_m: relaxation,
                 });
             }
-            continue;
-        }
-        let Some(&p) = ps.first() else { continue };
-        match e {
-            Effect::SteerDamping => damping += p,
-            Effect::FrontMass => add_mass(&mut b, true, p),
-            Effect::FrameMass => add_mass(&mut b, false, p),
-            Effect::FrameIxx => b.i_bxx *= p,
-            Effect::FrameIzz => b.i_bzz *= p,
-            Effect::FrameIxz => b.i_bxz *= p,
-            Effect::FrontIxx => b.i_hxx *= p,
-            Effect::FrontIzz => b.i_hzz *= p,
-            Effect::Trail => b.c *= p,
-            Effect::WheelSpin => {
-                b.i_ryy *= p;
-                b.i_fyy *= p;
-            }
-            Effect::FrameCgHeight => b.z_b *= p,
-            Effect::FrameCgX => b.x_b *= p,
-            Effect::ActuatorGain => control.actuator_gain *= p,
-            Effect::SteerInertia => add_steer_inertia(&mut b, p),
-            Effect::SpeedScale | Effect::TimeScale | Effect::Tyres => {}
+            (Change::Bicycle(change), &[p, ..]) => change(&mut b, p),
+            (Change::Control(change), &[p, ..]) => change(&mut control, p),
+            (Change::SteerDamping, &[p, ..]) => damping += p,
+            _ => {}
         }
     }
     LinearBike {
@@ -428,23 +288,25 @@ pub fn true_speed(effects: &[Effect], params: &[f64], obs: &Observation) -> f64 
     let s = clock(effects, params);
     match obs.speed_source {
         SpeedSource::Noted | SpeedSource::WheelSpeed | SpeedSource::Set => {
-            let k = first_param(effects, params, Effect::SpeedScale).unwrap_or(1.0);
+            let k =
+                first_param(effects, params, |c| matches!(c, Change::Speedometer)).unwrap_or(1.0);
             (obs.speed_mps - obs.speed_correction_mps) / k + obs.speed_correction_mps / s
         }
         SpeedSource::Sync | SpeedSource::Kinematic => obs.speed_mps * s,
     }
 }
 
-/// The sensors' clock scale under `effects` (1 without [`Effect::TimeScale`]).
+/// The sensors' clock scale under `effects` (1 without a clock's effect, [`Change::Clock`]).
 pub fn clock(effects: &[Effect], params: &[f64]) -> f64 {
-    first_param(effects, params, Effect::TimeScale).unwrap_or(1.0)
+    first_param(effects, params, |c| matches!(c, Change::Clock)).unwrap_or(1.0)
 }
 
-/// The first parameter of `effect` among `effects` at `params`; `None` when it is not there.
-fn first_param(effects: &[Effect], params: &[f64], effect: Effect) -> Option<f64> {
+/// The first parameter of the first effect among `effects` whose change is of the kind
+/// `kind` picks, at `params`; `None` when there is none.
+fn first_param(effects: &[Effect], params: &[f64], kind: fn(Change) -> bool) -> Option<f64> {
     split(effects, params)
         .into_iter()
-        .find(|(e, _)| *e == effect)
+        .find(|(e, _)| kind(e.change()))
         .and_then(|(_, ps)| ps.first().copied())
 }
 

@@ -10,7 +10,9 @@
 //! 8.0e-13 in 36.2 µs (medians).
 
 use super::conditions::{ConditionModel, Layout};
-use super::effects::{clock, linear_bike_assuming, specs, true_speed, Assumed, Effect};
+use super::effects::{
+    any_change, clock, linear_bike_assuming, specs, true_speed, Assumed, Change, Effect,
+};
 use super::linear::LinearBike;
 use super::observe::{Observation, Parts};
 use super::speed_grid;
@@ -1314,14 +1316,14 @@ pub fn param_se(subset: &Subset<'_, '_>, effects: &[Effect], fit: &EffectFit) ->
 }
 
 /// The standard errors that `fit`'s parameters owe to what the library assumes (the tyres'
-/// camber stiffness, for candidates with [`Effect::Tyres`]; zeros for the others): refitted
+/// camber stiffness, for candidates with tyres, [`Change::Tyres`]; zeros for the others): refitted
 /// with the camber one standard deviation ([`super::effects::CAMBER_SE_PER_RAD`]) either side,
 /// half the parameters' change. Added in quadrature to [`param_se`] they make the error of a
 /// parameter fitted in place of an unknown one (Gauss's propagation through the fit's
 /// implicit function, by a central difference a standard deviation wide).
 pub fn assumed_se(campaign: &Campaign<'_>, effects: &[Effect], fit: &EffectFit) -> Vec<f64> {
     let n = fit.params.len();
-    if !effects.contains(&Effect::Tyres) {
+    if !any_change(effects, |c| matches!(c, Change::Tyres)) {
         return vec![0.0; n];
     }
     let (lo, hi) = campaign.layout(effects).bounds();

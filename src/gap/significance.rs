@@ -506,26 +506,15 @@ pub(super) fn detection_limits(
         .collect()
 }
 
-/// A factor's deviation `size` on the measured quantity it multiplies, in that quantity's unit.
+/// A factor's deviation `size` on the measured quantity it multiplies, in that quantity's unit
+/// ([`super::effects::Definition::measured`]).
 fn absolute(
     e: super::effects::Effect,
     b: &crate::model::Benchmark,
     size: f64,
 ) -> Option<(f64, &'static str)> {
-    use super::effects::Effect as E;
-    let (base, unit) = match e {
-        E::Trail => (b.c, "m"),
-        E::FrameIxx => (b.i_bxx, "kg·m²"),
-        E::FrameIzz => (b.i_bzz, "kg·m²"),
-        E::FrameIxz => (b.i_bxz, "kg·m²"),
-        E::FrontIxx => (b.i_hxx, "kg·m²"),
-        E::FrontIzz => (b.i_hzz, "kg·m²"),
-        E::WheelSpin => (b.i_ryy + b.i_fyy, "kg·m² (both wheels)"),
-        E::FrameCgHeight => (b.z_b, "m"),
-        E::FrameCgX => (b.x_b, "m"),
-        _ => return None,
-    };
-    Some((size * base.abs(), unit))
+    let q = e.definition().measured?;
+    Some((size * (q.of)(b).abs(), q.unit))
 }
 
 /// The detection limits in words: "a trail off by more than ± 0.14 × measured (± 0.011 m)".

@@ -1,0 +1,360 @@
+//! The library's effects, one [`Definition`] each: its name, what it is, its parameters with
+//! their search bounds and plausible ranges (and why), how it changes the linear model, where
+//! it acts, and the measured quantity a factor multiplies. An effect is its variant of
+//! [`Effect`] and its definition here; nothing else in `gap/` lists the effects.
+//!
+//! The simulator's counterpart of an effect is the variant of `sim::campaign::Withheld` whose
+//! label is the effect's name (`blind::campaigns` pairs them by it). It stays in `sim/`: the
+//! simulator builds its bicycle from the physics and never shares this model's code.
+
+use super::{Acts, Change, Definition, Effect, ParamSpec, Quantity};
+use crate::model::Benchmark;
+
+impl Effect {
+    /// Everything the diagnosis knows of the effect.
+    pub fn definition(self) -> &'static Definition {
+        match self {
+            Effect::SteerDamping => &STEER_DAMPING,
+            Effect::FrontMass => &FRONT_MASS,
+            Effect::FrameMass => &FRAME_MASS,
+            Effect::FrameIxx => &FRAME_IXX,
+            Effect::FrameIzz => &FRAME_IZZ,
+            Effect::FrameIxz => &FRAME_IXZ,
+            Effect::FrontIxx => &FRONT_IXX,
+            Effect::FrontIzz => &FRONT_IZZ,
+            Effect::Trail => &TRAIL,
+            Effect::WheelSpin => &WHEEL_SPIN,
+            Effect::FrameCgHeight => &FRAME_CG_HEIGHT,
+            Effect::FrameCgX => &FRAME_CG_X,
+            Effect::SpeedScale => &SPEED_SCALE,
+            Effect::TimeScale => &TIME_SCALE,
+            Effect::Tyres => &TYRES,
+            Effect::ActuatorGain => &ACTUATOR_GAIN,
+            Effect::SteerInertia => &STEER_INERTIA,
+        }
+    }
+}
+
+/// The definition of an effect of the bicycle itself, shared by every condition of a study,
+/// acting on every ride: the fields that differ given, these as defaults.
+const BICYCLE: Definition = Definition {
+    name: "",
+    describe: "",
+    params: &[],
+    change: Change::Speedometer,
+    acts: Acts::Always,
+    per_condition: false,
+    needs_controller: false,
+    measured: None,
+};
+
+/// A measured parameter off by a factor: inertias (a component forgotten or counted twice, a
+/// pendulum misread) plausibly by up to half. The search reaches well beyond that (0.25–2.2),
+/// so that a fit of 0.5 ± 0.1 or 1.7 ± 0.12 is an estimate and not a bound at the search's
+/// edge.
+/// The measurements behind it: [docs/decisions/constants.md](../../../docs/decisions/constants.md#inertia_factor).
+const INERTIA_FACTOR: ParamSpec = ParamSpec {
+    name: "factor",
+    unit: "× measured",
+    lo: 0.25,
+    hi: 2.2,
+    none: 1.0,
+    plausible: (0.6, 1.5),
+};
+
+/// Lengths measured with a tape and a plumb line (the trail, the centre of mass from hanging
+/// tests): plausibly within 15 %.
+const LENGTH_FACTOR: ParamSpec = ParamSpec {
+    name: "factor",
+    unit: "× measured",
+    lo: 0.5,
+    hi: 1.6,
+    none: 1.0,
+    plausible: (0.85, 1.15),
+};
+
+/// Viscous friction in the steering head: a torque −c δ̇.
+const STEER_DAMPING: Definition = Definition {
+    name: "steer_damping",
+    describe: "viscous steer damping",
+    params: &[ParamSpec {
+        name: "c",
+        unit: "N·m·s/rad",
+        lo: 0.0,
+        hi: 3.0,
+        none: 0.0,
+        plausible: (0.0, 1.0),
+    }],
+    change: Change::SteerDamping,
+    ..BICYCLE
+};
+
+/// An added point mass (a lock, a lamp, a bag, a sensor box: up to 5 kg).
+const ADDED_MASS: ParamSpec = ParamSpec {
+    name: "mass",
+    unit: "kg",
+    lo: 0.0,
+    hi: 8.0,
+    none: 0.0,
+    plausible: (0.0, 5.0),
+};
+
+/// A point mass at the front frame's centre of mass: the mass grows, the centre of mass and
+/// the inertia about it stay.
+const FRONT_MASS: Definition = Definition {
+    name: "front_mass",
+    describe: "added mass on the front frame",
+    params: &[ADDED_MASS],
+    change: Change::Bicycle(|b, m| b.m_h += m),
+    ..BICYCLE
+};
+
+/// A point mass at the rear frame's centre of mass.
+const FRAME_MASS: Definition = Definition {
+    name: "frame_mass",
+    describe: "added mass on the rear frame",
+    params: &[ADDED_MASS],
+    change: Change::Bicycle(|b, m| b.m_b += m),
+    ..BICYCLE
+};
+
+const FRAME_IXX: Definition = Definition {
+    name: "frame_ixx",
+    describe: "the rear frame's I_xx off by a factor",
+    params: &[INERTIA_FACTOR],
+    change: Change::Bicycle(|b, k| b.i_bxx *= k),
+    measured: Some(Quantity {
+        of: |b| b.i_bxx,
+        unit: "kg·m²",
+    }),
+    ..BICYCLE
+};
+
+const FRAME_IZZ: Definition = Definition {
+    name: "frame_izz",
+    describe: "the rear frame's I_zz off by a factor",
+    params: &[INERTIA_FACTOR],
+    change: Change::Bicycle(|b, k| b.i_bzz *= k),
+    measured: Some(Quantity {
+        of: |b| b.i_bzz,
+        unit: "kg·m²",
+    }),
+    ..BICYCLE
+};
+
+const FRAME_IXZ: Definition = Definition {
+    name: "frame_ixz",
+    describe: "the rear frame's I_xz off by a factor",
+    params: &[INERTIA_FACTOR],
+    change: Change::Bicycle(|b, k| b.i_bxz *= k),
+    measured: Some(Quantity {
+        of: |b| b.i_bxz,
+        unit: "kg·m²",
+    }),
+    ..BICYCLE
+};
+
+const FRONT_IXX: Definition = Definition {
+    name: "front_ixx",
+    describe: "the front frame's I_xx off by a factor",
+    params: &[INERTIA_FACTOR],
+    change: Change::Bicycle(|b, k| b.i_hxx *= k),
+    measured: Some(Quantity {
+        of: |b| b.i_hxx,
+        unit: "kg·m²",
+    }),
+    ..BICYCLE
+};
+
+const FRONT_IZZ: Definition = Definition {
+    name: "front_izz",
+    describe: "the front frame's I_zz off by a factor",
+    params: &[INERTIA_FACTOR],
+    change: Change::Bicycle(|b, k| b.i_hzz *= k),
+    measured: Some(Quantity {
+        of: |b| b.i_hzz,
+        unit: "kg·m²",
+    }),
+    ..BICYCLE
+};
+
+/// The trail, built from the head angle, the fork's offset and the wheel's radius: 1.5° of
+/// head angle and 5 mm of offset already make 20 %.
+const TRAIL: Definition = Definition {
+    name: "trail",
+    describe: "the trail off by a factor",
+    params: &[ParamSpec {
+        plausible: (0.8, 1.2),
+        ..LENGTH_FACTOR
+    }],
+    change: Change::Bicycle(|b, k| b.c *= k),
+    measured: Some(Quantity {
+        of: |b| b.c,
+        unit: "m",
+    }),
+    ..BICYCLE
+};
+
+/// Both wheels' spin inertias.
+const WHEEL_SPIN: Definition = Definition {
+    name: "wheel_spin",
+    describe: "the wheels' spin inertia off by a factor",
+    params: &[INERTIA_FACTOR],
+    change: Change::Bicycle(|b, k| {
+        b.i_ryy *= k;
+        b.i_fyy *= k;
+    }),
+    measured: Some(Quantity {
+        of: |b| b.i_ryy + b.i_fyy,
+        unit: "kg·m² (both wheels)",
+    }),
+    ..BICYCLE
+};
+
+/// The rear frame's centre of mass height (−z_B).
+const FRAME_CG_HEIGHT: Definition = Definition {
+    name: "frame_cg_height",
+    describe: "the rear frame's centre of mass height off by a factor",
+    params: &[LENGTH_FACTOR],
+    change: Change::Bicycle(|b, k| b.z_b *= k),
+    measured: Some(Quantity {
+        of: |b| b.z_b,
+        unit: "m",
+    }),
+    ..BICYCLE
+};
+
+/// The rear frame's centre of mass, x_B.
+const FRAME_CG_X: Definition = Definition {
+    name: "frame_cg_x",
+    describe: "the rear frame's centre of mass x off by a factor",
+    params: &[LENGTH_FACTOR],
+    change: Change::Bicycle(|b, k| b.x_b *= k),
+    measured: Some(Quantity {
+        of: |b| b.x_b,
+        unit: "m",
+    }),
+    ..BICYCLE
+};
+
+/// The speedometer (or a treadmill's display, another instrument's wheel sensor) reads `k`
+/// times the true speed (rides whose speed is a reading or such a column): a condition's own
+/// instrument.
+const SPEED_SCALE: Definition = Definition {
+    name: "speed_scale",
+    describe: "a speedometer scale error",
+    params: &[ParamSpec {
+        name: "k",
+        unit: "× nominal",
+        lo: 0.8,
+        hi: 1.25,
+        none: 1.0,
+        plausible: (0.9, 1.1),
+    }],
+    change: Change::Speedometer,
+    acts: Acts::OnReadSpeeds,
+    per_condition: true,
+    ..BICYCLE
+};
+
+/// The sensors sample at `s` times the nominal rate: every rate read from the logs (the
+/// eigenvalue, the `Sync` speed) is the true one over `s`. A condition's own instrument.
+const TIME_SCALE: Definition = Definition {
+    name: "time_scale",
+    describe: "a sensor clock error (time scale)",
+    params: &[ParamSpec {
+        name: "s",
+        unit: "× nominal",
+        lo: 0.9,
+        hi: 1.1,
+        none: 1.0,
+        // A logger that stamps samples by their count at a nominal rate inherits its
+        // sensor's oscillator: a MEMS sensor's internal RC oscillator is specified to a few
+        // per cent and drifts with temperature. At ±3 % a clock 1.04 slow, fitted at 1.0415
+        // ± 0.009 with the best χ² and held-out RMS of all candidates, was ranked tenth
+        // behind the speedometer it mimics.
+        plausible: (0.95, 1.05),
+    }],
+    change: Change::Clock,
+    per_condition: true,
+    ..BICYCLE
+};
+
+/// Lateral tyre compliance with a relaxation length, in place of rolling without lateral slip
+/// (two parameters; the camber stiffness held at [`super::CAMBER_PER_RAD`]).
+const TYRES: Definition = Definition {
+    name: "tyres",
+    describe: "lateral tyre compliance with a relaxation length",
+    params: &[
+        ParamSpec {
+            name: "cornering",
+            unit: "1/rad",
+            lo: 3.0,
+            hi: 40.0,
+            none: f64::INFINITY,
+            plausible: (5.0, 30.0),
+        },
+        ParamSpec {
+            name: "relaxation",
+            unit: "m",
+            lo: 0.01,
+            hi: 0.6,
+            none: 0.0,
+            plausible: (0.02, 0.4),
+        },
+    ],
+    change: Change::Tyres,
+    ..BICYCLE
+};
+
+/// The steer motor delivers `a` times the torque its controller commands: per controller,
+/// where a condition carries one.
+const ACTUATOR_GAIN: Definition = Definition {
+    name: "actuator_gain",
+    describe: "the steer motor's torque off from the commanded one",
+    params: &[ParamSpec {
+        name: "a",
+        unit: "× nominal",
+        lo: 0.1,
+        hi: 3.0,
+        none: 1.0,
+        // A motor's torque constant, its driver's current loop and limit, and a gearbox's
+        // losses (a worm or planetary stage passes 50–90 % of the torque): from under a third
+        // of the nominal to half again.
+        plausible: (0.3, 1.5),
+    }],
+    change: Change::Control(|c, a| c.actuator_gain *= a),
+    acts: Acts::WithController,
+    per_condition: true,
+    needs_controller: true,
+    ..BICYCLE
+};
+
+/// Inertia `J` added about the steer axis: a steer motor's rotor and gears, reflected through
+/// the gear ratio, powered or not (bicycles that carry a controller).
+const STEER_INERTIA: Definition = Definition {
+    name: "steer_inertia",
+    describe: "inertia added about the steer axis (a steer motor's rotor)",
+    params: &[ParamSpec {
+        name: "J",
+        unit: "kg·m²",
+        lo: 0.0,
+        hi: 1.0,
+        none: 0.0,
+        // A motor's rotor (1e-4 to 5e-4 kg·m²) through a 10–50:1 gearbox: its inertia times
+        // the ratio squared, up to ~0.5 kg·m², powered or not.
+        plausible: (0.0, 0.5),
+    }],
+    change: Change::Bicycle(add_steer_inertia),
+    needs_controller: true,
+    ..BICYCLE
+};
+
+/// Adds inertia `j` about the steer axis to the front frame: `J d dᵀ` with the axis'
+/// direction `d = (sin λ, 0, cos λ)` (x forward, z down; the axis tilted back by λ).
+fn add_steer_inertia(b: &mut Benchmark, j: f64) {
+    let (s, c) = b.lambda.sin_cos();
+    b.i_hxx += j * s * s;
+    b.i_hzz += j * c * c;
+    b.i_hxz += j * s * c;
+}
