@@ -272,6 +272,7 @@ fn assert_bars(s: &Score, min_params: usize) {
 /// realistic sensors; nine kinds of effect in the library, two outside it (a steer spring,
 /// headset friction), and the control, five seeds each.
 #[test]
+#[ignore = "a long statistical run: docs/gap-calibration.md scores the same on 2,550 campaigns (tests/calibration_files.rs)"]
 fn blind_campaigns_find_the_withheld_effect() {
     let s = score(BlindDesign::Sync);
     assert_bars(&s, 25);
@@ -462,6 +463,7 @@ fn gap_json_has_the_documented_keys() {
 /// it; nine kinds of effect in the library, two outside it (a steer spring, headset
 /// friction), and the control, five seeds each.
 #[test]
+#[ignore = "a long statistical run: docs/gap-calibration.md scores the same on 2,550 campaigns (tests/calibration_files.rs)"]
 fn blind_noted_campaigns() {
     let s = score(BlindDesign::Noted);
     assert_bars(&s, 25);
@@ -480,6 +482,7 @@ fn blind_noted_campaigns() {
 /// measure; this run guards against a test that fires several times as often. The p-values'
 /// histogram is printed.
 #[test]
+#[ignore = "a long statistical run: docs/gap-calibration.md scores the same on 2,550 campaigns (tests/calibration_files.rs)"]
 fn effect_free_campaigns_are_quiet() {
     let bike_path = root().join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();

@@ -380,6 +380,41 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
     }
 }
 
+/// A design's headline in the calibration, against issue 75's bars: its campaigns beyond
+/// their detection limit and those named at the right size there (the "**all**" row of
+/// [`markdown`]'s "Beyond the limit"), and its effect-free campaigns and those whose test
+/// fired (p < 0.01).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Headline {
+    pub beyond: usize,
+    pub right_beyond: usize,
+    pub controls: usize,
+    pub controls_fired: usize,
+}
+
+/// [`Headline`] of `design` over `results`.
+pub fn headline(results: &[CaseResult], design: BlindDesign) -> Headline {
+    let (mut beyond, mut right_beyond) = (0, 0);
+    for (_, effect, cs) in library_rows(results, design) {
+        let b = beyond_limit(&cs, effect, 1.0);
+        beyond += b.len();
+        right_beyond += b.iter().filter(|c| c.right).count();
+    }
+    let controls: Vec<&CaseResult> = results
+        .iter()
+        .filter(|c| c.design == design && c.effect == "none")
+        .collect();
+    Headline {
+        beyond,
+        right_beyond,
+        controls: controls.len(),
+        controls_fired: controls
+            .iter()
+            .filter(|c| c.campaign_p_value < 0.01)
+            .count(),
+    }
+}
+
 /// One row of [`missed_sizes`]: beyond, named, within, right, twice, right there; the expected
 /// counts of an unbiased fit and of an ideal diagnosis.
 fn missed_row(design: &str, effect: &str, row: [usize; 6], expected: [f64; 2]) -> String {

@@ -168,6 +168,33 @@ pub fn run_study(
     })
 }
 
+/// The joint diagnosis's motor fit against the study's truth, `(fit − truth)/SE` of each gain
+/// and then of the inertia; `None` for a study without a truth or a motor fit.
+fn motor_z(r: &StudyResult) -> Option<Vec<f64>> {
+    let (Some(t), Some((p, se))) = (&r.truth, &r.motor_fit) else {
+        return None;
+    };
+    let n = p.len();
+    (n >= 2).then(|| {
+        (0..n)
+            .map(|k| {
+                let truth = if k + 1 == n {
+                    t.reflected_inertia_kgm2
+                } else {
+                    t.delivered
+                };
+                (p[k] - truth) / se[k]
+            })
+            .collect()
+    })
+}
+
+/// The study named the motor's pair with every value (each gain, the inertia) within 2 of its
+/// standard errors of the truth: the study calibration's headline (issue 75's bar: 45 of 50).
+pub fn named_within_2se(r: &StudyResult) -> bool {
+    r.named && motor_z(r).is_some_and(|z| z.iter().all(|z| z.abs() <= 2.0))
+}
+
 /// The tallies of blind and effect-free studies as Markdown (`docs/study-calibration.md`).
 pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &str) -> String {
     let mut md = String::from("# The joint diagnosis of a study, calibrated on blind studies\n\n");
@@ -209,26 +236,9 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
     // The studies that name the pair with every value within 2 SE of its truth.
     let mut named_within_2 = 0;
     for r in &blind {
-        let (Some(t), Some((p, se))) = (&r.truth, &r.motor_fit) else {
-            continue;
-        };
-        let n = p.len();
-        if n < 2 {
-            continue;
-        }
-        let z: Vec<f64> = (0..n)
-            .map(|k| {
-                let truth = if k + 1 == n {
-                    t.reflected_inertia_kgm2
-                } else {
-                    t.delivered
-                };
-                (p[k] - truth) / se[k]
-            })
-            .collect();
-        if r.named && z.iter().all(|z| z.abs() <= 2.0) {
-            named_within_2 += 1;
-        }
+        let Some(z) = motor_z(r) else { continue };
+        named_within_2 += usize::from(named_within_2se(r));
+        let n = z.len();
         z_j.push(z[n - 1]);
         z_a.extend_from_slice(&z[..n - 1]);
     }
