@@ -1068,6 +1068,7 @@ fn a_controlled_treadmill_recording_meets_the_held_out_bars() {
                     [0.7 * 15.3, 0.0, 0.0, 0.0],
                 ],
                 delivered: 1.0,
+                speed_sensor_scale: 1.0,
             }),
         }),
         ..Effects::default()

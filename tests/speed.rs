@@ -389,6 +389,7 @@ fn motor_rides(gain: f64, v0: f64, rotor: f64, n: u64) -> Vec<MotorZ> {
             speeds_mps: law.speeds_mps.clone(),
             gains: vec![[0.0, 0.0, gain * 3.5, 0.0], [0.0; 4], [0.0; 4]],
             delivered: DELIVERED,
+            speed_sensor_scale: 1.0,
         });
         let motor = Effects {
             steer_motor: Some(SteerMotor {

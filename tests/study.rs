@@ -15,15 +15,20 @@ mod common;
 /// Simulates a study into a scratch folder (the motor drawn, or given) and loads it as the
 /// user would (`bikeproc gap DIR/study.toml`).
 fn study(seed: u64, motor: Option<(f64, f64)>) -> (PathBuf, Study, StudyTruth) {
+    study_sensing(seed, motor, 1.0)
+}
+
+/// [`study`] with the controller's firmware sensing `scale` times the rear wheel's speed.
+fn study_sensing(seed: u64, motor: Option<(f64, f64)>, scale: f64) -> (PathBuf, Study, StudyTruth) {
     let bike_path = root().join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();
-    let (mut files, truth) = blind_study_with(&lab, "bike.toml", seed, motor).unwrap();
+    let (mut files, truth) = blind_study_with(&lab, "bike.toml", seed, motor, scale).unwrap();
     files.push((
         "bike.toml".into(),
         std::fs::read_to_string(&bike_path).unwrap(),
     ));
     let dir = std::env::temp_dir().join(format!(
-        "bikeproc_study_{}_{seed}_{}",
+        "bikeproc_study_{}_{seed}_{}_{scale}",
         std::process::id(),
         motor.is_some()
     ));
@@ -110,6 +115,28 @@ fn a_blind_study_names_the_steer_motor() {
         singles_naming_both <= 4,
         "{singles_naming_both} of 9 powered conditions alone named both"
     );
+}
+
+/// Issue 76, item 3: the speed a controller sees. Its firmware schedules the gains on a speed
+/// sensor reading 1.084 times the rear wheel's (seed 3001's draw), the rotor weightless and
+/// the torque as commanded. The study names `controller_speed_scale` first, within 3 of its
+/// standard errors of the truth and within 30 % of the truth's deviation from 1 (the
+/// calibration's "right"); the motor's own effects, which the same rides would need to mimic
+/// it, do not come first.
+#[test]
+fn a_controller_that_senses_its_speed_off_is_named_at_its_size() {
+    let scale = bikeproc::sim::study::sensor_scale_draw(3001);
+    let (_, s, truth) = study_sensing(3001, Some((0.0, 1.0)), scale);
+    assert_eq!(truth.speed_sensor_scale, scale);
+    let d = diagnose(&s);
+    assert!(d.significant, "{}", d.verdict);
+    let best = &d.ranking[0];
+    assert_eq!(best.effect, "controller_speed_scale", "{}", d.verdict);
+    let (k, se) = (best.params[0], best.params_se[0]);
+    let z = (k - scale) / se;
+    eprintln!("sensed {scale:.4}: fitted {k:.4} ± {se:.4} (z {z:+.2})");
+    assert!(z.abs() <= 3.0, "{k:.4} ± {se:.4} for {scale:.4}");
+    assert!((k - scale).abs() <= 0.3 * (scale - 1.0).abs());
 }
 
 /// A controller's gain that its condition's rides barely tell does not hide the motor. With a

@@ -5,11 +5,19 @@
 //! and the tallies as Markdown (`docs/study-calibration.md`, [`study_markdown`]).
 
 use super::{in_scratch, stage, BlindError};
-use crate::sim::study::{blind_study_with, near_nominal_motor, StudyTruth, STUDY_GAINS};
+use crate::sim::study::{
+    blind_study_with, near_nominal_motor, sensor_scale_draw, StudyTruth, STUDY_GAINS,
+};
 use std::fmt::Write as _;
 
 /// The first seed of the near-nominal studies of a calibration.
 pub const NEAR_NOMINAL_SEEDS: u64 = 2001;
+
+/// The first seed of the studies whose controller senses its speed off by a factor.
+pub const CONTROLLER_SPEED_SEEDS: u64 = 3001;
+
+/// The effect of a controller's speed sensor as the diagnosis names it.
+const CONTROLLER_SPEED: &str = "controller_speed_scale";
 
 /// The steer motor's two effects as the diagnosis names them together.
 const PAIR: &str = "actuator_gain + steer_inertia";
@@ -25,14 +33,18 @@ pub enum StudyKind {
     NearNominal,
     /// A weightless rotor, the torque as commanded.
     EffectFree,
+    /// A weightless rotor and the torque as commanded, the controller's firmware sensing its
+    /// speed off by a factor ([`sensor_scale_draw`]).
+    ControllerSpeed,
 }
 
 impl StudyKind {
     /// Every kind, in a calibration's order.
-    pub const ALL: [StudyKind; 3] = [
+    pub const ALL: [StudyKind; 4] = [
         StudyKind::Blind,
         StudyKind::NearNominal,
         StudyKind::EffectFree,
+        StudyKind::ControllerSpeed,
     ];
 
     /// Its name in a calibration's progress lines.
@@ -41,6 +53,7 @@ impl StudyKind {
             StudyKind::Blind => "blind",
             StudyKind::NearNominal => "near-nominal",
             StudyKind::EffectFree => "effect-free",
+            StudyKind::ControllerSpeed => "controller-speed",
         }
     }
 }
@@ -79,6 +92,12 @@ pub struct StudyResult {
     /// candidate follows.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub shapes_set_aside: Vec<String>,
+    /// `controller_speed_scale` named first, or tied at the top, with a significant gap.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub names_controller_speed: bool,
+    /// Its fit alone `(value, se)` wherever it ranks (studies of that kind only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller_speed_fit: Option<(f64, f64)>,
 }
 
 /// Simulates the study of `seed` (the motor drawn, or effect-free) into a scratch folder and
@@ -94,9 +113,15 @@ pub fn run_study(
     let motor = match kind {
         StudyKind::Blind => None,
         StudyKind::NearNominal => Some(near_nominal_motor(seed)),
-        StudyKind::EffectFree => Some((0.0, 1.0)),
+        StudyKind::EffectFree | StudyKind::ControllerSpeed => Some((0.0, 1.0)),
     };
-    let (files, truth) = blind_study_with(measured, "bike.toml", seed, motor).map_err(stage)?;
+    let scale = if kind == StudyKind::ControllerSpeed {
+        sensor_scale_draw(seed)
+    } else {
+        1.0
+    };
+    let (files, truth) =
+        blind_study_with(measured, "bike.toml", seed, motor, scale).map_err(stage)?;
     let name = format!("study_calibration_{seed}_{kind:?}");
     in_scratch(&name, &files, bike_text, &|dir| {
         let study = crate::read::study::Study::load(&dir.join("study.toml")).map_err(stage)?;
@@ -164,8 +189,41 @@ pub fn run_study(
             singles_named,
             singles_inertia,
             shapes_set_aside,
+            names_controller_speed: kind == StudyKind::ControllerSpeed
+                && names(&d, CONTROLLER_SPEED),
+            controller_speed_fit: (kind == StudyKind::ControllerSpeed)
+                .then(|| {
+                    d.ranking
+                        .iter()
+                        .find(|r| r.effect == CONTROLLER_SPEED)
+                        .map(|r| (r.params[0], r.params_se[0]))
+                })
+                .flatten(),
         })
     })
+}
+
+/// A study of a controller's speed sensor named it at the right size: first (or tied at the
+/// top) with a significant gap, its scale within 30 % of the truth's deviation from 1 (the
+/// gap calibration's "right").
+pub fn controller_speed_right(r: &StudyResult) -> bool {
+    let (Some(t), Some((k, _))) = (&r.truth, r.controller_speed_fit) else {
+        return false;
+    };
+    r.names_controller_speed
+        && (k - t.speed_sensor_scale).abs() <= 0.3 * (t.speed_sensor_scale - 1.0).abs()
+}
+
+/// A study of a controller's speed sensor put it in its first candidate, alone or beside
+/// another effect, with a significant gap, its fit alone within 30 % of the truth's deviation
+/// from 1.
+pub fn controller_speed_in_first(r: &StudyResult) -> bool {
+    let (Some(t), Some((k, _))) = (&r.truth, r.controller_speed_fit) else {
+        return false;
+    };
+    r.significant
+        && r.best.split(" + ").any(|e| e == CONTROLLER_SPEED)
+        && (k - t.speed_sensor_scale).abs() <= 0.3 * (t.speed_sensor_scale - 1.0).abs()
 }
 
 /// The joint diagnosis's motor fit against the study's truth, `(fit − truth)/SE` of each gain
@@ -214,10 +272,11 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
     );
     let of =
         |k: StudyKind| -> Vec<&StudyResult> { results.iter().filter(|r| r.kind == k).collect() };
-    let (blind, near, controls) = (
+    let (blind, near, controls, sensed) = (
         of(StudyKind::Blind),
         of(StudyKind::NearNominal),
         of(StudyKind::EffectFree),
+        of(StudyKind::ControllerSpeed),
     );
     let pct = |a: usize, b: usize| {
         if b == 0 {
@@ -334,6 +393,9 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
             pct(other, near.len()),
         );
     }
+    if !sensed.is_empty() {
+        controller_speed_section(&mut md, &sensed);
+    }
     let below = |x: f64| controls.iter().filter(|r| r.campaign_p_value < x).count();
     let _ = write!(
         md,
@@ -380,4 +442,82 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
         }
     }
     md
+}
+
+/// The studies of a controller's speed sensor as Markdown: how often it is named, at the right
+/// size, its errors' coverage, and the studies where it is not right.
+fn controller_speed_section(md: &mut String, sensed: &[&StudyResult]) {
+    let pct = |a: usize, b: usize| {
+        if b == 0 {
+            "–".to_string()
+        } else {
+            format!("{a}/{b} ({:.1} %)", 100.0 * a as f64 / b as f64)
+        }
+    };
+    let truth = |r: &StudyResult| r.truth.as_ref().map_or(f64::NAN, |t| t.speed_sensor_scale);
+    let mut z: Vec<f64> = sensed
+        .iter()
+        .filter_map(|r| {
+            let (k, se) = r.controller_speed_fit?;
+            Some((k - truth(r)) / se).filter(|z| z.is_finite())
+        })
+        .collect();
+    z.sort_by(f64::total_cmp);
+    let within = |k: f64| z.iter().filter(|x| x.abs() <= k).count();
+    let named = sensed.iter().filter(|r| r.names_controller_speed).count();
+    let right = sensed.iter().filter(|r| controller_speed_right(r)).count();
+    let in_first = sensed
+        .iter()
+        .filter(|r| controller_speed_in_first(r))
+        .count();
+    let _ = write!(
+        md,
+        "\n## The speed the controller senses\n\n{} studies (seeds {} on) with a weightless \
+         rotor and the torque as commanded, the controller's firmware sensing 0.85–0.97 or \
+         1.03–1.15 times the rear wheel's speed (`sim::study::sensor_scale_draw`): significant \
+         in {}; `controller_speed_scale` named (first or tied) in {}, at the right size (within \
+         30 % of the truth's deviation from 1) in {}; in the first candidate, alone or beside \
+         an effect of the bicycle, at the right size in {}. Its fit alone, wherever it ranks: \
+         the truth within 1 SE in {}, within 2 SE in {} (median z {:+.2}).\n",
+        sensed.len(),
+        CONTROLLER_SPEED_SEEDS,
+        pct(
+            sensed.iter().filter(|r| r.significant).count(),
+            sensed.len()
+        ),
+        pct(named, sensed.len()),
+        pct(right, sensed.len()),
+        pct(in_first, sensed.len()),
+        pct(within(1.0), z.len()),
+        pct(within(2.0), z.len()),
+        z.get(z.len() / 2).copied().unwrap_or(f64::NAN),
+    );
+    let missed: Vec<&&StudyResult> = sensed
+        .iter()
+        .filter(|r| !controller_speed_right(r))
+        .collect();
+    if !missed.is_empty() {
+        md.push_str(
+            "\nNot right:\n\n| seed | truth | fitted | rides used | p | named instead |\n\
+             |---|---|---|---|---|---|\n",
+        );
+        for r in missed {
+            let fitted = r
+                .controller_speed_fit
+                .map_or("—".to_string(), |(k, se)| format!("{k:.3} ± {se:.3}"));
+            let _ = writeln!(
+                md,
+                "| {} | {:.3} | {fitted} | {} | {:.1e} | {} |",
+                r.seed,
+                truth(r),
+                r.rides_used,
+                r.campaign_p_value,
+                if r.best.is_empty() {
+                    "no conclusion"
+                } else {
+                    &r.best
+                }
+            );
+        }
+    }
 }

@@ -231,9 +231,9 @@ pub enum Command {
         "range shown and flagged in words), then by the ",
         "BIC of the fit to every ride (in a study, by the held-out RMS normalized residual of its ",
         "conditions left out). Pairs are tried only when no single effect brings the held-out RMS ",
-        "within 2: in a campaign every pair of the library (136), in a study the pairs a screen ",
+        "within 2: in a campaign every pair of the library (105; 153 with a controller), in a study the pairs a screen ",
         "chooses (the best single with every other effect, the next three among themselves, the ",
-        "single of lowest χ² with every other; `--every-pair` for all 136). A pair is kept only ",
+        "single of lowest χ² with every other; `--every-pair` for all of them). A pair is kept only ",
         "when it beats the ",
         "best single on the rides left out by 6.63 in χ² and by the BIC, and named ahead of the ",
         "single only when the tie test tells the two apart (the held-out χ² difference beyond ",
@@ -364,7 +364,7 @@ pub struct GapArgs {
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     pub json: bool,
-    /// In a study, fit every pair of effects (136) where no single one closes the gap, not the
+    /// In a study, fit every pair of effects (153 with a controller, 105 without) where no single one closes the gap, not the
     /// screen's 20–40 (a single campaign always fits every pair): about twice the time. The
     /// screen's first five were the exhaustive search's on every study it was checked on.
     #[arg(long)]
@@ -621,6 +621,10 @@ pub enum SimCommand {
         /// control the diagnosis must stay quiet on).
         #[arg(long)]
         effect_free: bool,
+        /// The speed the controller's firmware senses over the rear wheel's (1: true; the
+        /// calibration's studies of it draw 0.85–0.97 or 1.03–1.15).
+        #[arg(long, default_value_t = 1.0, value_parser = within(0.5, false, 2.0))]
+        controller_speed_scale: f64,
         /// The measured bicycle (copied beside the rides as bike.toml).
         #[arg(long, default_value = "data/lab_bike.toml")]
         bike: PathBuf,
@@ -633,7 +637,7 @@ pub enum SimCommand {
     /// (named, the values' coverage, the effect-free p-values) as Markdown.
     #[command(
         name = "study-calibration",
-        after_help = "Example (docs/study-calibration.md, about 7 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --near-nominal 20 --controls 50 --out docs/study-calibration.md"
+        after_help = "Example (docs/study-calibration.md, about 7 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --near-nominal 20 --controls 50 --controller-speed 20 --out docs/study-calibration.md"
     )]
     StudyCalibration {
         /// Blind studies (seeds 1 to N).
@@ -646,12 +650,20 @@ pub enum SimCommand {
         /// Effect-free studies (seeds 1001 onwards).
         #[arg(long, default_value_t = 50)]
         controls: u64,
+        /// Studies whose controller senses its speed off by a factor, nothing else withheld
+        /// (seeds 3001 onwards).
+        #[arg(long, default_value_t = 20)]
+        controller_speed: u64,
         /// The measured bicycle.
         #[arg(long, default_value = "data/lab_bike.toml")]
         bike: PathBuf,
-        /// The Markdown to write.
+        /// The Markdown to write (every study's result beside it, `NAME.json`).
         #[arg(long)]
         out: PathBuf,
+        /// Render the Markdown from this JSON of every study's result (a run's own, made by
+        /// the same options) instead of running the studies again.
+        #[arg(long)]
+        results: Option<PathBuf>,
     },
     /// The gap diagnosis calibrated: blind campaigns of every effect at the broad sizes a lab
     /// meets, every design, diagnosed and compared with their truth; writes the tallies

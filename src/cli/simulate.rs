@@ -52,13 +52,19 @@ pub fn simulate(s: SimCommand) -> Result<()> {
         SimCommand::BlindStudy {
             seed,
             effect_free,
+            controller_speed_scale,
             bike,
             out,
         } => {
             let lab = LabBike::load(&bike)?;
             let motor = effect_free.then_some((0.0, 1.0));
-            let (mut files, _) =
-                bikeproc::sim::study::blind_study_with(&lab, "bike.toml", seed, motor)?;
+            let (mut files, _) = bikeproc::sim::study::blind_study_with(
+                &lab,
+                "bike.toml",
+                seed,
+                motor,
+                controller_speed_scale,
+            )?;
             let text = std::fs::read_to_string(&bike)
                 .with_context(|| format!("reading {}", bike.display()))?;
             files.push(("bike.toml".into(), text));
@@ -86,11 +92,21 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             studies,
             near_nominal,
             controls,
+            controller_speed,
             bike,
             out,
+            results,
         } => {
-            refuse_files_over_inputs(&[&out, &out.with_extension("json")], &[&bike], None)?;
-            return study_calibration(studies, near_nominal, controls, &bike, &out);
+            // With --results the Markdown alone is made again from them.
+            let json = out.with_extension("json");
+            let outputs: &[&Path] = if results.is_some() {
+                &[&out]
+            } else {
+                &[&out, &json]
+            };
+            refuse_files_over_inputs(outputs, &[&bike], results.as_deref())?;
+            let counts = [studies, near_nominal, controls, controller_speed];
+            return study_calibration(counts, &bike, &out, results.as_deref());
         }
         SimCommand::CheckCalibration {
             results,
@@ -217,19 +233,30 @@ fn write_generated(out: &Path, files: &campaign::Files) -> Result<()> {
 /// `simulate gap-calibration`: the blind campaigns run one after the other (each uses both
 /// cores), a line on standard error per campaign.
 /// `simulate study-calibration`: blind and effect-free studies, diagnosed and tallied.
+/// `counts`: blind, near-nominal, effect-free and controller-speed studies.
+/// With `rendered_from`, the Markdown alone from that JSON of a run's results.
 fn study_calibration(
-    studies: u64,
-    near_nominal: u64,
-    controls: u64,
+    counts: [u64; 4],
     bike: &Path,
     out: &Path,
+    rendered_from: Option<&Path>,
 ) -> Result<()> {
-    use bikeproc::blind::studies::{run_study, study_markdown, StudyKind};
+    use bikeproc::blind::studies::{run_study, study_markdown, StudyKind, CONTROLLER_SPEED_SEEDS};
+    let [studies, near_nominal, controls, controller_speed] = counts;
     let command = format!(
         "bikeproc simulate study-calibration --studies {studies} --near-nominal {near_nominal} \
-         --controls {controls} --out {}",
+         --controls {controls} --controller-speed {controller_speed} --out {}",
         out.display()
     );
+    if let Some(json) = rendered_from {
+        let text =
+            std::fs::read_to_string(json).with_context(|| format!("reading {}", json.display()))?;
+        let results: Vec<bikeproc::blind::studies::StudyResult> = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a study calibration's results", json.display()))?;
+        write_atomic(out, study_markdown(&results, &[], &command).as_bytes())?;
+        note!("wrote {} from {}", out.display(), json.display());
+        return Ok(());
+    }
     let lab = LabBike::load(bike)?;
     let text =
         std::fs::read_to_string(bike).with_context(|| format!("reading {}", bike.display()))?;
@@ -238,6 +265,10 @@ fn study_calibration(
         .map(|s| (s, StudyKind::Blind))
         .chain((n0..n0 + near_nominal).map(|s| (s, StudyKind::NearNominal)))
         .chain((1001..1001 + controls).map(|s| (s, StudyKind::EffectFree)))
+        .chain(
+            (CONTROLLER_SPEED_SEEDS..CONTROLLER_SPEED_SEEDS + controller_speed)
+                .map(|s| (s, StudyKind::ControllerSpeed)),
+        )
         .collect();
     let (mut results, mut failures) = (Vec::new(), Vec::new());
     for (k, &(seed, kind)) in cases.iter().enumerate() {
@@ -253,6 +284,10 @@ fn study_calibration(
                             .join(", ")
                     ),
                     _ => "no fit of the pair".to_string(),
+                };
+                let pair = match r.controller_speed_fit {
+                    Some((k, se)) => format!("{pair}; controller speed scale {k:.3} ± {se:.3}"),
+                    None => pair,
                 };
                 note!(
                     "[{}/{}] {} seed {seed}: p {:.2e}, best {}; {pair}",

@@ -61,6 +61,7 @@ pub enum Effect {
     Tyres,
     ActuatorGain,
     SteerInertia,
+    ControllerSpeedScale,
 }
 
 /// The tyres' camber stiffness per unit load (1/rad): a typical bicycle tyre's (0.5–1 /rad in
@@ -148,7 +149,7 @@ pub enum Acts {
 
 impl Effect {
     /// Every candidate, in a fixed order.
-    pub const ALL: [Effect; 17] = [
+    pub const ALL: [Effect; 18] = [
         Effect::SteerDamping,
         Effect::FrontMass,
         Effect::FrameMass,
@@ -166,6 +167,7 @@ impl Effect {
         Effect::Tyres,
         Effect::ActuatorGain,
         Effect::SteerInertia,
+        Effect::ControllerSpeedScale,
     ];
 
     /// The candidates for a bicycle with or without a controller: a steer motor's effects

@@ -119,7 +119,8 @@ pub enum PairSearch {
     /// [`PAIR_POOL`]` − 1` among themselves and, in a study, the single of the lowest χ² with
     /// every other: 20–40 pairs.
     Screen,
-    /// Every pair of the library everywhere (17 effects: 136 pairs).
+    /// Every pair of the library everywhere (18 effects with a controller: 153 pairs; 15
+    /// without: 105).
     Every,
 }
 

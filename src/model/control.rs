@@ -56,6 +56,9 @@ pub struct SteerControl {
     gains: [[f64; 4]; MAX_POINTS],
     /// The delivered torque over the commanded one.
     pub actuator_gain: f64,
+    /// The speed the controller schedules its gains on over the bicycle's: its own speed
+    /// sensor's scale (1 for a sensor that reads true; the gap's sensed-speed effect fits it).
+    pub speed_sensor_scale: f64,
 }
 
 /// Errors of a controller's table.
@@ -132,6 +135,7 @@ impl SteerControl {
         speeds_mps: [0.0; MAX_POINTS],
         gains: [[0.0; 4]; MAX_POINTS],
         actuator_gain: 1.0,
+        speed_sensor_scale: 1.0,
     };
 
     /// Whether there is no controller (no gain anywhere differs from zero).
@@ -203,9 +207,11 @@ impl SteerControl {
         Ok(c)
     }
 
-    /// The gains on `(φ, δ, φ̇, δ̇)` at speed `v` (m/s), times the actuator's gain: linear
-    /// between the table's speeds, constant beyond its ends; zeros without a controller.
+    /// The gains on `(φ, δ, φ̇, δ̇)` at the bicycle's speed `v` (m/s), times the actuator's
+    /// gain: the table read at the speed the controller senses (`speed_sensor_scale` × v),
+    /// linear between the table's speeds, constant beyond its ends; zeros without a controller.
     pub fn gains_at(&self, v: f64) -> [f64; 4] {
+        let v = self.speed_sensor_scale * v;
         let n = self.points;
         if n == 0 {
             return [0.0; 4];

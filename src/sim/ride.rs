@@ -76,14 +76,22 @@ pub struct SteerMotor {
 
 /// A steer controller as the motor's firmware runs it: a steer torque (N·m, turning the fork
 /// towards positive steer) of `Σ gains(v) · (roll, steer, roll rate, steer rate)` (rad, rad/s),
-/// the gains linear between `speeds_mps` and constant beyond, v the rear wheel's speed; the
-/// motor delivers `delivered` times it.
+/// the gains linear between `speeds_mps` and constant beyond, v the speed the firmware's own
+/// sensor reads (`speed_sensor_scale` times the rear wheel's); the motor delivers `delivered`
+/// times it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotorController {
     pub speeds_mps: Vec<f64>,
     pub gains: Vec<[f64; 4]>,
     pub delivered: f64,
+    /// The firmware's speed reading over the rear wheel's true speed (1: it reads true).
+    #[serde(default = "one")]
+    pub speed_sensor_scale: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 impl MotorController {
@@ -106,7 +114,7 @@ impl MotorController {
 
     /// The torque the motor applies at the state `(q, q̇)` (the rear wheel's radius `rr`).
     fn torque_nm(&self, q: &[f64; 8], qd: &[f64; 8], rr: f64) -> f64 {
-        let g = self.gains_at(-qd[5] * rr);
+        let g = self.gains_at(self.speed_sensor_scale * -qd[5] * rr);
         let x = [q[3], q[6], qd[3], qd[6]];
         self.delivered * g.iter().zip(x).map(|(k, x)| k * x).sum::<f64>()
     }

@@ -34,6 +34,17 @@ pub struct StudyTruth {
     /// The conditions' names, uncontrolled first, and their gains G (0 unpowered).
     pub conditions: Vec<(String, f64)>,
     pub seed: u64,
+    /// The speed the controller's firmware senses over the rear wheel's (1: it reads true).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub speed_sensor_scale: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
 }
 
 /// The study of `seed`: 10 rides unpowered at 3.4–5.2 m/s and 10 rides per gain at
@@ -47,17 +58,19 @@ pub fn blind_study(
     bike_file: &str,
     seed: u64,
 ) -> Result<(Files, StudyTruth), SimulationError> {
-    blind_study_with(measured, bike_file, seed, None)
+    blind_study_with(measured, bike_file, seed, None, 1.0)
 }
 
 /// [`blind_study`] with the motor given, `(reflected inertia kg·m², delivered)`, instead of
 /// drawn (`(0, 1)`: an effect-free study, the motor's rotor weightless and its torque as
-/// commanded); the rides' draws are those of the seed either way.
+/// commanded), and the controller's firmware sensing `speed_sensor_scale` times the rear
+/// wheel's speed (1: true); the rides' draws are those of the seed either way.
 pub fn blind_study_with(
     measured: &crate::inertia::bike::LabBike,
     bike_file: &str,
     seed: u64,
     motor: Option<(f64, f64)>,
+    speed_sensor_scale: f64,
 ) -> Result<(Files, StudyTruth), SimulationError> {
     let mut rng = seeded(31_000 + seed);
     let truth_bike = measured_within_errors(measured, &mut seeded(37_000 + seed));
@@ -80,6 +93,7 @@ pub fn blind_study_with(
                 [0.0; 4],
             ],
             delivered,
+            speed_sensor_scale,
         });
         let effects = Effects {
             steer_motor: Some(SteerMotor {
@@ -140,6 +154,7 @@ pub fn blind_study_with(
         delivered,
         conditions,
         seed,
+        speed_sensor_scale,
     };
     files.push((
         "truth.json".into(),
@@ -159,6 +174,20 @@ fn delivered_away_from_nominal(u: f64) -> f64 {
         0.4 + u
     } else {
         1.1 + (u - 0.5)
+    }
+}
+
+/// The speed a controller's firmware senses over the rear wheel's, for a study of that alone
+/// (seeded apart from the rides'): 0.85–0.97 or 1.03–1.15, uniform over both — a wheel's
+/// circumference set for another tyre, a magnet miscounted, a hub motor's estimate. The
+/// controller's roll-rate gain G (3.5 − k v) moves by G·v·|k − 1|: 0.075 N·m·s/rad at G = 1,
+/// 2.5 m/s, k = 1.03.
+pub fn sensor_scale_draw(seed: u64) -> f64 {
+    let u = seeded(43_000 + seed).range(0.0, 0.24);
+    if u < 0.12 {
+        0.85 + u
+    } else {
+        1.03 + (u - 0.12)
     }
 }
 

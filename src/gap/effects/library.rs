@@ -31,6 +31,7 @@ impl Effect {
             Effect::Tyres => &TYRES,
             Effect::ActuatorGain => &ACTUATOR_GAIN,
             Effect::SteerInertia => &STEER_INERTIA,
+            Effect::ControllerSpeedScale => &CONTROLLER_SPEED_SCALE,
         }
     }
 }
@@ -346,6 +347,30 @@ const STEER_INERTIA: Definition = Definition {
         plausible: (0.0, 0.5),
     }],
     change: Change::Bicycle(add_steer_inertia),
+    needs_controller: true,
+    ..BICYCLE
+};
+
+/// The speed a controller schedules its gains on is `k` times the bicycle's: its own speed
+/// sensor (a wheel magnet's count or circumference set for another wheel, a hub motor's
+/// estimate), apart from the speed the rides report (a treadmill's, a speedometer's). One
+/// sensor on the bicycle: shared by every controlled condition.
+const CONTROLLER_SPEED_SCALE: Definition = Definition {
+    name: "controller_speed_scale",
+    describe: "the speed the controller schedules its gains on off by a factor",
+    params: &[ParamSpec {
+        name: "k",
+        unit: "× true",
+        lo: 0.6,
+        hi: 1.6,
+        none: 1.0,
+        // A wheel's circumference set for another tyre (a 26-inch wheel's 2.07 m against a
+        // 700C's 2.10 m, a worn or underinflated tyre: a few per cent), a magnet counted
+        // twice or a hub motor's estimate from its back-EMF (10–15 %).
+        plausible: (0.85, 1.15),
+    }],
+    change: Change::Control(|c, k| c.speed_sensor_scale *= k),
+    acts: Acts::WithController,
     needs_controller: true,
     ..BICYCLE
 };
