@@ -226,6 +226,24 @@ pub fn controller_speed_in_first(r: &StudyResult) -> bool {
         && (k - t.speed_sensor_scale).abs() <= 0.3 * (t.speed_sensor_scale - 1.0).abs()
 }
 
+/// `a` of `b` with its percentage, `–` of none.
+fn pct(a: usize, b: usize) -> String {
+    if b == 0 {
+        "–".to_string()
+    } else {
+        format!("{a}/{b} ({:.1} %)", 100.0 * a as f64 / b as f64)
+    }
+}
+
+/// What a study named first, for a table of those it missed.
+fn named_instead(r: &StudyResult) -> &str {
+    if r.best.is_empty() {
+        "no conclusion"
+    } else {
+        &r.best
+    }
+}
+
 /// The joint diagnosis's motor fit against the study's truth, `(fit − truth)/SE` of each gain
 /// and then of the inertia; `None` for a study without a truth or a motor fit.
 fn motor_z(r: &StudyResult) -> Option<Vec<f64>> {
@@ -278,13 +296,6 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
         of(StudyKind::EffectFree),
         of(StudyKind::ControllerSpeed),
     );
-    let pct = |a: usize, b: usize| {
-        if b == 0 {
-            "–".to_string()
-        } else {
-            format!("{a}/{b} ({:.1} %)", 100.0 * a as f64 / b as f64)
-        }
-    };
     let named = blind.iter().filter(|r| r.named).count();
     let first = blind
         .iter()
@@ -354,11 +365,7 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
                 t.delivered,
                 r.rides_used,
                 r.campaign_p_value,
-                if r.best.is_empty() {
-                    "no conclusion"
-                } else {
-                    &r.best
-                }
+                named_instead(r)
             );
         }
     }
@@ -447,13 +454,6 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
 /// The studies of a controller's speed sensor as Markdown: how often it is named, at the right
 /// size, its errors' coverage, and the studies where it is not right.
 fn controller_speed_section(md: &mut String, sensed: &[&StudyResult]) {
-    let pct = |a: usize, b: usize| {
-        if b == 0 {
-            "–".to_string()
-        } else {
-            format!("{a}/{b} ({:.1} %)", 100.0 * a as f64 / b as f64)
-        }
-    };
     let truth = |r: &StudyResult| r.truth.as_ref().map_or(f64::NAN, |t| t.speed_sensor_scale);
     let mut z: Vec<f64> = sensed
         .iter()
@@ -512,11 +512,7 @@ fn controller_speed_section(md: &mut String, sensed: &[&StudyResult]) {
                 truth(r),
                 r.rides_used,
                 r.campaign_p_value,
-                if r.best.is_empty() {
-                    "no conclusion"
-                } else {
-                    &r.best
-                }
+                named_instead(r)
             );
         }
     }

@@ -78,14 +78,7 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             out,
             results,
         } => {
-            // With --results the Markdown alone is made again from them.
-            let json = out.with_extension("json");
-            let outputs: &[&Path] = if results.is_some() {
-                &[&out]
-            } else {
-                &[&out, &json]
-            };
-            refuse_files_over_inputs(outputs, &[&bike], results.as_deref())?;
+            refuse_calibration_outputs(&out, &bike, results.as_deref())?;
             return gap_calibration(campaigns, controls, &only, &bike, &out, results.as_deref());
         }
         SimCommand::StudyCalibration {
@@ -97,14 +90,7 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             out,
             results,
         } => {
-            // With --results the Markdown alone is made again from them.
-            let json = out.with_extension("json");
-            let outputs: &[&Path] = if results.is_some() {
-                &[&out]
-            } else {
-                &[&out, &json]
-            };
-            refuse_files_over_inputs(outputs, &[&bike], results.as_deref())?;
+            refuse_calibration_outputs(&out, &bike, results.as_deref())?;
             let counts = [studies, near_nominal, controls, controller_speed];
             return study_calibration(counts, &bike, &out, results.as_deref());
         }
@@ -232,6 +218,18 @@ fn write_generated(out: &Path, files: &campaign::Files) -> Result<()> {
 
 /// `simulate gap-calibration`: the blind campaigns run one after the other (each uses both
 /// cores), a line on standard error per campaign.
+/// A calibration's outputs checked against its inputs: its Markdown and, unless the Markdown
+/// alone is made again from `results`, its JSON beside it.
+fn refuse_calibration_outputs(out: &Path, bike: &Path, results: Option<&Path>) -> Result<()> {
+    let json = out.with_extension("json");
+    let outputs: &[&Path] = if results.is_some() {
+        &[out]
+    } else {
+        &[out, &json]
+    };
+    refuse_files_over_inputs(outputs, &[bike], results)
+}
+
 /// `simulate study-calibration`: blind and effect-free studies, diagnosed and tallied.
 /// `counts`: blind, near-nominal, effect-free and controller-speed studies.
 /// With `rendered_from`, the Markdown alone from that JSON of a run's results.
