@@ -4,7 +4,7 @@
 //! linear bicycle, and the weave it predicts for a ride (at the ride's speed as the ride
 //! reported it). Each effect's definition is in [`library`]: one place per effect.
 
-mod library;
+pub mod library;
 
 use super::linear::{LinearBike, LinearTyres};
 use super::observe::Observation;
