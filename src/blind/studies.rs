@@ -207,23 +207,29 @@ pub fn run_study(
 /// top) with a significant gap, its scale within 30 % of the truth's deviation from 1 (the
 /// gap calibration's "right").
 pub fn controller_speed_right(r: &StudyResult) -> bool {
-    let (Some(t), Some((k, _))) = (&r.truth, r.controller_speed_fit) else {
-        return false;
-    };
-    r.names_controller_speed
-        && (k - t.speed_sensor_scale).abs() <= 0.3 * (t.speed_sensor_scale - 1.0).abs()
+    r.names_controller_speed && controller_speed_size_right(r)
 }
 
 /// A study of a controller's speed sensor put it in its first candidate, alone or beside
 /// another effect, with a significant gap, its fit alone within 30 % of the truth's deviation
 /// from 1.
 pub fn controller_speed_in_first(r: &StudyResult) -> bool {
+    r.significant
+        && r.best.split(" + ").any(|e| e == CONTROLLER_SPEED)
+        && controller_speed_size_right(r)
+}
+
+/// The sensor's scale fitted alone within 30 % of the truth's deviation from 1
+/// ([`crate::blind::campaigns::size_right`]).
+fn controller_speed_size_right(r: &StudyResult) -> bool {
     let (Some(t), Some((k, _))) = (&r.truth, r.controller_speed_fit) else {
         return false;
     };
-    r.significant
-        && r.best.split(" + ").any(|e| e == CONTROLLER_SPEED)
-        && (k - t.speed_sensor_scale).abs() <= 0.3 * (t.speed_sensor_scale - 1.0).abs()
+    crate::blind::campaigns::size_right(
+        crate::gap::effects::Effect::ControllerSpeedScale,
+        &[k],
+        &[t.speed_sensor_scale],
+    )
 }
 
 /// `a` of `b` with its percentage, `–` of none.

@@ -364,9 +364,10 @@ pub struct GapArgs {
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     pub json: bool,
-    /// In a study, fit every pair of effects (153 with a controller, 105 without) where no single one closes the gap, not the
-    /// screen's 20–40 (a single campaign always fits every pair): about twice the time. The
-    /// screen's first five were the exhaustive search's on every study it was checked on.
+    /// In a study, fit every pair of effects (153 with a controller, 105 without) where no
+    /// single one closes the gap, not the screen's 20–40 (a single campaign always fits every
+    /// pair): about twice the time. The screen's first five were the exhaustive search's on
+    /// every study it was checked on.
     #[arg(long)]
     pub every_pair: bool,
 }
@@ -637,7 +638,7 @@ pub enum SimCommand {
     /// (named, the values' coverage, the effect-free p-values) as Markdown.
     #[command(
         name = "study-calibration",
-        after_help = "Example (docs/study-calibration.md, about 7 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --near-nominal 20 --controls 50 --controller-speed 20 --out docs/study-calibration.md"
+        after_help = "Example (docs/study-calibration.md, about 21 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --near-nominal 20 --controls 50 --controller-speed 20 --out docs/study-calibration.md"
     )]
     StudyCalibration {
         /// Blind studies (seeds 1 to N).

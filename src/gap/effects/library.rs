@@ -37,17 +37,26 @@ impl Effect {
 }
 
 /// The definition of an effect of the bicycle itself, shared by every condition of a study,
-/// acting on every ride: the fields that differ given, these as defaults.
-const BICYCLE: Definition = Definition {
-    name: "",
-    describe: "",
-    params: &[],
-    change: Change::Speedometer,
-    acts: Acts::Always,
-    per_condition: false,
-    needs_controller: false,
-    measured: None,
-};
+/// acting on every ride, scaling no measured quantity: what each effect gives (its name, its
+/// words, its parameters, its change of the model), the rest as defaults a definition may
+/// override.
+const fn bicycle(
+    name: &'static str,
+    describe: &'static str,
+    params: &'static [ParamSpec],
+    change: Change,
+) -> Definition {
+    Definition {
+        name,
+        describe,
+        params,
+        change,
+        acts: Acts::Always,
+        per_condition: false,
+        needs_controller: false,
+        measured: None,
+    }
+}
 
 /// A measured parameter off by a factor: inertias (a component forgotten or counted twice, a
 /// pendulum misread) plausibly by up to half. The search reaches well beyond that (0.25–2.2),
@@ -75,10 +84,10 @@ const LENGTH_FACTOR: ParamSpec = ParamSpec {
 };
 
 /// Viscous friction in the steering head: a torque −c δ̇.
-const STEER_DAMPING: Definition = Definition {
-    name: "steer_damping",
-    describe: "viscous steer damping",
-    params: &[ParamSpec {
+const STEER_DAMPING: Definition = bicycle(
+    "steer_damping",
+    "viscous steer damping",
+    &[ParamSpec {
         name: "c",
         unit: "N·m·s/rad",
         lo: 0.0,
@@ -86,9 +95,8 @@ const STEER_DAMPING: Definition = Definition {
         none: 0.0,
         plausible: (0.0, 1.0),
     }],
-    change: Change::SteerDamping,
-    ..BICYCLE
-};
+    Change::SteerDamping,
+);
 
 /// An added point mass (a lock, a lamp, a bag, a sensor box: up to 5 kg).
 const ADDED_MASS: ParamSpec = ParamSpec {
@@ -102,191 +110,200 @@ const ADDED_MASS: ParamSpec = ParamSpec {
 
 /// A point mass at the front frame's centre of mass: the mass grows, the centre of mass and
 /// the inertia about it stay.
-const FRONT_MASS: Definition = Definition {
-    name: "front_mass",
-    describe: "added mass on the front frame",
-    params: &[ADDED_MASS],
-    change: Change::Bicycle(|b, m| b.m_h += m),
-    ..BICYCLE
-};
+const FRONT_MASS: Definition = bicycle(
+    "front_mass",
+    "added mass on the front frame",
+    &[ADDED_MASS],
+    Change::Bicycle(|b, m| b.m_h += m),
+);
 
 /// A point mass at the rear frame's centre of mass.
-const FRAME_MASS: Definition = Definition {
-    name: "frame_mass",
-    describe: "added mass on the rear frame",
-    params: &[ADDED_MASS],
-    change: Change::Bicycle(|b, m| b.m_b += m),
-    ..BICYCLE
-};
+const FRAME_MASS: Definition = bicycle(
+    "frame_mass",
+    "added mass on the rear frame",
+    &[ADDED_MASS],
+    Change::Bicycle(|b, m| b.m_b += m),
+);
 
 const FRAME_IXX: Definition = Definition {
-    name: "frame_ixx",
-    describe: "the rear frame's I_xx off by a factor",
-    params: &[INERTIA_FACTOR],
-    change: Change::Bicycle(|b, k| b.i_bxx *= k),
     measured: Some(Quantity {
         of: |b| b.i_bxx,
         unit: "kg·m²",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "frame_ixx",
+        "the rear frame's I_xx off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| b.i_bxx *= k),
+    )
 };
 
 const FRAME_IZZ: Definition = Definition {
-    name: "frame_izz",
-    describe: "the rear frame's I_zz off by a factor",
-    params: &[INERTIA_FACTOR],
-    change: Change::Bicycle(|b, k| b.i_bzz *= k),
     measured: Some(Quantity {
         of: |b| b.i_bzz,
         unit: "kg·m²",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "frame_izz",
+        "the rear frame's I_zz off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| b.i_bzz *= k),
+    )
 };
 
 const FRAME_IXZ: Definition = Definition {
-    name: "frame_ixz",
-    describe: "the rear frame's I_xz off by a factor",
-    params: &[INERTIA_FACTOR],
-    change: Change::Bicycle(|b, k| b.i_bxz *= k),
     measured: Some(Quantity {
         of: |b| b.i_bxz,
         unit: "kg·m²",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "frame_ixz",
+        "the rear frame's I_xz off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| b.i_bxz *= k),
+    )
 };
 
 const FRONT_IXX: Definition = Definition {
-    name: "front_ixx",
-    describe: "the front frame's I_xx off by a factor",
-    params: &[INERTIA_FACTOR],
-    change: Change::Bicycle(|b, k| b.i_hxx *= k),
     measured: Some(Quantity {
         of: |b| b.i_hxx,
         unit: "kg·m²",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "front_ixx",
+        "the front frame's I_xx off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| b.i_hxx *= k),
+    )
 };
 
 const FRONT_IZZ: Definition = Definition {
-    name: "front_izz",
-    describe: "the front frame's I_zz off by a factor",
-    params: &[INERTIA_FACTOR],
-    change: Change::Bicycle(|b, k| b.i_hzz *= k),
     measured: Some(Quantity {
         of: |b| b.i_hzz,
         unit: "kg·m²",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "front_izz",
+        "the front frame's I_zz off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| b.i_hzz *= k),
+    )
 };
 
 /// The trail, built from the head angle, the fork's offset and the wheel's radius: 1.5° of
 /// head angle and 5 mm of offset already make 20 %.
 const TRAIL: Definition = Definition {
-    name: "trail",
-    describe: "the trail off by a factor",
-    params: &[ParamSpec {
-        plausible: (0.8, 1.2),
-        ..LENGTH_FACTOR
-    }],
-    change: Change::Bicycle(|b, k| b.c *= k),
     measured: Some(Quantity {
         of: |b| b.c,
         unit: "m",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "trail",
+        "the trail off by a factor",
+        &[ParamSpec {
+            plausible: (0.8, 1.2),
+            ..LENGTH_FACTOR
+        }],
+        Change::Bicycle(|b, k| b.c *= k),
+    )
 };
 
 /// Both wheels' spin inertias.
 const WHEEL_SPIN: Definition = Definition {
-    name: "wheel_spin",
-    describe: "the wheels' spin inertia off by a factor",
-    params: &[INERTIA_FACTOR],
-    change: Change::Bicycle(|b, k| {
-        b.i_ryy *= k;
-        b.i_fyy *= k;
-    }),
     measured: Some(Quantity {
         of: |b| b.i_ryy + b.i_fyy,
         unit: "kg·m² (both wheels)",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "wheel_spin",
+        "the wheels' spin inertia off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| {
+            b.i_ryy *= k;
+            b.i_fyy *= k;
+        }),
+    )
 };
 
 /// The rear frame's centre of mass height (−z_B).
 const FRAME_CG_HEIGHT: Definition = Definition {
-    name: "frame_cg_height",
-    describe: "the rear frame's centre of mass height off by a factor",
-    params: &[LENGTH_FACTOR],
-    change: Change::Bicycle(|b, k| b.z_b *= k),
     measured: Some(Quantity {
         of: |b| b.z_b,
         unit: "m",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "frame_cg_height",
+        "the rear frame's centre of mass height off by a factor",
+        &[LENGTH_FACTOR],
+        Change::Bicycle(|b, k| b.z_b *= k),
+    )
 };
 
 /// The rear frame's centre of mass, x_B.
 const FRAME_CG_X: Definition = Definition {
-    name: "frame_cg_x",
-    describe: "the rear frame's centre of mass x off by a factor",
-    params: &[LENGTH_FACTOR],
-    change: Change::Bicycle(|b, k| b.x_b *= k),
     measured: Some(Quantity {
         of: |b| b.x_b,
         unit: "m",
     }),
-    ..BICYCLE
+    ..bicycle(
+        "frame_cg_x",
+        "the rear frame's centre of mass x off by a factor",
+        &[LENGTH_FACTOR],
+        Change::Bicycle(|b, k| b.x_b *= k),
+    )
 };
 
 /// The speedometer (or a treadmill's display, another instrument's wheel sensor) reads `k`
 /// times the true speed (rides whose speed is a reading or such a column): a condition's own
 /// instrument.
 const SPEED_SCALE: Definition = Definition {
-    name: "speed_scale",
-    describe: "a speedometer scale error",
-    params: &[ParamSpec {
-        name: "k",
-        unit: "× nominal",
-        lo: 0.8,
-        hi: 1.25,
-        none: 1.0,
-        plausible: (0.9, 1.1),
-    }],
-    change: Change::Speedometer,
     acts: Acts::OnReadSpeeds,
     per_condition: true,
-    ..BICYCLE
+    ..bicycle(
+        "speed_scale",
+        "a speedometer scale error",
+        &[ParamSpec {
+            name: "k",
+            unit: "× nominal",
+            lo: 0.8,
+            hi: 1.25,
+            none: 1.0,
+            plausible: (0.9, 1.1),
+        }],
+        Change::Speedometer,
+    )
 };
 
 /// The sensors sample at `s` times the nominal rate: every rate read from the logs (the
 /// eigenvalue, the `Sync` speed) is the true one over `s`. A condition's own instrument.
 const TIME_SCALE: Definition = Definition {
-    name: "time_scale",
-    describe: "a sensor clock error (time scale)",
-    params: &[ParamSpec {
-        name: "s",
-        unit: "× nominal",
-        lo: 0.9,
-        hi: 1.1,
-        none: 1.0,
-        // A logger that stamps samples by their count at a nominal rate inherits its
-        // sensor's oscillator: a MEMS sensor's internal RC oscillator is specified to a few
-        // per cent and drifts with temperature. At ±3 % a clock 1.04 slow, fitted at 1.0415
-        // ± 0.009 with the best χ² and held-out RMS of all candidates, was ranked tenth
-        // behind the speedometer it mimics.
-        plausible: (0.95, 1.05),
-    }],
-    change: Change::Clock,
     per_condition: true,
-    ..BICYCLE
+    ..bicycle(
+        "time_scale",
+        "a sensor clock error (time scale)",
+        &[ParamSpec {
+            name: "s",
+            unit: "× nominal",
+            lo: 0.9,
+            hi: 1.1,
+            none: 1.0,
+            // A logger that stamps samples by their count at a nominal rate inherits its
+            // sensor's oscillator: a MEMS sensor's internal RC oscillator is specified to a few
+            // per cent and drifts with temperature. At ±3 % a clock 1.04 slow, fitted at 1.0415
+            // ± 0.009 with the best χ² and held-out RMS of all candidates, was ranked tenth
+            // behind the speedometer it mimics.
+            plausible: (0.95, 1.05),
+        }],
+        Change::Clock,
+    )
 };
 
 /// Lateral tyre compliance with a relaxation length, in place of rolling without lateral slip
 /// (two parameters; the camber stiffness held at [`super::CAMBER_PER_RAD`]).
-const TYRES: Definition = Definition {
-    name: "tyres",
-    describe: "lateral tyre compliance with a relaxation length",
-    params: &[
+const TYRES: Definition = bicycle(
+    "tyres",
+    "lateral tyre compliance with a relaxation length",
+    &[
         ParamSpec {
             name: "cornering",
             unit: "1/rad",
@@ -304,51 +321,52 @@ const TYRES: Definition = Definition {
             plausible: (0.02, 0.4),
         },
     ],
-    change: Change::Tyres,
-    ..BICYCLE
-};
+    Change::Tyres,
+);
 
 /// The steer motor delivers `a` times the torque its controller commands: per controller,
 /// where a condition carries one.
 const ACTUATOR_GAIN: Definition = Definition {
-    name: "actuator_gain",
-    describe: "the steer motor's torque off from the commanded one",
-    params: &[ParamSpec {
-        name: "a",
-        unit: "× nominal",
-        lo: 0.1,
-        hi: 3.0,
-        none: 1.0,
-        // A motor's torque constant, its driver's current loop and limit, and a gearbox's
-        // losses (a worm or planetary stage passes 50–90 % of the torque): from under a third
-        // of the nominal to half again.
-        plausible: (0.3, 1.5),
-    }],
-    change: Change::Control(|c, a| c.actuator_gain *= a),
     acts: Acts::WithController,
     per_condition: true,
     needs_controller: true,
-    ..BICYCLE
+    ..bicycle(
+        "actuator_gain",
+        "the steer motor's torque off from the commanded one",
+        &[ParamSpec {
+            name: "a",
+            unit: "× nominal",
+            lo: 0.1,
+            hi: 3.0,
+            none: 1.0,
+            // A motor's torque constant, its driver's current loop and limit, and a gearbox's
+            // losses (a worm or planetary stage passes 50–90 % of the torque): from under a third
+            // of the nominal to half again.
+            plausible: (0.3, 1.5),
+        }],
+        Change::Control(|c, a| c.actuator_gain *= a),
+    )
 };
 
 /// Inertia `J` added about the steer axis: a steer motor's rotor and gears, reflected through
 /// the gear ratio, powered or not (bicycles that carry a controller).
 const STEER_INERTIA: Definition = Definition {
-    name: "steer_inertia",
-    describe: "inertia added about the steer axis (a steer motor's rotor)",
-    params: &[ParamSpec {
-        name: "J",
-        unit: "kg·m²",
-        lo: 0.0,
-        hi: 1.0,
-        none: 0.0,
-        // A motor's rotor (1e-4 to 5e-4 kg·m²) through a 10–50:1 gearbox: its inertia times
-        // the ratio squared, up to ~0.5 kg·m², powered or not.
-        plausible: (0.0, 0.5),
-    }],
-    change: Change::Bicycle(add_steer_inertia),
     needs_controller: true,
-    ..BICYCLE
+    ..bicycle(
+        "steer_inertia",
+        "inertia added about the steer axis (a steer motor's rotor)",
+        &[ParamSpec {
+            name: "J",
+            unit: "kg·m²",
+            lo: 0.0,
+            hi: 1.0,
+            none: 0.0,
+            // A motor's rotor (1e-4 to 5e-4 kg·m²) through a 10–50:1 gearbox: its inertia times
+            // the ratio squared, up to ~0.5 kg·m², powered or not.
+            plausible: (0.0, 0.5),
+        }],
+        Change::Bicycle(add_steer_inertia),
+    )
 };
 
 /// The speed a controller schedules its gains on is `k` times the bicycle's: its own speed
@@ -356,23 +374,24 @@ const STEER_INERTIA: Definition = Definition {
 /// estimate), apart from the speed the rides report (a treadmill's, a speedometer's). One
 /// sensor on the bicycle: shared by every controlled condition.
 const CONTROLLER_SPEED_SCALE: Definition = Definition {
-    name: "controller_speed_scale",
-    describe: "the speed the controller schedules its gains on off by a factor",
-    params: &[ParamSpec {
-        name: "k",
-        unit: "× true",
-        lo: 0.6,
-        hi: 1.6,
-        none: 1.0,
-        // A wheel's circumference set for another tyre (a 26-inch wheel's 2.07 m against a
-        // 700C's 2.10 m, a worn or underinflated tyre: a few per cent), a magnet counted
-        // twice or a hub motor's estimate from its back-EMF (10–15 %).
-        plausible: (0.85, 1.15),
-    }],
-    change: Change::Control(|c, k| c.speed_sensor_scale *= k),
     acts: Acts::WithController,
     needs_controller: true,
-    ..BICYCLE
+    ..bicycle(
+        "controller_speed_scale",
+        "the speed the controller schedules its gains on off by a factor",
+        &[ParamSpec {
+            name: "k",
+            unit: "× true",
+            lo: 0.6,
+            hi: 1.6,
+            none: 1.0,
+            // A wheel's circumference set for another tyre (a 26-inch wheel's 2.07 m against a
+            // 700C's 2.10 m, a worn or underinflated tyre: a few per cent), a magnet counted
+            // twice or a hub motor's estimate from its back-EMF (10–15 %).
+            plausible: (0.85, 1.15),
+        }],
+        Change::Control(|c, k| c.speed_sensor_scale *= k),
+    )
 };
 
 /// Adds inertia `j` about the steer axis to the front frame: `J d dᵀ` with the axis'
