@@ -37,7 +37,9 @@ pub fn gap(a: GapArgs) -> Result<()> {
         }
     };
     let options = bikeproc::gap::GapOptions {
-        pairs: if a.every_pair {
+        pairs: if a.every_triple {
+            bikeproc::gap::PairSearch::EveryTriple
+        } else if a.every_pair {
             bikeproc::gap::PairSearch::Every
         } else {
             bikeproc::gap::PairSearch::Standard

@@ -81,6 +81,9 @@ pub struct Campaign<'a> {
     /// Whether every pair of the library is fitted where no single effect closes the gap,
     /// not the screen's ([`super::PairSearch`]).
     pub every_pair: bool,
+    /// Whether every three effects of the library are fitted where no pair closes the gap in
+    /// a study, not the screen's ([`super::PairSearch::Every`]).
+    pub every_triple: bool,
 }
 
 /// χ² of a subset of rides.
@@ -314,6 +317,7 @@ impl<'a> Campaign<'a> {
             trusted_newton_rides: self.trusted_newton_rides,
             speed_grid: self.speed_grid,
             every_pair: self.every_pair,
+            every_triple: self.every_triple,
         }
     }
 

@@ -103,16 +103,19 @@ impl Default for GapOptions {
     }
 }
 
-/// Which pairs of effects a campaign or study fits where no single effect closes the gap.
-/// Every way admits a pair under the same rule (it beats the best single's held-out Σz² by
-/// [`thresholds::PAIR_GAIN_CHI2`] and its BIC); they differ in which pairs are fitted at all.
-/// The record: docs/decisions/2026-12-02-pair-search.md.
+/// Which pairs (and, in a study, triples) of effects a campaign or study fits where no single
+/// effect (pair) closes the gap. Every way admits a candidate under the same rule (it beats the
+/// best single's (pair's) held-out Σz² by [`thresholds::PAIR_GAIN_CHI2`] and its BIC); they
+/// differ in which are fitted at all. The records: docs/decisions/2026-12-02-pair-search.md,
+/// docs/decisions/2026-12-03-study-triples.md.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PairSearch {
     /// Every pair in a single campaign, the screen in a study: the screen missed the
     /// exhaustive search's first pair in 2 of the 4 blind campaigns that tried pairs, and
     /// matched its first five on the real balance-assist study and every blind study checked,
-    /// where fitting every pair takes twice the time (`tests/pair_search.rs`).
+    /// where fitting every pair takes twice the time (`tests/pair_search.rs`). In a study where
+    /// no pair passes, three effects: the best pair and the next three pairs admitted (held
+    /// out), each with every other effect.
     #[default]
     Standard,
     /// The screen everywhere: the best single (held out) with every other effect, the next
@@ -120,8 +123,12 @@ pub enum PairSearch {
     /// every other: 20–40 pairs.
     Screen,
     /// Every pair of the library everywhere (18 effects with a controller: 153 pairs; 15
-    /// without: 105).
+    /// without: 105); three effects as [`PairSearch::Standard`] tries them.
     Every,
+    /// Every pair, and in a study where no pair passes every three effects of the library
+    /// (816 with a controller): minutes where the standard search's 60 take seconds. On the
+    /// balance-assist study it finds a first the screen misses (the record above).
+    EveryTriple,
 }
 
 impl PairSearch {
@@ -130,7 +137,7 @@ impl PairSearch {
         match self {
             PairSearch::Standard => !is_study,
             PairSearch::Screen => false,
-            PairSearch::Every => true,
+            PairSearch::Every | PairSearch::EveryTriple => true,
         }
     }
 }
@@ -695,6 +702,7 @@ fn diagnose_pass(
         trusted_newton_rides: options.trusted_newton_rides,
         speed_grid: options.speed_grid,
         every_pair: options.pairs.every_pair(is_study),
+        every_triple: options.pairs == PairSearch::EveryTriple,
     };
     d.parts_per_ride = parts.most();
     d.dof = parts.total();

@@ -296,11 +296,10 @@ impl Ranked {
 
     /// Whether it ranks among the first: in a single campaign, a plausible candidate (a value
     /// no real bicycle or lab would have explains nothing, however well it fits); in a study,
-    /// one with no parameter of the bicycle where its search stopped at an edge
-    /// ([`Ranked::bicycle_at_edge`]) — there the conditions, not a prior, decide, and a best
-    /// fit outside its plausible range is shown first and flagged, but a bicycle that the fit
-    /// would take beyond the range searched is no estimate to rank above one. (A value merely
-    /// within its standard error of an edge is a fit inside the range, shown as a bound.)
+    /// one with no parameter of the bicycle at its search's edge or within its standard error
+    /// of it ([`Ranked::bicycle_at_edge`]) — there the conditions, not a prior, decide, and a
+    /// best fit outside its plausible range is shown first and flagged, but a bicycle the rides
+    /// bound on one side only is no estimate to rank above one they bound on both.
     pub fn standing(&self) -> bool {
         if self.in_study() {
             !self.bicycle_at_edge()
@@ -310,19 +309,24 @@ impl Ranked {
     }
 
     /// Whether a parameter of the bicycle (an effect the conditions share) stopped at its
-    /// search's edge ([`Ranked::at_edge`]). A condition's own equipment (its controller's
+    /// search's edge ([`Ranked::at_edge`]) or lies within its standard error of it
+    /// ([`Ranked::at_bound`]): shown as a bound, `≤ 0.652 × measured (at the search's edge
+    /// 0.500 within its SE)`, it ranks as one. With the edge alone the balance-assist study's
+    /// first was such a value (frame_cg_x, once triples beyond the best pair's were tried;
+    /// front_izz ≥ 1.70 before). A condition's own equipment (its controller's
     /// delivered gain, its speedometer's scale, its clock: [`Effect::per_condition`]) is fitted
     /// from that condition's rides alone, which may barely tell it: at G = 1 a bicycle with a
     /// large rotor falls within a cycle in most rides, and a blind study's gain there came out
     /// at the edge, 0.1 ± 0.49, beside the best-predicting pair of all (`tests/study.rs`,
     /// `a_gain_its_rides_barely_tell_does_not_hide_the_motor`). It is shown as a bound; the
     /// ranking rests on the bicycle's parameters. The measurements behind it:
-    /// [docs/decisions/2026-12-02-study-ranking-edges.md](../../docs/decisions/2026-12-02-study-ranking-edges.md).
+    /// [docs/decisions/2026-12-02-study-ranking-edges.md](../../docs/decisions/2026-12-02-study-ranking-edges.md),
+    /// [docs/decisions/2026-12-03-study-triples.md](../../docs/decisions/2026-12-03-study-triples.md).
     pub fn bicycle_at_edge(&self) -> bool {
         self.param_effect
             .iter()
-            .zip(&self.at_edge)
-            .any(|(&j, &edge)| edge && !self.effects[j].per_condition())
+            .zip(self.at_edge.iter().zip(&self.at_bound))
+            .any(|(&j, (&edge, &bound))| (edge || bound) && !self.effects[j].per_condition())
     }
 
     /// Whether a parameter's search edge holds the fit back ([`Ranked::held_back`]).
@@ -633,28 +637,70 @@ pub(super) fn rank(
     if let Some(b) = held.first() {
         admit(&pairs, b, &mut ranked);
     }
-    // In a study, when no single effect or pair passes either: the best pair with each other
-    // effect, under the same rule against the best pair.
+    // In a study, when no single effect or pair passes either: three effects, under the same
+    // rule against the best pair. The screen: the best pair and the next PAIR_POOL − 1 pairs
+    // admitted as the conditions left out rank them (in good standing or not), each with every
+    // other effect (every three with `every_triple`). The best pair alone with each missed the
+    // two triples built on frame_cg_height + frame_cg_x, ranked below it as a bound. Neither
+    // finds every triple's first on the balance-assist study, a three-way fit whose pairs
+    // predict nothing; the record: docs/decisions/2026-12-03-study-triples.md.
     if campaign.is_study() && ranked.first().is_some_and(|b| !passes(b)) {
         let best_pair = ranked
             .iter()
             .find(|r| r.effects.len() == 2 && !r.not_needed)
             .cloned();
         if let Some(pair) = best_pair {
-            let triples: Vec<Vec<Effect>> = library
-                .iter()
-                .filter(|e| !pair.effects.contains(e))
-                .map(|&e| {
-                    let mut t = pair.effects.clone();
-                    t.push(e);
-                    t.sort();
-                    t
-                })
-                .collect();
+            let triples: Vec<Vec<Effect>> = if campaign.every_triple {
+                every_triple(&library)
+            } else {
+                // The pairs admitted that predict the conditions left out best, in good standing
+                // or not, each with every other effect.
+                let mut pairs: Vec<&Ranked> = ranked
+                    .iter()
+                    .filter(|r| r.effects.len() == 2 && !r.not_needed)
+                    .collect();
+                sort_by_key_only(&mut pairs, |r| r.heldout_rms_after);
+                let mut triples: Vec<Vec<Effect>> = Vec::new();
+                for p in std::iter::once(&pair).chain(pairs.into_iter().take(PAIR_POOL - 1)) {
+                    for &e in library.iter().filter(|e| !p.effects.contains(e)) {
+                        let mut t = p.effects.clone();
+                        t.push(e);
+                        t.sort();
+                        if !triples.contains(&t) {
+                            triples.push(t);
+                        }
+                    }
+                }
+                triples
+            };
             admit(&triples, &pair, &mut ranked);
         }
     }
     Ok(ranked)
+}
+
+/// `list` by `key` alone (then by name), whatever the standing.
+fn sort_by_key_only(list: &mut [&Ranked], key: impl Fn(&Ranked) -> f64) {
+    list.sort_by(|a, b| {
+        key(a)
+            .total_cmp(&key(b))
+            .then_with(|| a.effect.cmp(&b.effect))
+    });
+}
+
+/// Every three distinct effects of `library`, each sorted, in the library's order.
+fn every_triple(library: &[Effect]) -> Vec<Vec<Effect>> {
+    let mut out = Vec::new();
+    for (i, &a) in library.iter().enumerate() {
+        for (j, &b) in library.iter().enumerate().skip(i + 1) {
+            for &c in &library[j + 1..] {
+                let mut t = vec![a, b, c];
+                t.sort();
+                out.push(t);
+            }
+        }
+    }
+    out
 }
 
 /// Candidates in good standing first ([`Ranked::standing`]), pairs not needed after the rest;

@@ -609,8 +609,10 @@ fn study_section(
     let _ = write!(
         md,
         "\nThe first five of the {} candidates ranked (every single effect, pairs of the best, three \
-         effects where no pair passes): a candidate with a parameter where its search stopped at an \
-         edge is a bound, not a fit, and ranks below every fit inside its ranges.\n\n\
+         effects where no pair passes): a candidate with a parameter of the bicycle where its \
+         search stopped at an edge, or within its standard error of one, is a bound, not a fit, \
+         and ranks below every fit inside its ranges (a condition's own equipment there is shown \
+         as a bound and keeps its place).\n\n\
          | candidate | parameters | fit or bound | each condition predicted from the others (RMS) | all | rides left out one at a time |\n|---|---|---|---|---|---|\n",
         d.ranking.len()
     );
@@ -629,6 +631,9 @@ fn study_section(
         let (edges, near) = (named(&r.at_edge), named(&r.at_bound));
         let fit = match (edges.is_empty(), near.is_empty()) {
             (false, _) => format!("bound: {edges} at the search's edge"),
+            (true, false) if r.bicycle_at_edge() => {
+                format!("bound: {near} within its SE of an edge")
+            }
             (true, false) => format!("fit inside its ranges ({near} within its SE of an edge)"),
             (true, true) => "fit inside its ranges".to_string(),
         };
