@@ -389,8 +389,12 @@ pub(super) fn rank(
     };
     // A candidate is fitted to every ride, then tested out of sample; one whose BIC is not
     // below `bic_below` (a larger candidate that can never be admitted, `admit`) is not
-    // tested: `None`, as the exhaustive search would leave it out, at half the cost.
-    let evaluate = |effects: &[Effect], bic_below: f64| -> Option<Ranked> {
+    // tested: `None`, as the exhaustive search would leave it out, at half the cost. In a
+    // study, one whose conditions left out do not beat `gain_over` (the held-out Σz² of the
+    // candidate it must beat) by PAIR_GAIN_CHI2 is not admitted either, and its rides are not
+    // left out one at a time (reported beside an admitted candidate, never ranked on): on the
+    // balance-assist study's every triple, most of the time.
+    let evaluate = |effects: &[Effect], bic_below: f64, gain_over: Option<f64>| -> Option<Ranked> {
         let effects = effects.to_vec();
         let first = fit_effects(&campaign.subset((0..n).collect())?, &effects);
         // Fitted again with the model's covariance where the first fit puts the bicycle
@@ -423,14 +427,19 @@ pub(super) fn rank(
                 w.iter().map(|x| x * x).sum()
             }
         };
-        let (rides_out, rides_out_params) = heldout(campaign, &effects, &f.params);
         // In a study the conditions are left out: the ranking rests on predicting one from
         // the others; the rides left out one at a time are reported beside it.
         let (whitened, heldout_params, rides_out_rms) = if campaign.is_study() {
             let (w, p) = heldout_conditions(campaign, &effects, &f.params);
-            let total: f64 = rides_out.iter().map(chi2_of).sum();
-            (w, p, Some(rms(total)))
+            let held: f64 = w.iter().map(chi2_of).sum();
+            let admissible = gain_over.is_none_or(|a| a - held > PAIR_GAIN_CHI2);
+            let rides_out_rms = admissible.then(|| {
+                let (rides_out, _) = heldout(campaign, &effects, &f.params);
+                rms(rides_out.iter().map(chi2_of).sum())
+            });
+            (w, p, rides_out_rms)
         } else {
+            let (rides_out, rides_out_params) = heldout(campaign, &effects, &f.params);
             (rides_out, rides_out_params, None)
         };
         let per_ride: Vec<f64> = whitened.iter().map(chi2_of).collect();
@@ -521,9 +530,12 @@ pub(super) fn rank(
         })
     };
     let singles: Vec<Vec<Effect>> = library.iter().map(|&e| vec![e]).collect();
-    let over = |list: &[Vec<Effect>], bic_below: f64| -> Vec<Ranked> {
+    let over = |list: &[Vec<Effect>], bic_below: f64, gain_over: Option<f64>| -> Vec<Ranked> {
         use rayon::prelude::*;
-        let all: Vec<Option<Ranked>> = list.par_iter().map(|e| evaluate(e, bic_below)).collect();
+        let all: Vec<Option<Ranked>> = list
+            .par_iter()
+            .map(|e| evaluate(e, bic_below, gain_over))
+            .collect();
         all.into_iter().flatten().collect()
     };
     // Candidates of one more effect than `against`, kept when they beat it out of sample by
@@ -531,7 +543,7 @@ pub(super) fn rank(
     // when the rides left out tell them apart (the tie test); otherwise it is listed after it,
     // as not needed.
     let admit = |larger: &[Vec<Effect>], against: &Ranked, ranked: &mut Vec<Ranked>| {
-        for mut r in over(larger, against.bic) {
+        for mut r in over(larger, against.bic, Some(against.heldout_chi2_after)) {
             if against.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2
                 && r.bic < against.bic
             {
@@ -541,7 +553,7 @@ pub(super) fn rank(
         }
         sort(ranked);
     };
-    let mut ranked = over(&singles, f64::INFINITY);
+    let mut ranked = over(&singles, f64::INFINITY, None);
     sort(&mut ranked);
     // The singles as the rides left out order them (a study's own order): whether one closes
     // the gap, which are paired and what a pair must beat are questions of prediction. (Pairs
