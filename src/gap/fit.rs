@@ -383,12 +383,13 @@ impl<'a> Campaign<'a> {
         })
     }
 
-    /// Ride `i`'s block of [`Campaign::cov`]: from the whole where it is made (and in a campaign
-    /// of fewer than [`STRUCTURED_WHITENING_RIDES`] rides, which makes it), otherwise from its
-    /// parts.
+    /// Ride `i`'s block of [`Campaign::cov`]: from the whole in a campaign of fewer than
+    /// [`STRUCTURED_WHITENING_RIDES`] rides (which makes it), from its parts in a larger one
+    /// (whether or not something made the whole: the two differ in the last bits, and a
+    /// ride's residual must not depend on what was computed before it).
     pub fn cov_block(&self, i: usize) -> DMatrix<f64> {
         let (start, p) = (self.parts.start(i), self.parts.of(i));
-        if self.cov.get().is_some() || self.obs.len() < STRUCTURED_WHITENING_RIDES {
+        if self.obs.len() < STRUCTURED_WHITENING_RIDES {
             return self.cov().view((start, start), (p, p)).into_owned();
         }
         let u = self.model_factor.rows(start, p);
