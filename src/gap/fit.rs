@@ -82,7 +82,7 @@ pub struct Campaign<'a> {
     /// not the screen's ([`super::PairSearch`]).
     pub every_pair: bool,
     /// Whether every three effects of the library are fitted where no pair closes the gap in
-    /// a study, not the screen's ([`super::PairSearch::Every`]).
+    /// a study, not the screen's ([`super::PairSearch::EveryTriple`]).
     pub every_triple: bool,
 }
 

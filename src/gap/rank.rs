@@ -671,7 +671,10 @@ pub(super) fn rank(
                     .iter()
                     .filter(|r| r.effects.len() == 2 && !r.not_needed)
                     .collect();
-                sort_by_key_only(&mut pairs, |r| r.heldout_rms_after);
+                pairs.sort_by(|a, b| {
+                    (a.heldout_rms_after.total_cmp(&b.heldout_rms_after))
+                        .then_with(|| a.effect.cmp(&b.effect))
+                });
                 let mut triples: Vec<Vec<Effect>> = Vec::new();
                 for p in std::iter::once(&pair).chain(pairs.into_iter().take(PAIR_POOL - 1)) {
                     for &e in library.iter().filter(|e| !p.effects.contains(e)) {
@@ -689,15 +692,6 @@ pub(super) fn rank(
         }
     }
     Ok(ranked)
-}
-
-/// `list` by `key` alone (then by name), whatever the standing.
-fn sort_by_key_only(list: &mut [&Ranked], key: impl Fn(&Ranked) -> f64) {
-    list.sort_by(|a, b| {
-        key(a)
-            .total_cmp(&key(b))
-            .then_with(|| a.effect.cmp(&b.effect))
-    });
 }
 
 /// Every three distinct effects of `library`, each sorted, in the library's order.
