@@ -11,7 +11,7 @@ use bikeproc::inertia::bike::LabBike;
 use bikeproc::read::rides::RideManifest;
 use bikeproc::read::study::Study;
 use bikeproc::sim::campaign::{blind_campaign_plus, BlindDesign, Draws, Withheld};
-use bikeproc::sim::study::blind_study_with;
+use bikeproc::sim::study::{blind_study_with, StudyMotor};
 use common::root;
 
 mod common;
@@ -101,7 +101,7 @@ fn a_campaign_fits_every_pair_and_finds_what_the_screen_missed() {
 #[test]
 fn a_studys_screen_finds_the_first_five_of_every_pair() {
     let (lab, text) = lab();
-    let (files, _) = blind_study_with(&lab, "bike.toml", 1, None, 1.0).unwrap();
+    let (files, _) = blind_study_with(&lab, "bike.toml", 1, StudyMotor::DRAWN).unwrap();
     let [standard, every] = in_scratch("pairs_study_1", &files, &text, &|dir| {
         let study = Study::load(&dir.join("study.toml")).map_err(stage)?;
         let model =

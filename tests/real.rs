@@ -1069,6 +1069,7 @@ fn a_controlled_treadmill_recording_meets_the_held_out_bars() {
                 ],
                 delivered: 1.0,
                 speed_sensor_scale: 1.0,
+                lag_s: 0.0,
             }),
         }),
         ..Effects::default()

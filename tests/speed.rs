@@ -390,6 +390,7 @@ fn motor_rides(gain: f64, v0: f64, rotor: f64, n: u64) -> Vec<MotorZ> {
             gains: vec![[0.0, 0.0, gain * 3.5, 0.0], [0.0; 4], [0.0; 4]],
             delivered: DELIVERED,
             speed_sensor_scale: 1.0,
+            lag_s: 0.0,
         });
         let motor = Effects {
             steer_motor: Some(SteerMotor {

@@ -5,8 +5,10 @@
 //! and the tallies as Markdown (`docs/study-calibration.md`, [`study_markdown`]).
 
 use super::{in_scratch, stage, BlindError};
+use crate::gap::effects::Effect;
 use crate::sim::study::{
-    blind_study_with, near_nominal_motor, sensor_scale_draw, StudyTruth, STUDY_GAINS,
+    blind_study_with, lag_draw, near_nominal_motor, sensor_scale_draw, StudyMotor, StudyTruth,
+    STUDY_GAINS,
 };
 use std::fmt::Write as _;
 
@@ -16,8 +18,8 @@ pub const NEAR_NOMINAL_SEEDS: u64 = 2001;
 /// The first seed of the studies whose controller senses its speed off by a factor.
 pub const CONTROLLER_SPEED_SEEDS: u64 = 3001;
 
-/// The effect of a controller's speed sensor as the diagnosis names it.
-const CONTROLLER_SPEED: &str = "controller_speed_scale";
+/// The first seed of the studies whose motor's torque lags its command.
+pub const ACTUATOR_LAG_SEEDS: u64 = 4001;
 
 /// The steer motor's two effects as the diagnosis names them together.
 const PAIR: &str = "actuator_gain + steer_inertia";
@@ -36,15 +38,19 @@ pub enum StudyKind {
     /// A weightless rotor and the torque as commanded, the controller's firmware sensing its
     /// speed off by a factor ([`sensor_scale_draw`]).
     ControllerSpeed,
+    /// A weightless rotor and the torque as commanded, through a first-order lag
+    /// ([`lag_draw`]).
+    ActuatorLag,
 }
 
 impl StudyKind {
     /// Every kind, in a calibration's order.
-    pub const ALL: [StudyKind; 4] = [
+    pub const ALL: [StudyKind; 5] = [
         StudyKind::Blind,
         StudyKind::NearNominal,
         StudyKind::EffectFree,
         StudyKind::ControllerSpeed,
+        StudyKind::ActuatorLag,
     ];
 
     /// Its name in a calibration's progress lines.
@@ -54,7 +60,48 @@ impl StudyKind {
             StudyKind::NearNominal => "near-nominal",
             StudyKind::EffectFree => "effect-free",
             StudyKind::ControllerSpeed => "controller-speed",
+            StudyKind::ActuatorLag => "actuator-lag",
         }
+    }
+
+    /// The one effect of the library a kind withholds alone beside an effect-free motor (its
+    /// controller's speed sensor, its lag); `None` for the motor's own kinds.
+    pub fn withheld(self) -> Option<Effect> {
+        match self {
+            StudyKind::ControllerSpeed => Some(Effect::ControllerSpeedScale),
+            StudyKind::ActuatorLag => Some(Effect::ActuatorLag),
+            _ => None,
+        }
+    }
+
+    /// The motor of the study of `seed` of this kind.
+    fn motor(self, seed: u64) -> StudyMotor {
+        match self {
+            StudyKind::Blind => StudyMotor::DRAWN,
+            StudyKind::NearNominal => StudyMotor {
+                rotor_and_gain: Some(near_nominal_motor(seed)),
+                ..StudyMotor::DRAWN
+            },
+            StudyKind::EffectFree => StudyMotor::EFFECT_FREE,
+            StudyKind::ControllerSpeed => StudyMotor {
+                speed_sensor_scale: sensor_scale_draw(seed),
+                ..StudyMotor::EFFECT_FREE
+            },
+            StudyKind::ActuatorLag => StudyMotor {
+                lag_s: lag_draw(seed),
+                ..StudyMotor::EFFECT_FREE
+            },
+        }
+    }
+}
+
+/// A study's truth of the effect its kind withholds alone ([`StudyKind::withheld`]): the
+/// sensor's scale, the lag (s); NaN for other kinds.
+fn withheld_truth(r: &StudyResult) -> f64 {
+    match (r.kind, &r.truth) {
+        (StudyKind::ControllerSpeed, Some(t)) => t.speed_sensor_scale,
+        (StudyKind::ActuatorLag, Some(t)) => t.actuator_lag_s,
+        _ => f64::NAN,
     }
 }
 
@@ -92,12 +139,21 @@ pub struct StudyResult {
     /// candidate follows.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub shapes_set_aside: Vec<String>,
-    /// `controller_speed_scale` named first, or tied at the top, with a significant gap.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub names_controller_speed: bool,
-    /// Its fit alone `(value, se)` wherever it ranks (studies of that kind only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub controller_speed_fit: Option<(f64, f64)>,
+    /// The effect its kind withholds alone ([`StudyKind::withheld`]) named first, or tied at
+    /// the top, with a significant gap.
+    #[serde(
+        default,
+        alias = "names_controller_speed",
+        skip_serializing_if = "std::ops::Not::not"
+    )]
+    pub names_withheld: bool,
+    /// That effect's fit alone `(value, se)` wherever it ranks (studies of such kinds only).
+    #[serde(
+        default,
+        alias = "controller_speed_fit",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub withheld_fit: Option<(f64, f64)>,
 }
 
 /// Simulates the study of `seed` (the motor drawn, or effect-free) into a scratch folder and
@@ -110,18 +166,8 @@ pub fn run_study(
     kind: StudyKind,
 ) -> Result<StudyResult, BlindError> {
     let effect_free = kind == StudyKind::EffectFree;
-    let motor = match kind {
-        StudyKind::Blind => None,
-        StudyKind::NearNominal => Some(near_nominal_motor(seed)),
-        StudyKind::EffectFree | StudyKind::ControllerSpeed => Some((0.0, 1.0)),
-    };
-    let scale = if kind == StudyKind::ControllerSpeed {
-        sensor_scale_draw(seed)
-    } else {
-        1.0
-    };
     let (files, truth) =
-        blind_study_with(measured, "bike.toml", seed, motor, scale).map_err(stage)?;
+        blind_study_with(measured, "bike.toml", seed, kind.motor(seed)).map_err(stage)?;
     let name = format!("study_calibration_{seed}_{kind:?}");
     in_scratch(&name, &files, bike_text, &|dir| {
         let study = crate::read::study::Study::load(&dir.join("study.toml")).map_err(stage)?;
@@ -189,47 +235,41 @@ pub fn run_study(
             singles_named,
             singles_inertia,
             shapes_set_aside,
-            names_controller_speed: kind == StudyKind::ControllerSpeed
-                && names(&d, CONTROLLER_SPEED),
-            controller_speed_fit: (kind == StudyKind::ControllerSpeed)
-                .then(|| {
-                    d.ranking
-                        .iter()
-                        .find(|r| r.effect == CONTROLLER_SPEED)
-                        .map(|r| (r.params[0], r.params_se[0]))
-                })
-                .flatten(),
+            names_withheld: kind.withheld().is_some_and(|e| names(&d, e.name())),
+            withheld_fit: kind.withheld().and_then(|e| {
+                d.ranking
+                    .iter()
+                    .find(|r| r.effect == e.name())
+                    .map(|r| (r.params[0], r.params_se[0]))
+            }),
         })
     })
 }
 
-/// A study of a controller's speed sensor named it at the right size: first (or tied at the
-/// top) with a significant gap, its scale within 30 % of the truth's deviation from 1 (the
+/// A study of a kind that withholds one effect alone ([`StudyKind::withheld`]: a controller's
+/// speed sensor, an actuator's lag) named it at the right size: first (or tied at the top)
+/// with a significant gap, its fit within 30 % of the truth's deviation from "no effect" (the
 /// gap calibration's "right").
-pub fn controller_speed_right(r: &StudyResult) -> bool {
-    r.names_controller_speed && controller_speed_size_right(r)
+pub fn withheld_right(r: &StudyResult) -> bool {
+    r.names_withheld && withheld_size_right(r)
 }
 
-/// A study of a controller's speed sensor put it in its first candidate, alone or beside
-/// another effect, with a significant gap, its fit alone within 30 % of the truth's deviation
-/// from 1.
-pub fn controller_speed_in_first(r: &StudyResult) -> bool {
-    r.significant
-        && r.best.split(" + ").any(|e| e == CONTROLLER_SPEED)
-        && controller_speed_size_right(r)
-}
-
-/// The sensor's scale fitted alone within 30 % of the truth's deviation from 1
-/// ([`crate::blind::campaigns::size_right`]).
-fn controller_speed_size_right(r: &StudyResult) -> bool {
-    let (Some(t), Some((k, _))) = (&r.truth, r.controller_speed_fit) else {
+/// A study of a kind that withholds one effect alone put it in its first candidate, alone or
+/// beside another effect, with a significant gap, its fit alone at the right size.
+pub fn withheld_in_first(r: &StudyResult) -> bool {
+    let Some(e) = r.kind.withheld() else {
         return false;
     };
-    crate::blind::campaigns::size_right(
-        crate::gap::effects::Effect::ControllerSpeedScale,
-        &[k],
-        &[t.speed_sensor_scale],
-    )
+    r.significant && r.best.split(" + ").any(|b| b == e.name()) && withheld_size_right(r)
+}
+
+/// The withheld effect fitted alone within 30 % of the truth's deviation from "no effect"
+/// ([`crate::blind::campaigns::size_right`]).
+fn withheld_size_right(r: &StudyResult) -> bool {
+    let (Some(e), Some((k, _))) = (r.kind.withheld(), r.withheld_fit) else {
+        return false;
+    };
+    crate::blind::campaigns::size_right(e, &[k], &[withheld_truth(r)])
 }
 
 /// `a` of `b` with its percentage, `–` of none.
@@ -296,11 +336,10 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
     );
     let of =
         |k: StudyKind| -> Vec<&StudyResult> { results.iter().filter(|r| r.kind == k).collect() };
-    let (blind, near, controls, sensed) = (
+    let (blind, near, controls) = (
         of(StudyKind::Blind),
         of(StudyKind::NearNominal),
         of(StudyKind::EffectFree),
-        of(StudyKind::ControllerSpeed),
     );
     let named = blind.iter().filter(|r| r.named).count();
     let first = blind
@@ -406,8 +445,11 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
             pct(other, near.len()),
         );
     }
-    if !sensed.is_empty() {
-        controller_speed_section(&mut md, &sensed);
+    for kind in [StudyKind::ControllerSpeed, StudyKind::ActuatorLag] {
+        let withheld = of(kind);
+        if !withheld.is_empty() {
+            withheld_section(&mut md, kind, &withheld);
+        }
     }
     let below = |x: f64| controls.iter().filter(|r| r.campaign_p_value < x).count();
     let _ = write!(
@@ -457,51 +499,62 @@ pub fn study_markdown(results: &[StudyResult], failures: &[String], command: &st
     md
 }
 
-/// The studies of a controller's speed sensor as Markdown: how often it is named, at the right
-/// size, its errors' coverage, and the studies where it is not right.
-fn controller_speed_section(md: &mut String, sensed: &[&StudyResult]) {
-    let truth = |r: &StudyResult| r.truth.as_ref().map_or(f64::NAN, |t| t.speed_sensor_scale);
-    let mut z: Vec<f64> = sensed
+/// The studies of a kind that withholds one effect alone as Markdown: how often it is named,
+/// at the right size, its errors' coverage, and the studies where it is not right.
+fn withheld_section(md: &mut String, kind: StudyKind, studies: &[&StudyResult]) {
+    let Some(effect) = kind.withheld() else {
+        return;
+    };
+    let mut z: Vec<f64> = studies
         .iter()
         .filter_map(|r| {
-            let (k, se) = r.controller_speed_fit?;
-            Some((k - truth(r)) / se).filter(|z| z.is_finite())
+            let (k, se) = r.withheld_fit?;
+            Some((k - withheld_truth(r)) / se).filter(|z| z.is_finite())
         })
         .collect();
     z.sort_by(f64::total_cmp);
     let within = |k: f64| z.iter().filter(|x| x.abs() <= k).count();
-    let named = sensed.iter().filter(|r| r.names_controller_speed).count();
-    let right = sensed.iter().filter(|r| controller_speed_right(r)).count();
-    let in_first = sensed
-        .iter()
-        .filter(|r| controller_speed_in_first(r))
-        .count();
+    let named = studies.iter().filter(|r| r.names_withheld).count();
+    let right = studies.iter().filter(|r| withheld_right(r)).count();
+    let in_first = studies.iter().filter(|r| withheld_in_first(r)).count();
+    let (title, seeds, what, none) = match kind {
+        StudyKind::ActuatorLag => (
+            "The actuator's lag",
+            ACTUATOR_LAG_SEEDS,
+            "the motor's torque following its command through a first-order lag of \
+             0.01–0.08 s (`sim::study::lag_draw`)",
+            "0",
+        ),
+        _ => (
+            "The speed the controller senses",
+            CONTROLLER_SPEED_SEEDS,
+            "the controller's firmware sensing 0.85–0.97 or 1.03–1.15 times the rear \
+             wheel's speed (`sim::study::sensor_scale_draw`)",
+            "1",
+        ),
+    };
     let _ = write!(
         md,
-        "\n## The speed the controller senses\n\n{} studies (seeds {} on) with a weightless \
-         rotor and the torque as commanded, the controller's firmware sensing 0.85–0.97 or \
-         1.03–1.15 times the rear wheel's speed (`sim::study::sensor_scale_draw`): significant \
-         in {}; `controller_speed_scale` named (first or tied) in {}, at the right size (within \
-         30 % of the truth's deviation from 1) in {}; in the first candidate, alone or beside \
-         an effect of the bicycle, at the right size in {}. Its fit alone, wherever it ranks: \
-         the truth within 1 SE in {}, within 2 SE in {} (median z {:+.2}).\n",
-        sensed.len(),
-        CONTROLLER_SPEED_SEEDS,
+        "\n## {title}\n\n{} studies (seeds {seeds} on) with a weightless rotor and the torque \
+         as commanded, {what}: significant in {}; `{}` named (first or tied) in {}, at the \
+         right size (within 30 % of the truth's deviation from {none}) in {}; in the first \
+         candidate, alone or beside an effect of the bicycle, at the right size in {}. Its fit \
+         alone, wherever it ranks: the truth within 1 SE in {}, within 2 SE in {} (median z \
+         {:+.2}).\n",
+        studies.len(),
         pct(
-            sensed.iter().filter(|r| r.significant).count(),
-            sensed.len()
+            studies.iter().filter(|r| r.significant).count(),
+            studies.len()
         ),
-        pct(named, sensed.len()),
-        pct(right, sensed.len()),
-        pct(in_first, sensed.len()),
+        effect.name(),
+        pct(named, studies.len()),
+        pct(right, studies.len()),
+        pct(in_first, studies.len()),
         pct(within(1.0), z.len()),
         pct(within(2.0), z.len()),
         z.get(z.len() / 2).copied().unwrap_or(f64::NAN),
     );
-    let missed: Vec<&&StudyResult> = sensed
-        .iter()
-        .filter(|r| !controller_speed_right(r))
-        .collect();
+    let missed: Vec<&&StudyResult> = studies.iter().filter(|r| !withheld_right(r)).collect();
     if !missed.is_empty() {
         md.push_str(
             "\nNot right:\n\n| seed | truth | fitted | rides used | p | named instead |\n\
@@ -509,13 +562,13 @@ fn controller_speed_section(md: &mut String, sensed: &[&StudyResult]) {
         );
         for r in missed {
             let fitted = r
-                .controller_speed_fit
+                .withheld_fit
                 .map_or("—".to_string(), |(k, se)| format!("{k:.3} ± {se:.3}"));
             let _ = writeln!(
                 md,
                 "| {} | {:.3} | {fitted} | {} | {:.1e} | {} |",
                 r.seed,
-                truth(r),
+                withheld_truth(r),
                 r.rides_used,
                 r.campaign_p_value,
                 named_instead(r)

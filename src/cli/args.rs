@@ -233,7 +233,7 @@ pub enum Command {
         "its place; a best fit outside its plausible range is shown and flagged in words), then by the ",
         "BIC of the fit to every ride (in a study, by the held-out RMS normalized residual of its ",
         "conditions left out). Pairs are tried only when no single effect brings the held-out RMS ",
-        "within 2: in a campaign every pair of the library (105; 153 with a controller), in a study the pairs a screen ",
+        "within 2: in a campaign every pair of the library (105; 171 with a controller), in a study the pairs a screen ",
         "chooses (the best single with every other effect, the next three among themselves, the ",
         "single of lowest χ² with every other; `--every-pair` for all of them), and where no pair ",
         "passes either, three effects: the best pair and the next three pairs (held out) each ",
@@ -368,14 +368,14 @@ pub struct GapArgs {
     /// Print JSON instead of text (its shape: below).
     #[arg(long)]
     pub json: bool,
-    /// In a study, fit every pair of effects (153 with a controller, 105 without) where no
+    /// In a study, fit every pair of effects (171 with a controller, 105 without) where no
     /// single one closes the gap, not the screen's 20–40 (a single campaign always fits every
     /// pair): about twice the time. The screen's first five were the exhaustive search's on
     /// every study it was checked on.
     #[arg(long)]
     pub every_pair: bool,
     /// In a study, fit every pair and, where no pair closes the gap, every three effects of
-    /// the library (816 with a controller), not the screen's 60: minutes where the screen
+    /// the library (969 with a controller), not the screen's 60: minutes where the screen
     /// takes seconds. On the balance-assist study it finds a first the screen misses.
     #[arg(long)]
     pub every_triple: bool,
@@ -635,6 +635,10 @@ pub enum SimCommand {
         /// calibration's studies of it draw 0.85–0.97 or 1.03–1.15).
         #[arg(long, default_value_t = 1.0, value_parser = within(0.5, false, 2.0))]
         controller_speed_scale: f64,
+        /// The lag (s) between the motor's command and its torque (0: none; the calibration's
+        /// studies of it draw 0.01–0.08).
+        #[arg(long, default_value_t = 0.0, value_parser = within(0.0, false, 0.5))]
+        actuator_lag_s: f64,
         /// The measured bicycle (copied beside the rides as bike.toml).
         #[arg(long, default_value = "data/lab_bike.toml")]
         bike: PathBuf,
@@ -647,7 +651,7 @@ pub enum SimCommand {
     /// (named, the values' coverage, the effect-free p-values) as Markdown.
     #[command(
         name = "study-calibration",
-        after_help = "Example (docs/study-calibration.md, about 21 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --near-nominal 20 --controls 50 --controller-speed 20 --out docs/study-calibration.md"
+        after_help = "Example (docs/study-calibration.md, about 21 min on 2 cores):\n  bikeproc simulate study-calibration --studies 50 --near-nominal 20 --controls 50 --controller-speed 20 --actuator-lag 20 --out docs/study-calibration.md"
     )]
     StudyCalibration {
         /// Blind studies (seeds 1 to N).
@@ -664,6 +668,10 @@ pub enum SimCommand {
         /// (seeds 3001 onwards).
         #[arg(long, default_value_t = 20)]
         controller_speed: u64,
+        /// Studies whose motor's torque lags its command, nothing else withheld (seeds 4001
+        /// onwards).
+        #[arg(long, default_value_t = 20)]
+        actuator_lag: u64,
         /// The measured bicycle.
         #[arg(long, default_value = "data/lab_bike.toml")]
         bike: PathBuf,

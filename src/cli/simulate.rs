@@ -53,18 +53,19 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             seed,
             effect_free,
             controller_speed_scale,
+            actuator_lag_s,
             bike,
             out,
         } => {
+            use bikeproc::sim::study::StudyMotor;
             let lab = LabBike::load(&bike)?;
-            let motor = effect_free.then_some((0.0, 1.0));
-            let (mut files, _) = bikeproc::sim::study::blind_study_with(
-                &lab,
-                "bike.toml",
-                seed,
-                motor,
-                controller_speed_scale,
-            )?;
+            let motor = StudyMotor {
+                rotor_and_gain: effect_free.then_some((0.0, 1.0)),
+                speed_sensor_scale: controller_speed_scale,
+                lag_s: actuator_lag_s,
+            };
+            let (mut files, _) =
+                bikeproc::sim::study::blind_study_with(&lab, "bike.toml", seed, motor)?;
             let text = std::fs::read_to_string(&bike)
                 .with_context(|| format!("reading {}", bike.display()))?;
             files.push(("bike.toml".into(), text));
@@ -86,12 +87,19 @@ pub fn simulate(s: SimCommand) -> Result<()> {
             near_nominal,
             controls,
             controller_speed,
+            actuator_lag,
             bike,
             out,
             results,
         } => {
             refuse_calibration_outputs(&out, &bike, results.as_deref())?;
-            let counts = [studies, near_nominal, controls, controller_speed];
+            let counts = [
+                studies,
+                near_nominal,
+                controls,
+                controller_speed,
+                actuator_lag,
+            ];
             return study_calibration(counts, &bike, &out, results.as_deref());
         }
         SimCommand::CheckCalibration {
@@ -231,19 +239,22 @@ fn refuse_calibration_outputs(out: &Path, bike: &Path, results: Option<&Path>) -
 }
 
 /// `simulate study-calibration`: blind and effect-free studies, diagnosed and tallied.
-/// `counts`: blind, near-nominal, effect-free and controller-speed studies.
+/// `counts`: blind, near-nominal, effect-free, controller-speed and actuator-lag studies.
 /// With `rendered_from`, the Markdown alone from that JSON of a run's results.
 fn study_calibration(
-    counts: [u64; 4],
+    counts: [u64; 5],
     bike: &Path,
     out: &Path,
     rendered_from: Option<&Path>,
 ) -> Result<()> {
-    use bikeproc::blind::studies::{run_study, study_markdown, StudyKind, CONTROLLER_SPEED_SEEDS};
-    let [studies, near_nominal, controls, controller_speed] = counts;
+    use bikeproc::blind::studies::{
+        run_study, study_markdown, StudyKind, ACTUATOR_LAG_SEEDS, CONTROLLER_SPEED_SEEDS,
+    };
+    let [studies, near_nominal, controls, controller_speed, actuator_lag] = counts;
     let command = format!(
         "bikeproc simulate study-calibration --studies {studies} --near-nominal {near_nominal} \
-         --controls {controls} --controller-speed {controller_speed} --out {}",
+         --controls {controls} --controller-speed {controller_speed} --actuator-lag \
+         {actuator_lag} --out {}",
         out.display()
     );
     if let Some(json) = rendered_from {
@@ -267,6 +278,10 @@ fn study_calibration(
             (CONTROLLER_SPEED_SEEDS..CONTROLLER_SPEED_SEEDS + controller_speed)
                 .map(|s| (s, StudyKind::ControllerSpeed)),
         )
+        .chain(
+            (ACTUATOR_LAG_SEEDS..ACTUATOR_LAG_SEEDS + actuator_lag)
+                .map(|s| (s, StudyKind::ActuatorLag)),
+        )
         .collect();
     let (mut results, mut failures) = (Vec::new(), Vec::new());
     for (k, &(seed, kind)) in cases.iter().enumerate() {
@@ -283,9 +298,9 @@ fn study_calibration(
                     ),
                     _ => "no fit of the pair".to_string(),
                 };
-                let pair = match r.controller_speed_fit {
-                    Some((k, se)) => format!("{pair}; controller speed scale {k:.3} ± {se:.3}"),
-                    None => pair,
+                let pair = match (kind.withheld(), r.withheld_fit) {
+                    (Some(e), Some((k, se))) => format!("{pair}; {} {k:.3} ± {se:.3}", e.name()),
+                    _ => pair,
                 };
                 note!(
                     "[{}/{}] {} seed {seed}: p {:.2e}, best {}; {pair}",

@@ -62,6 +62,7 @@ pub enum Effect {
     ActuatorGain,
     SteerInertia,
     ControllerSpeedScale,
+    ActuatorLag,
 }
 
 /// The tyres' camber stiffness per unit load (1/rad): a typical bicycle tyre's (0.5–1 /rad in
@@ -128,6 +129,9 @@ pub enum Change {
     Control(fn(&mut SteerControl, f64)),
     /// Viscous steer damping added (N·m·s/rad).
     SteerDamping,
+    /// A first-order lag (s) between a controller's command and the steer torque
+    /// ([`LinearBike::actuator_lag_s`]).
+    ActuatorLag,
     /// Compliant tyres (cornering stiffness, relaxation length).
     Tyres,
     /// A speed read off an instrument is its scale times the true one.
@@ -149,7 +153,7 @@ pub enum Acts {
 
 impl Effect {
     /// Every candidate, in a fixed order.
-    pub const ALL: [Effect; 18] = [
+    pub const ALL: [Effect; 19] = [
         Effect::SteerDamping,
         Effect::FrontMass,
         Effect::FrameMass,
@@ -168,6 +172,7 @@ impl Effect {
         Effect::ActuatorGain,
         Effect::SteerInertia,
         Effect::ControllerSpeedScale,
+        Effect::ActuatorLag,
     ];
 
     /// The candidates for a bicycle with or without a controller: a steer motor's effects
@@ -252,6 +257,7 @@ pub fn linear_bike_assuming(
     let mut b = *base;
     let mut control = *control;
     let mut damping = 0.0;
+    let mut lag = 0.0;
     let mut tyres = None;
     for (e, ps) in split(effects, params) {
         match (e.change(), ps) {
@@ -265,11 +271,13 @@ pub fn linear_bike_assuming(
             (Change::Bicycle(change), &[p, ..]) => change(&mut b, p),
             (Change::Control(change), &[p, ..]) => change(&mut control, p),
             (Change::SteerDamping, &[p, ..]) => damping += p,
+            (Change::ActuatorLag, &[p, ..]) => lag += p,
             _ => {}
         }
     }
     LinearBike {
         steer_damping_nms_per_rad: damping,
+        actuator_lag_s: lag,
         tyres,
         ..LinearBike::whipple(&b).with_control(control)
     }

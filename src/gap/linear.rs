@@ -1,6 +1,12 @@
 //! The linear model extended by the candidate effects that add terms or states rather than
-//! change parameters: viscous steer damping and compliant tyres. In: a (possibly modified)
-//! parameter set and the extra terms. Out: the state matrix and its eigenvalues at a speed.
+//! change parameters: viscous steer damping, compliant tyres and a steer controller's lagging
+//! actuator. In: a (possibly modified) parameter set and the extra terms. Out: the state
+//! matrix and its eigenvalues at a speed.
+//!
+//! A lagging actuator ([`LinearBike::actuator_lag_s`] T > 0, with a controller): the torque on
+//! the steer is a state τ of its own, `T τ̇ = k(v)·x − τ` (k the controller's gains times the
+//! actuator's gain, [`crate::model::control`]), appended after the other states; without the
+//! lag τ = k(v)·x at once, the closed loop of [`Canonical::state_matrix`].
 //!
 //! Rigid wheels: `M q̈ + (v C₁ + D) q̇ + (g K₀ + v² K₂) q = 0`, q = (φ, δ), `D = [[0, 0], [0, c]]`
 //! (Meijaard et al. 2007, eq. 1, with a steering-head torque `−c δ̇`).
@@ -45,6 +51,9 @@ pub struct LinearBike {
     /// Viscous steer damping c (N·m·s/rad).
     pub steer_damping_nms_per_rad: f64,
     pub tyres: Option<LinearTyres>,
+    /// The time constant T (s) of a first-order lag between the controller's command and the
+    /// torque on the steer; 0 for none (or no controller).
+    pub actuator_lag_s: f64,
 }
 
 impl LinearBike {
@@ -55,6 +64,7 @@ impl LinearBike {
             canonical: Canonical::from_benchmark(bike),
             steer_damping_nms_per_rad: 0.0,
             tyres: None,
+            actuator_lag_s: 0.0,
         }
     }
 
@@ -65,9 +75,13 @@ impl LinearBike {
     }
 
     /// The state matrix at speed `v` (m/s): of `(φ, δ, φ̇, δ̇)` with rigid wheels, of
-    /// `(ψ, φ, δ, ẏ, ψ̇, φ̇, δ̇, F_r, F_f)` with tyres (y itself is neutral and left out).
-    /// `None` when a mass matrix is singular or v is not positive with tyres.
+    /// `(ψ, φ, δ, ẏ, ψ̇, φ̇, δ̇, F_r, F_f)` with tyres (y itself is neutral and left out),
+    /// and the actuator's torque τ last where it lags ([`LinearBike::lags`]). `None` when a
+    /// mass matrix is singular or v is not positive with tyres.
     pub fn state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
+        if self.lags() {
+            return self.lagged_state_matrix(v);
+        }
         match self.tyres {
             None => Some(DMatrix::from_column_slice(
                 4,
@@ -76,6 +90,62 @@ impl LinearBike {
             )),
             Some(t) => self.tyre_state_matrix(v, &t),
         }
+    }
+
+    /// Whether the controller's torque lags its command: a positive lag and a controller.
+    pub fn lags(&self) -> bool {
+        self.actuator_lag_s > 0.0 && !self.canonical.control.is_none()
+    }
+
+    /// The state matrix with the actuator's torque τ as a last state (`T τ̇ = k(v)·x − τ`):
+    /// the uncontrolled bicycle's matrix, τ's column the steer torque's accelerations (the
+    /// controlled matrix less the uncontrolled one, per unit of gain), τ's row the gains over
+    /// T on the angle states.
+    fn lagged_state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
+        let control = self.canonical.control;
+        let gains = control.gains_at(v);
+        let free = LinearBike {
+            canonical: Canonical {
+                control: crate::model::SteerControl::NONE,
+                ..self.canonical
+            },
+            actuator_lag_s: 0.0,
+            ..*self
+        };
+        let a = free.state_matrix(v)?;
+        let n = a.nrows();
+        let torque = self.steer_torque_column(v, n)?;
+        let states = self.angle_states();
+        let mut out = DMatrix::<f64>::zeros(n + 1, n + 1);
+        out.view_mut((0, 0), (n, n)).copy_from(&a);
+        for r in 0..n {
+            out[(r, n)] = torque[r];
+        }
+        for (k, s) in gains.iter().zip(states) {
+            out[(n, s)] = k / self.actuator_lag_s;
+        }
+        out[(n, n)] = -1.0 / self.actuator_lag_s;
+        Some(out)
+    }
+
+    /// The state's rates per N·m of steer torque (the column `M⁻¹ (0, …, 1)ᵀ` in the rates'
+    /// rows) for a state of `n` (rigid 4, tyres 9).
+    fn steer_torque_column(&self, v: f64, n: usize) -> Option<DVector<f64>> {
+        let mut col = DVector::<f64>::zeros(n);
+        match self.tyres {
+            None => {
+                let minv = self.canonical.m.try_inverse()?;
+                col[2] = minv[(0, 1)];
+                col[3] = minv[(1, 1)];
+            }
+            Some(_) => {
+                let minv = self.tyre_mass_and_gyro(v).0.try_inverse()?;
+                for (row, s) in [3, 4, 5, 6].into_iter().enumerate() {
+                    col[s] = minv[(row, 3)];
+                }
+            }
+        }
+        Some(col)
     }
 
     /// The Whipple model's state matrix (with its controller, if any) and the damper's −M⁻¹ D
@@ -90,10 +160,9 @@ impl LinearBike {
         Some(a)
     }
 
-    fn tyre_state_matrix(&self, v: f64, t: &LinearTyres) -> Option<DMatrix<f64>> {
-        if v <= 0.0 || t.relaxation_length_m <= 0.0 {
-            return None;
-        }
+    /// The compliant-tyre model's mass matrix `M_q` and the wheels' gyroscopic `G_q` at speed
+    /// `v`, of `q = (y, ψ, φ, δ)` (the module's doc), without damping.
+    fn tyre_mass_and_gyro(&self, v: f64) -> (DMatrix<f64>, DMatrix<f64>) {
         let p = &self.bike;
         let (sl, cl) = p.lambda.sin_cos();
         // Bodies: mass, centre of mass (x, z), inertia (xx, yy, zz, xz), front assembly?
@@ -150,6 +219,16 @@ impl LinearBike {
                 g -= jw.transpose() * hx * &jw;
             }
         }
+        (m, g)
+    }
+
+    fn tyre_state_matrix(&self, v: f64, t: &LinearTyres) -> Option<DMatrix<f64>> {
+        if v <= 0.0 || t.relaxation_length_m <= 0.0 {
+            return None;
+        }
+        let p = &self.bike;
+        let (sl, cl) = p.lambda.sin_cos();
+        let (m, mut g) = self.tyre_mass_and_gyro(v);
         g[(3, 3)] += self.steer_damping_nms_per_rad;
         let mut k = DMatrix::<f64>::zeros(4, 4);
         let k0 = self.canonical.k0 * self.canonical.g;
@@ -248,12 +327,14 @@ impl LinearBike {
         }
     }
 
-    /// Every eigenvalue of the state matrix at speed `v` (a rigid bicycle's through the fixed
-    /// 4×4 decomposition, [`crate::model::eigenvalues_of`]).
+    /// Every eigenvalue of the state matrix at speed `v` (a rigid bicycle's without a lag
+    /// through the fixed 4×4 decomposition, [`crate::model::eigenvalues_of`]).
     pub fn eigenvalues(&self, v: f64) -> Option<Vec<Complex<f64>>> {
         match self.tyres {
-            None => crate::model::eigenvalues_of(&self.rigid_state_matrix(v)?).map(|e| e.to_vec()),
-            Some(_) => crate::model::eigenvalues_dyn(&self.state_matrix(v)?),
+            None if !self.lags() => {
+                crate::model::eigenvalues_of(&self.rigid_state_matrix(v)?).map(|e| e.to_vec())
+            }
+            _ => crate::model::eigenvalues_dyn(&self.state_matrix(v)?),
         }
     }
 
@@ -275,7 +356,7 @@ impl LinearBike {
         use crate::model::eigenvector_near;
         // The weave and, when asked, its eigenvector's roll and steer.
         let (w, angles) = match self.tyres {
-            None => {
+            None if !self.lags() => {
                 let a = self.rigid_state_matrix(v)?;
                 let w = nearest_oscillatory(crate::model::eigenvalues_of(&a)?.to_vec(), guess)?;
                 (
@@ -283,7 +364,7 @@ impl LinearBike {
                     shape.then(|| eigenvector_near(&a, w).map(|x| [x[0], x[1]])),
                 )
             }
-            Some(_) => {
+            _ => {
                 let a = self.state_matrix(v)?;
                 let w = nearest_oscillatory(crate::model::eigenvalues_dyn(&a)?, guess)?;
                 let [roll, steer, ..] = self.angle_states();
@@ -438,6 +519,48 @@ mod tests {
             (s - theirs).norm() < 1e-3 * theirs.norm(),
             "{s} vs {theirs}"
         );
+    }
+
+    /// A lag of 1 µs between the controller's command and its torque is no lag: rigid and
+    /// on tyres, the lagged model's weave and mode shape are the unlagged loop's within 1e-4
+    /// (the lag's own eigenvalue at −10⁶ 1/s), the torque's column built for each.
+    #[test]
+    fn a_vanishing_lag_is_the_closed_loop() {
+        use crate::model::control::{ControllerSpec, SteerControl};
+        let spec = ControllerSpec {
+            description: String::new(),
+            speeds_mps: vec![0.0, 6.0],
+            roll_nm_per_rad: Some(vec![5.0, 0.0]),
+            steer_nm_per_rad: None,
+            roll_rate_nms_per_rad: Some(vec![15.0, 3.0]),
+            steer_rate_nms_per_rad: Some(vec![-1.0, 0.0]),
+        };
+        let control = SteerControl::from_spec(&spec, std::path::Path::new("law.toml")).unwrap();
+        let rigid = LinearBike::whipple(&benchmark()).with_control(control);
+        let tyred = LinearBike {
+            tyres: Some(LinearTyres {
+                cornering_per_rad: 12.0,
+                camber_per_rad: 0.7,
+                relaxation_length_m: 0.05,
+            }),
+            ..rigid
+        };
+        for bike in [rigid, tyred] {
+            let lagged = LinearBike {
+                actuator_lag_s: 1e-6,
+                ..bike
+            };
+            assert!(lagged.lags() && !bike.lags());
+            for v in [2.5, 4.0] {
+                let (w, s) = bike
+                    .weave_and_shape(v, Complex::new(-1.0, 4.0), true)
+                    .unwrap();
+                let (wl, sl) = lagged.weave_and_shape(v, w, true).unwrap();
+                let (s, sl) = (s.unwrap(), sl.unwrap());
+                assert!((w - wl).norm() < 1e-4 * w.norm(), "{v}: {w} vs {wl}");
+                assert!((s - sl).norm() < 1e-4 * s.norm(), "{v}: {s} vs {sl}");
+            }
+        }
     }
 
     /// Stiff tyres without lag are rolling without slip: the weave of the 9-state model is the

@@ -16,9 +16,11 @@ const STEP: f64 = 1e-6;
 /// The lateral Jacobian of the simulator's equations at speed `v` (m/s), upright and straight.
 ///
 /// Rigid wheels (`tyres` = `None`): the state is (roll, steer, roll rate, steer rate), the
-/// other rates following from the rolling constraints. Compliant tyres: (roll, steer, lateral
-/// velocity, yaw rate, roll rate, steer rate, rear and front lateral force). The loads are
-/// evaluated at time 0.
+/// other rates following from the rolling constraints, and the actuator's torque after them
+/// where `drive` has a lagged one ([`whipple::Actuator`]). Compliant tyres: (roll, steer,
+/// lateral velocity, yaw rate, roll rate, steer rate, rear and front lateral force); `None`
+/// with a lagged actuator, which the simulator does not run on tyres. The loads are evaluated
+/// at time 0.
 pub fn lateral_jacobian(
     p: &WhippleParams,
     tyres: Option<&Tyres>,
@@ -29,17 +31,25 @@ pub fn lateral_jacobian(
         None => {
             let f = |x: &[f64]| -> Option<Vec<f64>> {
                 let (q, qd) = whipple::upright_state(p, v, x[0], x[1], x[2], x[3])?;
-                let loads = (drive.loads)(&LoadInput {
+                let input = LoadInput {
                     t: 0.0,
                     q: &q,
                     qd: &qd,
                     velocities: whipple::body_velocities(p, &q, &qd),
-                });
+                    actuator_torque_nm: drive.actuator.map(|_| x[4]),
+                };
+                let loads = (drive.loads)(&input);
                 let qdd = whipple::accelerations_loaded(p, &q, &qd, &loads, drive.motion)?;
-                Some(vec![x[2], x[3], qdd[3], qdd[6]])
+                let mut out = vec![x[2], x[3], qdd[3], qdd[6]];
+                if let Some(a) = drive.actuator {
+                    out.push(((a.command)(&input) - x[4]) / a.lag_s);
+                }
+                Some(out)
             };
-            central_differences(&f, &[1.0; 4])
+            let n = if drive.actuator.is_some() { 5 } else { 4 };
+            central_differences(&f, &vec![1.0; n])
         }
+        Some(_) if drive.actuator.is_some() => None,
         Some(tyres) => {
             let (q, qd) = whipple::upright_state(p, v, 0.0, 0.0, 0.0, 0.0)?;
             let base = whipple::tyre_state(&q, &qd);
@@ -145,6 +155,7 @@ mod tests {
     const FREE: Drive<'static> = Drive {
         loads: &no_loads,
         motion: whipple::Motion::Free,
+        actuator: None,
     };
 
     /// Rigid wheels and no loads: the Jacobian's eigenvalues are the benchmark's (Meijaard et
@@ -189,6 +200,63 @@ mod tests {
         }
     }
 
+    /// A steer motor on a roll-rate law (T = 20 φ̇ N·m, at every speed) whose torque lags its
+    /// command by 50 ms: the simulator's Jacobian with the torque as a fifth state
+    /// ([`whipple::Actuator`]) has the analysis model's five eigenvalues
+    /// ([`crate::gap::linear::LinearBike::actuator_lag_s`], written apart from it) to 1e-5 at
+    /// 2–6 m/s, and the lag moves the weave (by more than 0.05 1/s) from the unlagged loop.
+    #[test]
+    fn a_lagged_motors_eigenvalues_are_the_analysis_models() {
+        use crate::gap::linear::LinearBike;
+        use crate::model::control::{ControllerSpec, SteerControl};
+        let b = Benchmark::meijaard_2007();
+        let p = WhippleParams::from_benchmark(&b);
+        let gain = 20.0;
+        let loads = |i: &LoadInput<'_>| vec![whipple::Load::Steer(i.actuator_torque_nm.unwrap())];
+        let command = |i: &LoadInput<'_>| gain * i.qd[3];
+        let drive = Drive {
+            loads: &loads,
+            motion: whipple::Motion::Free,
+            actuator: Some(whipple::Actuator {
+                lag_s: 0.05,
+                command: &command,
+            }),
+        };
+        let spec = ControllerSpec {
+            description: String::new(),
+            speeds_mps: vec![0.0],
+            roll_nm_per_rad: None,
+            steer_nm_per_rad: None,
+            roll_rate_nms_per_rad: Some(vec![gain]),
+            steer_rate_nms_per_rad: None,
+        };
+        let control = SteerControl::from_spec(&spec, std::path::Path::new("law.toml")).unwrap();
+        let unlagged = LinearBike::whipple(&b).with_control(control);
+        let lagged = LinearBike {
+            actuator_lag_s: 0.05,
+            ..unlagged
+        };
+        for v in [2.0, 3.0, 4.0, 6.0] {
+            let sim = crate::model::eigenvalues_dyn(&lateral_jacobian(&p, None, drive, v).unwrap())
+                .unwrap();
+            let ours = lagged.eigenvalues(v).unwrap();
+            assert_eq!((sim.len(), ours.len()), (5, 5));
+            for z in &ours {
+                let near = sim
+                    .iter()
+                    .map(|s| (s - z).norm())
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    near < 1e-5 * (1.0 + z.norm()),
+                    "{v} m/s: {z} not in {sim:?}"
+                );
+            }
+            let w = unlagged.weave_near(v, Complex::new(0.0, 4.0)).unwrap();
+            let wl = lagged.weave_near(v, w).unwrap();
+            assert!((w - wl).norm() > 0.05, "{v} m/s: {w} vs {wl}");
+        }
+    }
+
     /// A bicycle braked by 10 N along its heading at the frame's centre of mass: the analysis
     /// model at the same deceleration ([`Canonical::with_accel`], its `v̇ K_a`) moves the weave
     /// as the simulator's own linearization of the braked bicycle does, but for the braking
@@ -215,6 +283,7 @@ mod tests {
         let braked = Drive {
             loads: &brake,
             motion: whipple::Motion::Free,
+            actuator: None,
         };
         for (name, b) in [("benchmark", Benchmark::meijaard_2007()), ("lab", lab)] {
             let p = WhippleParams::from_benchmark(&b);

@@ -78,7 +78,7 @@ pub struct SteerMotor {
 /// towards positive steer) of `Σ gains(v) · (roll, steer, roll rate, steer rate)` (rad, rad/s),
 /// the gains linear between `speeds_mps` and constant beyond, v the speed the firmware's own
 /// sensor reads (`speed_sensor_scale` times the rear wheel's); the motor delivers `delivered`
-/// times it.
+/// times it, through a first-order lag of `lag_s` (`T τ̇ = u − τ`; 0: at once).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotorController {
@@ -88,6 +88,10 @@ pub struct MotorController {
     /// The firmware's speed reading over the rear wheel's true speed (1: it reads true).
     #[serde(default = "one")]
     pub speed_sensor_scale: f64,
+    /// The time constant (s) of the lag between the commanded torque and the delivered one (a
+    /// motor driver's current loop, a filter on the command); 0 for none.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub lag_s: f64,
 }
 
 fn one() -> f64 {
@@ -112,7 +116,8 @@ impl MotorController {
         std::array::from_fn(|j| self.gains[k][j] + f * (self.gains[k + 1][j] - self.gains[k][j]))
     }
 
-    /// The torque the motor applies at the state `(q, q̇)` (the rear wheel's radius `rr`).
+    /// The torque the motor is commanded to apply at the state `(q, q̇)`, times what it
+    /// delivers (the rear wheel's radius `rr`): applied at once without a lag.
     fn torque_nm(&self, q: &[f64; 8], qd: &[f64; 8], rr: f64) -> f64 {
         let g = self.gains_at(self.speed_sensor_scale * -qd[5] * rr);
         let x = [q[3], q[6], qd[3], qd[6]];
@@ -425,6 +430,11 @@ pub enum SimulationError {
     NoUpright,
     #[error(transparent)]
     Ode(#[from] super::ode::OdeError),
+    #[error(
+        "a steer motor whose torque lags its command is simulated on knife-edge wheels only \
+         (not with compliant tyres)"
+    )]
+    LaggedMotorOnTyres,
 }
 
 /// The wheels' static normal loads (rear, front; N): the weight split by the centre of mass.
@@ -456,11 +466,13 @@ fn ride_loads(
     move |input: &whipple::LoadInput<'_>| -> Vec<Load> {
         let (t, q, qd) = (input.t, input.q, input.qd);
         let mut l = Vec::new();
-        let motor = e
-            .steer_motor
-            .as_ref()
-            .and_then(|m| m.controller.as_ref())
-            .map_or(0.0, |c| c.torque_nm(q, qd, r_r));
+        // A lagged motor's torque is a state of the coast's; otherwise the command, at once.
+        let motor = input.actuator_torque_nm.unwrap_or_else(|| {
+            e.steer_motor
+                .as_ref()
+                .and_then(|m| m.controller.as_ref())
+                .map_or(0.0, |c| c.torque_nm(q, qd, r_r))
+        });
         l.push(Load::Steer(
             motor
                 - e.steer_viscous_nms_per_rad * qd[6]
@@ -501,6 +513,22 @@ fn ride_loads(
         l
     }
 }
+
+/// The ride's steer motor's command and lag (s) where its controller lags (`lag_s` > 0), for
+/// [`whipple::Actuator`]: the torque the loads would apply at once without it.
+fn lagged_motor(bike: &Benchmark, effects: &Effects) -> Option<(f64, MotorCommand)> {
+    let c = effects.steer_motor.as_ref()?.controller.clone()?;
+    let r_r = bike.r_r;
+    (c.lag_s > 0.0).then(|| {
+        let lag = c.lag_s;
+        let command: MotorCommand =
+            Box::new(move |i: &whipple::LoadInput<'_>| c.torque_nm(i.q, i.qd, r_r));
+        (lag, command)
+    })
+}
+
+/// A motor's command at a state (N·m).
+type MotorCommand = Box<dyn Fn(&whipple::LoadInput<'_>) -> f64>;
 
 /// Sensor outputs need positions, orientations, velocities and accelerations of two points:
 /// kinematics along `(q, q̇, q̈)` as jets.
@@ -614,16 +642,22 @@ pub fn simulate_ride(
         atol: 1e-10,
         max_steps: 1_000_000,
     };
+    let lagged = lagged_motor(&truth_bike, &spec.effects);
+    let actuator = lagged.as_ref().map(|(lag_s, command)| whipple::Actuator {
+        lag_s: *lag_s,
+        command: command.as_ref(),
+    });
     let drive = whipple::Drive {
         loads: &loads,
         motion: spec.motion,
+        actuator,
     };
     // The free motion as (q, q̇, q̈) per sample after the release.
     let free: Vec<([f64; 8], [f64; 8], [f64; 8])> = match &spec.effects.tyres {
-        None => whipple::coast_loaded(&p, y, release_s, spec.coast_s, dt, &tol, drive)?
+        None => whipple::coast_actuated(&p, y, release_s, spec.coast_s, dt, &tol, drive)?
             .iter()
             .enumerate()
-            .map(|(i, s)| {
+            .map(|(i, (s, torque))| {
                 let t = release_s + i as f64 * dt;
                 let q: [f64; 8] = std::array::from_fn(|k| s[k]);
                 let qd = whipple::full_rates(&p, s)?;
@@ -636,6 +670,7 @@ pub fn simulate_ride(
                         q: &q,
                         qd: &qd,
                         velocities: whipple::body_velocities(&p, &q, &qd),
+                        actuator_torque_nm: actuator.map(|_| *torque),
                     }),
                     spec.motion,
                 )?;
@@ -643,6 +678,7 @@ pub fn simulate_ride(
             })
             .collect::<Option<_>>()
             .ok_or(SimulationError::NoUpright)?,
+        Some(_) if actuator.is_some() => return Err(SimulationError::LaggedMotorOnTyres),
         Some(tyre) => {
             let q0: [f64; 8] = std::array::from_fn(|k| y[k]);
             let qd0 = whipple::full_rates(&p, &y).ok_or(SimulationError::NoUpright)?;
@@ -809,6 +845,7 @@ pub fn simulate_ride(
     let smooth_drive = whipple::Drive {
         loads: &smooth_loads,
         motion: spec.motion,
+        actuator,
     };
     let grid: Vec<f64> = ((lo / 0.05).floor() as i64 - 1..=(hi / 0.05).ceil() as i64 + 1)
         .map(|k| k as f64 * 0.05)

@@ -721,6 +721,7 @@ pub fn tyre_motion(
         q: &q,
         qd: &qd,
         velocities: velocities_of(&along),
+        actuator_torque_nm: None,
     }));
     let qdd = solve_dynamics(
         p,
@@ -942,6 +943,7 @@ pub fn coast(
         Drive {
             loads: &|_| Vec::new(),
             motion: Motion::Free,
+            actuator: None,
         },
     )
 }
@@ -956,6 +958,9 @@ pub struct LoadInput<'a> {
     pub qd: &'a [f64; 8],
     /// Centre-of-mass velocities (ground axes, m/s) of the frame, rear wheel, fork, front wheel.
     pub velocities: [[f64; 3]; 4],
+    /// The steer actuator's torque (N·m) where it is a state of its own ([`Actuator`]): the
+    /// loads apply it in place of the command. `None` without a lagged actuator.
+    pub actuator_torque_nm: Option<f64>,
 }
 
 fn velocities_of(along: &Rates) -> [[f64; 3]; 4] {
@@ -967,14 +972,29 @@ pub fn body_velocities(p: &WhippleParams, q: &[f64; 8], qd: &[f64; 8]) -> [[f64;
     velocities_of(&rates(p, q, qd))
 }
 
-/// What drives a coast beyond gravity: applied loads and the rear wheel's motion.
+/// What drives a coast beyond gravity: applied loads, the rear wheel's motion and a steer
+/// actuator whose torque lags its command.
 #[derive(Clone, Copy)]
 pub struct Drive<'a> {
     pub loads: &'a Loads<'a>,
     pub motion: Motion,
+    pub actuator: Option<Actuator<'a>>,
 }
 
-/// As [`coast`], from time `t0_s`, with applied `loads`.
+/// A steer actuator whose torque τ follows its command u through a first-order lag,
+/// `T τ̇ = u − τ` (a motor driver's current loop, the firmware's filter on its command): τ is
+/// integrated with the bicycle ([`coast_actuated`]) and handed to the loads as
+/// [`LoadInput::actuator_torque_nm`].
+#[derive(Clone, Copy)]
+pub struct Actuator<'a> {
+    /// The lag's time constant T (s, positive).
+    pub lag_s: f64,
+    /// The command u (N·m) at a state, as the loads would apply it without the lag.
+    pub command: &'a dyn Fn(&LoadInput<'_>) -> f64,
+}
+
+/// As [`coast`], from time `t0_s`, driven by `drive` (its actuator's torque, if any, left out
+/// of the states: [`coast_actuated`] keeps it).
 pub fn coast_loaded(
     p: &WhippleParams,
     y: RideState,
@@ -984,17 +1004,40 @@ pub fn coast_loaded(
     tol: &super::ode::Tolerance,
     drive: Drive<'_>,
 ) -> Result<Vec<RideState>, super::ode::OdeError> {
-    let rhs = |t: f64, y: &RideState| -> Option<RideState> {
+    let states = coast_actuated(p, y, t0_s, duration_s, dt_s, tol, drive)?;
+    Ok(states.into_iter().map(|(y, _)| y).collect())
+}
+
+/// As [`coast_loaded`], each sample with the actuator's torque (N·m; 0 without an actuator).
+/// The actuator's torque is a twelfth state, started at its command (the lag's steady state);
+/// without an actuator its rate is zero, so the error control (a maximum over the states) and
+/// every other state are those of the bicycle alone.
+pub fn coast_actuated(
+    p: &WhippleParams,
+    y: RideState,
+    t0_s: f64,
+    duration_s: f64,
+    dt_s: f64,
+    tol: &super::ode::Tolerance,
+    drive: Drive<'_>,
+) -> Result<Vec<(RideState, f64)>, super::ode::OdeError> {
+    let input_at = |y: &[f64; 12]| -> Option<([f64; 8], Vec<Rates>, [f64; 8])> {
         let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         let cols = columns(p, &q);
         let qd = constrained_rates_with(&cols, y[8], y[9], y[10])?;
+        Some((q, cols, qd))
+    };
+    let rhs = |t: f64, y: &[f64; 12]| -> Option<[f64; 12]> {
+        let (q, cols, qd) = input_at(y)?;
         let along = rates(p, &q, &qd);
-        let loads = (drive.loads)(&LoadInput {
+        let input = LoadInput {
             t,
             q: &q,
             qd: &qd,
             velocities: velocities_of(&along),
-        });
+            actuator_torque_nm: drive.actuator.map(|_| y[11]),
+        };
+        let loads = (drive.loads)(&input);
         let rows: Vec<([f64; 8], f64)> = (0..5)
             .map(|r| {
                 (
@@ -1004,29 +1047,45 @@ pub fn coast_loaded(
             })
             .collect();
         let qdd = solve_dynamics(p, &cols, &along, &loads, drive.motion, &rows)?;
-        let mut out = [0.0; 11];
+        let mut out = [0.0; 12];
         out[..8].copy_from_slice(&qd);
         out[8] = qdd[3];
         out[9] = qdd[5];
         out[10] = qdd[6];
+        if let Some(a) = drive.actuator {
+            out[11] = ((a.command)(&input) - y[11]) / a.lag_s;
+        }
         Some(out)
     };
-    let project = |y: &mut RideState| {
+    let project = |y: &mut [f64; 12]| {
         let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         if let Some(q5) = pitch_on_ground(p, &q, q[4]) {
             y[4] = q5;
         }
     };
+    let mut state = [0.0; 12];
+    state[..11].copy_from_slice(&y);
+    if let Some(a) = drive.actuator {
+        let (q, _, qd) = input_at(&state).ok_or(super::ode::OdeError::Rhs(t0_s))?;
+        let along = rates(p, &q, &qd);
+        state[11] = (a.command)(&LoadInput {
+            t: t0_s,
+            q: &q,
+            qd: &qd,
+            velocities: velocities_of(&along),
+            actuator_torque_nm: None,
+        });
+    }
+    let split = |s: &[f64; 12]| -> (RideState, f64) { (std::array::from_fn(|i| s[i]), s[11]) };
     let n = (duration_s / dt_s).round() as usize;
     let mut out = Vec::with_capacity(n + 1);
-    let mut state = y;
     let mut h = dt_s / 4.0;
     let mut fsal = None;
-    out.push(state);
+    out.push(split(&state));
     for k in 0..n {
         let (a, b) = (t0_s + k as f64 * dt_s, t0_s + (k + 1) as f64 * dt_s);
         super::ode::integrate(&rhs, &project, a, b, &mut state, &mut h, &mut fsal, tol)?;
-        out.push(state);
+        out.push(split(&state));
     }
     Ok(out)
 }
@@ -1299,6 +1358,7 @@ mod tests {
                 Drive {
                     loads: none,
                     motion: Motion::Free,
+                    actuator: None,
                 },
             )
             .unwrap()
@@ -1373,6 +1433,7 @@ mod tests {
             Drive {
                 loads: &loads,
                 motion: Motion::Free,
+                actuator: None,
             },
         )
         .unwrap();

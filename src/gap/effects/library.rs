@@ -32,6 +32,7 @@ impl Effect {
             Effect::ActuatorGain => &ACTUATOR_GAIN,
             Effect::SteerInertia => &STEER_INERTIA,
             Effect::ControllerSpeedScale => &CONTROLLER_SPEED_SCALE,
+            Effect::ActuatorLag => &ACTUATOR_LAG,
         }
     }
 }
@@ -402,3 +403,27 @@ fn add_steer_inertia(b: &mut Benchmark, j: f64) {
     b.i_hzz += j * c * c;
     b.i_hxz += j * s * c;
 }
+
+/// A first-order lag `T` between the controller's command and the torque on the steer
+/// (`T τ̇ = u − τ`): a motor driver's current loop (about a millisecond), the firmware's loop
+/// and a filter on its command (one or two periods of a 100–500 Hz loop), a gearbox's
+/// compliance. One motor and driver on the bicycle: shared by every controlled condition.
+const ACTUATOR_LAG: Definition = Definition {
+    acts: Acts::WithController,
+    needs_controller: true,
+    ..bicycle(
+        "actuator_lag",
+        "the steer motor's torque lagging its command (a first-order lag)",
+        &[ParamSpec {
+            name: "T",
+            unit: "s",
+            lo: 0.0,
+            hi: 0.3,
+            none: 0.0,
+            // A current loop's millisecond, a 100 Hz firmware's period or two, a low-pass
+            // filter on the command: up to about 50 ms; beyond, a loop a lab would retune.
+            plausible: (0.0, 0.05),
+        }],
+        Change::ActuatorLag,
+    )
+};
