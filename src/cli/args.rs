@@ -375,8 +375,9 @@ pub struct GapArgs {
     #[arg(long)]
     pub every_pair: bool,
     /// In a study, fit every pair and, where no pair closes the gap, every three effects of
-    /// the library (969 with a controller), not the screen's 60: minutes where the screen
-    /// takes seconds. On the balance-assist study it finds a first the screen misses.
+    /// the library (969 with a controller, each from its pairs' fits), not the screen's 60:
+    /// minutes where the screen takes seconds. On the balance-assist study it finds a first
+    /// the screen misses.
     #[arg(long)]
     pub every_triple: bool,
 }

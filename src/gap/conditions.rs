@@ -140,6 +140,25 @@ impl Layout {
         self.compact.iter().map(|&k| compact[k]).collect()
     }
 
+    /// The fitted elements of this layout's effects from those of the same effects without
+    /// the one at `missing` (`rest`, in their own layout's order, which is this one's with
+    /// `missing`'s elements taken out) and `missing`'s compact parameters from `compact` (the
+    /// effects' parameters in [`super::effects::specs`] order; the others' entries unread).
+    /// `None` when `rest` does not have the elements the others need, exactly.
+    pub fn with_effect(&self, missing: usize, rest: &[f64], compact: &[f64]) -> Option<Vec<f64>> {
+        let mut rest = rest.iter();
+        let out = (0..self.len())
+            .map(|k| {
+                if self.effect[k] == missing {
+                    compact.get(self.compact[k]).copied()
+                } else {
+                    rest.next().copied()
+                }
+            })
+            .collect::<Option<Vec<f64>>>()?;
+        rest.next().is_none().then_some(out)
+    }
+
     /// The bounds of the fitted elements.
     pub fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
         (
@@ -261,6 +280,22 @@ mod tests {
         assert_eq!(l.predicting(&p, 2), vec![1.1, 0.6, 0.6]);
         assert_eq!(l.predicting(&p, 0), p.to_vec());
         assert_eq!(l.expand(&[1.2, 0.7]), vec![1.2, 0.7, 0.7]);
+        // A pair's fit with the third effect inserted: the trail and the damper kept in order,
+        // the actuator's gain at its compact value in each controlled condition.
+        let t = Layout::new(
+            &[Effect::SteerDamping, Effect::Trail, Effect::ActuatorGain],
+            &conds,
+        );
+        assert_eq!(
+            t.with_effect(2, &[0.3, 1.1], &[0.0, 0.0, 0.7]),
+            Some(vec![0.3, 1.1, 0.7, 0.7])
+        );
+        assert_eq!(
+            t.with_effect(0, &[1.1, 0.6, 0.8], &[0.4, 0.0, 0.0]),
+            Some(vec![0.4, 1.1, 0.6, 0.8])
+        );
+        assert_eq!(t.with_effect(2, &[0.3], &[0.0, 0.0, 0.7]), None);
+        assert_eq!(t.with_effect(2, &[0.3, 1.1, 0.9], &[0.0, 0.0, 0.7]), None);
         assert_eq!(l.own(1), vec![1]);
         // One condition: the library's parameters, once each.
         let one = Layout::new(&[Effect::Trail, Effect::ActuatorGain], &conds[1..2]);

@@ -1086,6 +1086,64 @@ pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
     )
 }
 
+/// Fits `effects` of three or more to `subset` from the fits of the candidates one effect
+/// smaller (`smaller_fit`: each one's fitted elements, in its layout's order): each such fit
+/// with the missing effect's parameters at "no effect" and on [`fit_effects`]' grid (7 points
+/// a parameter), Nelder–Mead from the best of those starts with the grid's steps. With "no
+/// effect" among the starts the fit is never worse than a smaller candidate's on `subset`.
+/// `None` without a smaller fit to start from. Every three effects of a bicycle with a
+/// controller are 969 fits; from their pairs each starts from 24 points instead of 7³.
+pub fn fit_effects_from_smaller(
+    subset: &Subset<'_, '_>,
+    effects: &[Effect],
+    smaller_fit: &dyn Fn(&[Effect]) -> Option<Vec<f64>>,
+) -> Option<EffectFit> {
+    const PER: usize = 7;
+    let layout = subset.campaign.layout(effects);
+    let compact = specs(effects);
+    let mut starts: Vec<Vec<f64>> = Vec::new();
+    for m in 0..effects.len() {
+        let smaller: Vec<Effect> = effects
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != m)
+            .map(|(_, &e)| e)
+            .collect();
+        let Some(fitted) = smaller_fit(&smaller) else {
+            continue;
+        };
+        // The missing effect's compact parameters: at "no effect", then on the grid.
+        let own: Vec<usize> = (0..compact.len())
+            .filter(|&k| (0..layout.len()).any(|e| layout.compact[e] == k && layout.effect[e] == m))
+            .collect();
+        let none: Vec<f64> = compact.iter().map(|p| p.none).collect();
+        starts.extend(layout.with_effect(m, &fitted, &none));
+        for g in 0..PER.pow(own.len() as u32) {
+            let mut at = none.clone();
+            let mut rem = g;
+            for &k in &own {
+                let (lo, hi) = (compact[k].lo, compact[k].hi);
+                at[k] = lo + (hi - lo) * (rem % PER) as f64 / (PER - 1) as f64;
+                rem /= PER;
+            }
+            starts.extend(layout.with_effect(m, &fitted, &at));
+        }
+    }
+    let best = starts
+        .into_iter()
+        .map(|x| {
+            let fx = subset.chi2(effects, &x);
+            (x, fx)
+        })
+        .filter(|(_, fx)| fx.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let step: Vec<f64> = compact
+        .iter()
+        .map(|p| (p.hi - p.lo) / (PER - 1) as f64)
+        .collect();
+    Some(refine(subset, effects, &best.0, &layout.expand(&step), &[]))
+}
+
 /// Nelder–Mead from `start` with initial steps `step`, the elements of `held` kept at their
 /// start.
 pub fn refine(
