@@ -126,6 +126,29 @@ fn a_blind_study_names_the_steer_motor() {
     );
 }
 
+/// A study of `motor` (an effect-free motor but for one effect of the library withheld) names
+/// `effect` first, significant, its fit within 3 of its standard errors of `truth` and within
+/// 30 % of the truth's deviation from `none` (the calibration's "right"); the diagnosis.
+fn names_alone_at_its_size(
+    seed: u64,
+    motor: StudyMotor,
+    effect: &str,
+    truth: f64,
+    none: f64,
+) -> Diagnosis {
+    let (_, s, _) = study_of(seed, motor);
+    let d = diagnose(&s);
+    assert!(d.significant, "{}", d.verdict);
+    let best = &d.ranking[0];
+    assert_eq!(best.effect, effect, "{}", d.verdict);
+    let (k, se) = (best.params[0], best.params_se[0]);
+    let z = (k - truth) / se;
+    eprintln!("{effect} {truth:.4}: fitted {k:.4} ± {se:.4} (z {z:+.2})");
+    assert!(z.abs() <= 3.0, "{k:.4} ± {se:.4} for {truth:.4}");
+    assert!((k - truth).abs() <= 0.3 * (truth - none).abs());
+    d
+}
+
 /// Issue 76, item 3: the speed a controller sees. Its firmware schedules the gains on a speed
 /// sensor reading 1.084 times the rear wheel's (seed 3001's draw), the rotor weightless and
 /// the torque as commanded. The study names `controller_speed_scale` first, within 3 of its
@@ -135,50 +158,27 @@ fn a_blind_study_names_the_steer_motor() {
 #[test]
 fn a_controller_that_senses_its_speed_off_is_named_at_its_size() {
     let scale = bikeproc::sim::study::sensor_scale_draw(3001);
-    let (_, s, truth) = study_of(
-        3001,
-        StudyMotor {
-            speed_sensor_scale: scale,
-            ..StudyMotor::EFFECT_FREE
-        },
-    );
-    assert_eq!(truth.speed_sensor_scale, scale);
-    let d = diagnose(&s);
-    assert!(d.significant, "{}", d.verdict);
-    let best = &d.ranking[0];
-    assert_eq!(best.effect, "controller_speed_scale", "{}", d.verdict);
-    let (k, se) = (best.params[0], best.params_se[0]);
-    let z = (k - scale) / se;
-    eprintln!("sensed {scale:.4}: fitted {k:.4} ± {se:.4} (z {z:+.2})");
-    assert!(z.abs() <= 3.0, "{k:.4} ± {se:.4} for {scale:.4}");
-    assert!((k - scale).abs() <= 0.3 * (scale - 1.0).abs());
+    let motor = StudyMotor {
+        speed_sensor_scale: scale,
+        ..StudyMotor::EFFECT_FREE
+    };
+    names_alone_at_its_size(3001, motor, "controller_speed_scale", scale, 1.0);
 }
 
 /// Issue 76, item 3: the actuator's delay. The motor's torque follows its command through a
-/// first-order lag (seed 4001's draw, `sim::study::lag_draw`), the rotor weightless and the
-/// torque otherwise as commanded. The study names `actuator_lag` first, within 3 of its
-/// standard errors of the truth and within 30 % of it (the calibration's "right"), and its
-/// verdict says it explains the gap.
+/// first-order lag (seed 4001's draw, `sim::study::lag_draw`: 0.061 s), the rotor weightless
+/// and the torque otherwise as commanded. The study names `actuator_lag` first, within 3 of
+/// its standard errors of the truth and within 30 % of it (the calibration's "right"), and
+/// its verdict says it explains the gap.
 #[test]
 fn a_motor_whose_torque_lags_is_named_at_its_size() {
     let lag = bikeproc::sim::study::lag_draw(4001);
-    let (_, s, truth) = study_of(
-        4001,
-        StudyMotor {
-            lag_s: lag,
-            ..StudyMotor::EFFECT_FREE
-        },
-    );
-    assert_eq!(truth.actuator_lag_s, lag);
-    let d = diagnose(&s);
-    assert!(d.significant && d.explained, "{}", d.verdict);
-    let best = &d.ranking[0];
-    assert_eq!(best.effect, "actuator_lag", "{}", d.verdict);
-    let (t, se) = (best.params[0], best.params_se[0]);
-    let z = (t - lag) / se;
-    eprintln!("lag {lag:.4} s: fitted {t:.4} ± {se:.4} (z {z:+.2})");
-    assert!(z.abs() <= 3.0, "{t:.4} ± {se:.4} for {lag:.4}");
-    assert!((t - lag).abs() <= 0.3 * lag);
+    let motor = StudyMotor {
+        lag_s: lag,
+        ..StudyMotor::EFFECT_FREE
+    };
+    let d = names_alone_at_its_size(4001, motor, "actuator_lag", lag, 0.0);
+    assert!(d.explained, "{}", d.verdict);
 }
 
 /// A controller's gain that its condition's rides barely tell does not hide the motor. With a

@@ -652,9 +652,14 @@ pub fn simulate_ride(
         motion: spec.motion,
         actuator,
     };
+    let span = whipple::Span {
+        t0_s: release_s,
+        duration_s: spec.coast_s,
+        dt_s: dt,
+    };
     // The free motion as (q, q̇, q̈) per sample after the release.
     let free: Vec<([f64; 8], [f64; 8], [f64; 8])> = match &spec.effects.tyres {
-        None => whipple::coast_actuated(&p, y, release_s, spec.coast_s, dt, &tol, drive)?
+        None => whipple::coast_actuated(&p, y, span, &tol, drive)?
             .iter()
             .enumerate()
             .map(|(i, (s, torque))| {
@@ -685,11 +690,6 @@ pub fn simulate_ride(
             let tyres = whipple::Tyres {
                 model: *tyre,
                 normal_n: normal,
-            };
-            let span = whipple::Span {
-                t0_s: release_s,
-                duration_s: spec.coast_s,
-                dt_s: dt,
             };
             let states = whipple::coast_on_tyres(&p, &tyres, &q0, &qd0, span, &tol, drive)?;
             states

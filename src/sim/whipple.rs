@@ -1004,7 +1004,12 @@ pub fn coast_loaded(
     tol: &super::ode::Tolerance,
     drive: Drive<'_>,
 ) -> Result<Vec<RideState>, super::ode::OdeError> {
-    let states = coast_actuated(p, y, t0_s, duration_s, dt_s, tol, drive)?;
+    let span = Span {
+        t0_s,
+        duration_s,
+        dt_s,
+    };
+    let states = coast_actuated(p, y, span, tol, drive)?;
     Ok(states.into_iter().map(|(y, _)| y).collect())
 }
 
@@ -1015,12 +1020,15 @@ pub fn coast_loaded(
 pub fn coast_actuated(
     p: &WhippleParams,
     y: RideState,
-    t0_s: f64,
-    duration_s: f64,
-    dt_s: f64,
+    span: Span,
     tol: &super::ode::Tolerance,
     drive: Drive<'_>,
 ) -> Result<Vec<(RideState, f64)>, super::ode::OdeError> {
+    let Span {
+        t0_s,
+        duration_s,
+        dt_s,
+    } = span;
     let input_at = |y: &[f64; 12]| -> Option<([f64; 8], Vec<Rates>, [f64; 8])> {
         let q: [f64; 8] = std::array::from_fn(|i| y[i]);
         let cols = columns(p, &q);
