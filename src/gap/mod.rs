@@ -114,8 +114,8 @@ pub enum PairSearch {
     /// exhaustive search's first pair in 2 of the 4 blind campaigns that tried pairs, and
     /// matched its first five on the real balance-assist study and every blind study checked,
     /// where fitting every pair takes twice the time (`tests/pair_search.rs`). In a study where
-    /// no pair passes, three effects: the best pair and the next three pairs admitted (held
-    /// out), each with every other effect.
+    /// no pair passes, three effects: the best pair, the next three pairs admitted (held out)
+    /// and the pair fitted of the lowest χ² of every ride, each with every other effect.
     #[default]
     Standard,
     /// The screen everywhere: the best single (held out) with every other effect, the next

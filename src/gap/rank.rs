@@ -9,7 +9,7 @@ use super::effects::{self, Effect};
 use super::error::GapError;
 use super::fit::{
     assumed_se, fit_effects, fit_effects_from_smaller, param_se, refine, refit_near, Campaign,
-    ResidualCache,
+    EffectFit, ResidualCache,
 };
 use super::linear;
 use super::observe::Observation;
@@ -401,9 +401,11 @@ pub(super) fn rank(
     // from its pairs' (`fit_effects_from_smaller`), not from a grid of 7³ points: on the
     // balance-assist study 1 min 46 s against 3 min 37 s, the same first five but for one
     // triple fitted better (the record: docs/decisions/2026-12-03-study-triples.md).
-    let pair_fits: std::sync::Mutex<BTreeMap<Vec<Effect>, Vec<f64>>> = Default::default();
-    let pair_fit =
-        |pair: &[Effect]| -> Option<Vec<f64>> { pair_fits.lock().ok()?.get(pair).cloned() };
+    // Every pair fitted: its fitted elements and its χ² of every ride.
+    let pair_fits: std::sync::Mutex<BTreeMap<Vec<Effect>, EffectFit>> = Default::default();
+    let pair_fit = |pair: &[Effect]| -> Option<Vec<f64>> {
+        pair_fits.lock().ok()?.get(pair).map(|f| f.params.clone())
+    };
     let evaluate = |effects: &[Effect], bic_below: f64, gain_over: Option<f64>| -> Option<Ranked> {
         let effects = effects.to_vec();
         let all = campaign.subset((0..n).collect())?;
@@ -424,9 +426,9 @@ pub(super) fn rank(
             &steps(campaign, &effects),
             &[],
         );
-        if campaign.every_triple && effects.len() == 2 {
+        if effects.len() == 2 {
             if let Ok(mut fits) = pair_fits.lock() {
-                fits.insert(effects.clone(), f.params.clone());
+                fits.insert(effects.clone(), f.clone());
             }
         }
         let bic = f.chi2 + f.params.len() as f64 * (parts as f64).ln();
@@ -670,11 +672,13 @@ pub(super) fn rank(
     }
     // In a study, when no single effect or pair passes either: three effects, under the same
     // rule against the best pair. The screen: the best pair and the next PAIR_POOL − 1 pairs
-    // admitted as the conditions left out rank them (in good standing or not), each with every
-    // other effect (every three with `every_triple`). The best pair alone with each missed the
-    // two triples built on frame_cg_height + frame_cg_x, ranked below it as a bound. Neither
-    // finds every triple's first on the balance-assist study, a three-way fit whose pairs
-    // predict nothing; the record: docs/decisions/2026-12-03-study-triples.md.
+    // admitted as the conditions left out rank them (in good standing or not), and the pair
+    // fitted of the lowest χ² of every ride, each with every other effect (every three with
+    // `every_triple`). The best pair alone with each missed the two triples built on
+    // frame_cg_height + frame_cg_x, ranked below it as a bound; without the pair of the lowest
+    // χ² the screen missed every triple's first on the balance-assist study (steer_damping +
+    // frame_cg_height + actuator_lag, held-out RMS 1.81 against 2.53), whose pairs predict the
+    // conditions left out poorly; the record: docs/decisions/2026-12-03-study-triples.md.
     if campaign.is_study() && ranked.first().is_some_and(|b| !passes(b)) {
         let best_pair = ranked
             .iter()
@@ -694,10 +698,31 @@ pub(super) fn rank(
                     (a.heldout_rms_after.total_cmp(&b.heldout_rms_after))
                         .then_with(|| a.effect.cmp(&b.effect))
                 });
+                // And the pair fitted (admitted or not) of the lowest χ² of every ride, none of
+                // its parameters where its search stopped at an edge: as with the pairs, a fit
+                // whose conditions left out rank it low may hold what a third effect completes.
+                let by_chi2 = pair_fits.lock().ok().and_then(|fits| {
+                    fits.iter()
+                        .filter(|(e, f)| {
+                            !campaign
+                                .layout(e)
+                                .specs
+                                .iter()
+                                .zip(&f.params)
+                                .any(|(spec, &x)| pinned(spec, x))
+                        })
+                        .min_by(|a, b| a.1.chi2.total_cmp(&b.1.chi2))
+                        .map(|(e, _)| e.clone())
+                });
+                let mut bases: Vec<Vec<Effect>> = std::iter::once(&pair)
+                    .chain(pairs.into_iter().take(PAIR_POOL - 1))
+                    .map(|p| p.effects.clone())
+                    .collect();
+                bases.extend(by_chi2.filter(|b| !bases.contains(b)));
                 let mut triples: Vec<Vec<Effect>> = Vec::new();
-                for p in std::iter::once(&pair).chain(pairs.into_iter().take(PAIR_POOL - 1)) {
-                    for &e in library.iter().filter(|e| !p.effects.contains(e)) {
-                        let mut t = p.effects.clone();
+                for p in &bases {
+                    for &e in library.iter().filter(|e| !p.contains(e)) {
+                        let mut t = p.clone();
                         t.push(e);
                         t.sort();
                         if !triples.contains(&t) {
