@@ -517,20 +517,19 @@ fn withheld_section(md: &mut String, kind: StudyKind, studies: &[&StudyResult]) 
     let named = studies.iter().filter(|r| r.names_withheld).count();
     let right = studies.iter().filter(|r| withheld_right(r)).count();
     let in_first = studies.iter().filter(|r| withheld_in_first(r)).count();
-    let (title, seeds, what, none) = match kind {
+    let none = effect.params()[0].none;
+    let (title, seeds, what) = match kind {
         StudyKind::ActuatorLag => (
             "The actuator's lag",
             ACTUATOR_LAG_SEEDS,
             "the motor's torque following its command through a first-order lag of \
              0.01–0.08 s (`sim::study::lag_draw`)",
-            "0",
         ),
         _ => (
             "The speed the controller senses",
             CONTROLLER_SPEED_SEEDS,
             "the controller's firmware sensing 0.85–0.97 or 1.03–1.15 times the rear \
              wheel's speed (`sim::study::sensor_scale_draw`)",
-            "1",
         ),
     };
     let _ = write!(

@@ -1042,6 +1042,10 @@ pub fn nelder_mead(
     (x, fx)
 }
 
+/// The points a parameter takes on [`fit_effects`]' grid from three parameters on (and on
+/// the grid of a missing effect's in [`fit_effects_from_smaller`]).
+const GRID_PER_PARAMETER: usize = 7;
+
 /// Fits `effects` to `subset`: the best point of a grid over the bounds of the effects'
 /// parameters (25 points for one parameter, 11 × 11 for two, 7 per parameter beyond; in a
 /// study every condition's copy of a parameter at the same grid value), then Nelder–Mead over
@@ -1056,7 +1060,7 @@ pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
     let per: usize = match np {
         1 => 25,
         2 => 11,
-        _ => 7,
+        _ => GRID_PER_PARAMETER,
     };
     let mut best = (lo.clone(), f64::INFINITY);
     let total = per.pow(np as u32);
@@ -1098,9 +1102,10 @@ pub fn fit_effects_from_smaller(
     effects: &[Effect],
     smaller_fit: &dyn Fn(&[Effect]) -> Option<Vec<f64>>,
 ) -> Option<EffectFit> {
-    const PER: usize = 7;
+    const PER: usize = GRID_PER_PARAMETER;
     let layout = subset.campaign.layout(effects);
     let compact = specs(effects);
+    let none: Vec<f64> = compact.iter().map(|p| p.none).collect();
     let mut starts: Vec<Vec<f64>> = Vec::new();
     for m in 0..effects.len() {
         let smaller: Vec<Effect> = effects
@@ -1116,7 +1121,6 @@ pub fn fit_effects_from_smaller(
         let own: Vec<usize> = (0..compact.len())
             .filter(|&k| (0..layout.len()).any(|e| layout.compact[e] == k && layout.effect[e] == m))
             .collect();
-        let none: Vec<f64> = compact.iter().map(|p| p.none).collect();
         starts.extend(layout.with_effect(m, &fitted, &none));
         for g in 0..PER.pow(own.len() as u32) {
             let mut at = none.clone();

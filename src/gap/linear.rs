@@ -98,12 +98,10 @@ impl LinearBike {
     }
 
     /// The state matrix with the actuator's torque τ as a last state (`T τ̇ = k(v)·x − τ`):
-    /// the uncontrolled bicycle's matrix, τ's column the steer torque's accelerations (the
-    /// controlled matrix less the uncontrolled one, per unit of gain), τ's row the gains over
-    /// T on the angle states.
+    /// the uncontrolled bicycle's matrix, τ's column the rates a unit steer torque gives
+    /// ([`LinearBike::steer_torque_column`]), τ's row the gains over T on the angle states.
     fn lagged_state_matrix(&self, v: f64) -> Option<DMatrix<f64>> {
-        let control = self.canonical.control;
-        let gains = control.gains_at(v);
+        let gains = self.canonical.control.gains_at(v);
         let free = LinearBike {
             canonical: Canonical {
                 control: crate::model::SteerControl::NONE,

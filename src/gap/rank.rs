@@ -390,6 +390,15 @@ pub(super) fn rank(
             total,
         )
     };
+    // Every pair fitted (admitted or not), its fit to every ride: the triples' screen takes the
+    // pair of the lowest χ², and where every three effects are tried each triple's first fit
+    // starts from its pairs' (`fit_effects_from_smaller`), not from a grid of 7³ points: on
+    // the balance-assist study 1 min 44 s against 3 min 37 s, the same first five but for one
+    // triple fitted better (the record: docs/decisions/2026-12-03-study-triples.md).
+    let pair_fits: std::sync::Mutex<BTreeMap<Vec<Effect>, EffectFit>> = Default::default();
+    let pair_fit = |pair: &[Effect]| -> Option<Vec<f64>> {
+        pair_fits.lock().ok()?.get(pair).map(|f| f.params.clone())
+    };
     // A candidate is fitted to every ride, then tested out of sample; one whose BIC is not
     // below `bic_below` (a larger candidate that can never be admitted, `admit`) is not
     // tested: `None`, as the exhaustive search would leave it out, at half the cost. In a
@@ -397,15 +406,6 @@ pub(super) fn rank(
     // candidate it must beat) by PAIR_GAIN_CHI2 is not admitted either, and its rides are not
     // left out one at a time (reported beside an admitted candidate, never ranked on): on the
     // balance-assist study's every triple, most of the time.
-    // Every pair's fit, where every three effects are tried: each triple's first fit starts
-    // from its pairs' (`fit_effects_from_smaller`), not from a grid of 7³ points: on the
-    // balance-assist study 1 min 46 s against 3 min 37 s, the same first five but for one
-    // triple fitted better (the record: docs/decisions/2026-12-03-study-triples.md).
-    // Every pair fitted: its fitted elements and its χ² of every ride.
-    let pair_fits: std::sync::Mutex<BTreeMap<Vec<Effect>, EffectFit>> = Default::default();
-    let pair_fit = |pair: &[Effect]| -> Option<Vec<f64>> {
-        pair_fits.lock().ok()?.get(pair).map(|f| f.params.clone())
-    };
     let evaluate = |effects: &[Effect], bic_below: f64, gain_over: Option<f64>| -> Option<Ranked> {
         let effects = effects.to_vec();
         let all = campaign.subset((0..n).collect())?;

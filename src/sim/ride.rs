@@ -135,7 +135,7 @@ pub fn params_with_motor(bike: &Benchmark, motor: Option<&SteerMotor>) -> Whippl
     p
 }
 
-fn is_zero(x: &f64) -> bool {
+pub(super) fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 

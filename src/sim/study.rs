@@ -38,12 +38,8 @@ pub struct StudyTruth {
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub speed_sensor_scale: f64,
     /// The time constant (s) of the motor's lag between command and torque (0: none).
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "super::ride::is_zero")]
     pub actuator_lag_s: f64,
-}
-
-fn is_zero(x: &f64) -> bool {
-    *x == 0.0
 }
 
 /// What a blind study's motor is, where it is not drawn from the seed.
