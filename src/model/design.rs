@@ -18,7 +18,7 @@
 //! the bounds, is taken.
 
 use super::sensitivity::{critical_speed_gradients, CriticalSpeeds, SensitivityError};
-use super::Benchmark;
+use super::{trail_keeping_offset, Benchmark};
 use crate::jet::{Jet, Scalar};
 
 /// What a design may change.
@@ -166,13 +166,9 @@ fn apply<T: Scalar>(base: &[f64; 26], vars: &[DesignVariable], x: &[T]) -> [T; 2
             DesignVariable::Parameter(k) => p[*k] = p[*k] * (one + xi),
         }
     }
-    // The fork offset the trail (at the original head angle) means, then the trail at the
-    // head angle: c = (r_F sin λ − d)/cos λ.
-    let (s0, c0) = (T::c(base[LAMBDA]).sin(), T::c(base[LAMBDA]).cos());
-    let offset = p[R_F] * s0 - trail_at_base * c0;
-    let (s, c) = (lambda.sin(), lambda.cos());
+    // The trail at the head angle, of the fork whose trail at the original head angle that is.
+    p[C] = trail_keeping_offset(p[R_F], (T::c(base[LAMBDA]), trail_at_base), lambda);
     p[LAMBDA] = lambda;
-    p[C] = (p[R_F] * s - offset) / c;
     p
 }
 

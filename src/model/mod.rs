@@ -24,7 +24,7 @@ pub mod weave;
 use crate::jet::Scalar;
 pub use control::SteerControl;
 use nalgebra::{Complex, Matrix2, Matrix4};
-pub use params::{Benchmark, BenchmarkOf, ParamError, Rider, RigidBody};
+pub use params::{trail_keeping_offset, Benchmark, BenchmarkOf, ParamError, Rider, RigidBody};
 
 /// The canonical matrices of the linearized Whipple bicycle.
 #[derive(Debug, Clone, Copy, PartialEq)]

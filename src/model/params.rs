@@ -133,6 +133,15 @@ benchmark_params! {
     i_fyy: "IFyy", "Front wheel spin inertia (kg·m²).";
 }
 
+/// The trail at steer axis tilt `lambda` of a fork whose trail was `trail` at `tilt`, its
+/// offset kept: the offset (the front axle's distance from the steer axis) is
+/// `d = r_F sin λ₀ − c₀ cos λ₀`, and the trail `c = (r_F sin λ − d)/cos λ` (Meijaard et al.
+/// 2007, Appendix A). Any arithmetic, so that jets give its derivatives.
+pub fn trail_keeping_offset<T: crate::jet::Scalar>(r_f: T, (tilt, trail): (T, T), lambda: T) -> T {
+    let offset = r_f * tilt.sin() - trail * tilt.cos();
+    (r_f * lambda.sin() - offset) / lambda.cos()
+}
+
 impl Benchmark {
     /// The benchmark bicycle of Meijaard et al. 2007, Table 1.
     pub fn meijaard_2007() -> Benchmark {
