@@ -808,3 +808,120 @@ fn assert_same_ranking_and_ties(a: &Diagnosis, b: &Diagnosis) {
     assert_eq!(names(a), names(b));
     assert_eq!(a.tied, b.tied);
 }
+
+/// The head angle's two descriptions agree: the library's closed form (the front frame's
+/// centre of mass and tensor turned about the front axle, the trail from the kept offset) and
+/// the simulator's geometry (the steer axis's foot from the axle turned in three dimensions,
+/// the trail where the turned axis meets the ground), on the lab's bicycle, to rounding; and
+/// both keep what a turn about the axle keeps: the fork's offset `r_F sin λ − c cos λ`, the
+/// centre of mass's distance from the axle, the tensor's trace and determinant.
+#[test]
+fn the_head_angle_turns_the_fork_about_its_axle_in_both_descriptions() {
+    use bikeproc::gap::effects::{Change, Effect};
+    use bikeproc::model::Benchmark;
+    let lab = LabBike::load(&root().join("data/lab_bike.toml")).unwrap();
+    let measured = bikeproc::model::lab::lab_to_benchmark(&lab);
+    let Change::Bicycle(library) = Effect::HeadAngle.definition().change else {
+        panic!("the head angle changes the bicycle's parameters");
+    };
+    let offset = |b: &Benchmark| b.r_f * b.lambda.sin() - b.c * b.lambda.cos();
+    let from_axle = |b: &Benchmark| (b.x_h - b.w).hypot(b.z_h + b.r_f);
+    let tensor = |b: &Benchmark| {
+        nalgebra::Matrix3::new(
+            b.i_hxx, 0.0, b.i_hxz, 0.0, b.i_hyy, 0.0, b.i_hxz, 0.0, b.i_hzz,
+        )
+    };
+    for deg in [-2.0f64, -0.5, 1.0, 2.0] {
+        let d = deg.to_radians();
+        let (mut a, mut b) = (measured, measured);
+        library(&mut a, d);
+        bikeproc::sim::campaign::turn_fork_about_axle(&mut b, d);
+        for (name, x, y) in [
+            ("lambda", a.lambda, b.lambda),
+            ("c", a.c, b.c),
+            ("x_h", a.x_h, b.x_h),
+            ("z_h", a.z_h, b.z_h),
+            ("i_hxx", a.i_hxx, b.i_hxx),
+            ("i_hzz", a.i_hzz, b.i_hzz),
+            ("i_hxz", a.i_hxz, b.i_hxz),
+        ] {
+            assert!(
+                (x - y).abs() <= 1e-12 * x.abs().max(1e-3),
+                "{deg}°: {name} {x} against {y}"
+            );
+        }
+        assert!((a.lambda - measured.lambda - d).abs() < 1e-15);
+        assert!(
+            (offset(&a) - offset(&measured)).abs() < 1e-14,
+            "{deg}°: the offset moved"
+        );
+        assert!((from_axle(&a) - from_axle(&measured)).abs() < 1e-14);
+        let (t0, t1) = (tensor(&measured), tensor(&a));
+        assert!((t1.trace() - t0.trace()).abs() < 1e-14 * t0.trace());
+        assert!((t1.determinant() - t0.determinant()).abs() < 1e-12 * t0.determinant().abs());
+        // A slacker axis lengthens the trail.
+        assert_eq!(
+            a.c > measured.c,
+            d > 0.0,
+            "{deg}°: trail {} from {}",
+            a.c,
+            measured.c
+        );
+        // Nothing else moves.
+        let mut rest = a;
+        for (to, from) in [
+            (&mut rest.lambda, measured.lambda),
+            (&mut rest.c, measured.c),
+            (&mut rest.x_h, measured.x_h),
+            (&mut rest.z_h, measured.z_h),
+            (&mut rest.i_hxx, measured.i_hxx),
+            (&mut rest.i_hzz, measured.i_hzz),
+            (&mut rest.i_hxz, measured.i_hxz),
+        ] {
+            *to = from;
+        }
+        assert_eq!(rest, measured);
+    }
+}
+
+/// Seeds 1–3 of every design with `w` withheld at the suite's sizes: how many name it, first or
+/// tied at the top, at its size (within 30 % of the truth, `size_right`); where named, its fit
+/// lies within 3 of its standard errors of the truth.
+fn named_at_its_size(w: Withheld) -> usize {
+    use bikeproc::blind::campaigns::{library_effect, size_right};
+    let effect = library_effect(w).expect("in the library");
+    let mut right = 0;
+    for design in BlindDesign::ALL {
+        for seed in 1..=3 {
+            let (d, truth) = blind_design(w, design, seed);
+            let fit = d.ranking.iter().find(|r| r.effect == w.label());
+            println!(
+                "{} {} seed {seed}: truth {:?}, first {:?}, its fit {:?} ± {:?}, tied {:?}",
+                w.label(),
+                design.label(),
+                truth.params,
+                d.ranking.first().map(|r| &r.effect),
+                fit.map(|r| &r.params),
+                fit.map(|r| &r.params_se),
+                d.tied
+            );
+            let Some(fit) = fit.filter(|_| found(&d, w)) else {
+                continue;
+            };
+            let z = (fit.params[0] - truth.params[0]) / fit.params_se[0];
+            assert!(z.abs() < 3.0, "{} seed {seed}: z {z:+.2}", design.label());
+            right += usize::from(size_right(effect, &fit.params, &truth.params));
+        }
+    }
+    right
+}
+
+/// Issue 76, item 3: a head angle off by 1.5–2.5° (the suite's draws; the fork and handlebar
+/// turned about the front axle by the simulator's own geometry) is named at its size in at
+/// least 8 of 9 campaigns ([`named_at_its_size`]; measured 14 of 15 over seeds 1–5, the miss a
+/// varied plan whose first is the trail).
+#[test]
+fn a_head_angle_off_is_named_at_its_size() {
+    let right = named_at_its_size(Withheld::HeadAngle);
+    assert!(right >= 8, "{right} of 9 named at their size");
+}

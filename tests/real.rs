@@ -1329,7 +1329,7 @@ fn the_studys_ranking_puts_no_bound_above_an_interior_fit() {
         .any(|r| r.effect == "frame_cg_height + frame_cg_x"));
 }
 
-/// Issue 76, item 1: the balance-assist study's screen (60 candidates ranked) returns the
+/// Issue 76, item 1: the balance-assist study's screen (62 candidates ranked) returns the
 /// first five of fitting every pair of the library (more ranked; `bikeproc gap --every-pair`),
 /// in order, each needed or not alike, with the same fitted values.
 #[test]
@@ -1352,7 +1352,7 @@ fn the_studys_screen_finds_the_first_five_of_every_pair() {
 
 /// Issue 76, item 1: the balance-assist study's screen of three effects (the best pair, the
 /// next three, the pair of the lowest χ², each with every other effect: about 70) names the
-/// first of every three effects of the library (969; `bikeproc gap --every-triple`), its
+/// first of every three effects of the library (1,140; `bikeproc gap --every-triple`), its
 /// values within a tenth of their standard errors (the two start their fits apart: the
 /// screen's triples from a grid, every triple from its pairs' fits). Kept out of the suite for
 /// its two minutes; measured: docs/decisions/2026-12-03-study-triples.md.

@@ -63,6 +63,7 @@ pub enum Effect {
     SteerInertia,
     ControllerSpeedScale,
     ActuatorLag,
+    HeadAngle,
 }
 
 /// The tyres' camber stiffness per unit load (1/rad): a typical bicycle tyre's (0.5–1 /rad in
@@ -153,7 +154,7 @@ pub enum Acts {
 
 impl Effect {
     /// Every candidate, in a fixed order.
-    pub const ALL: [Effect; 19] = [
+    pub const ALL: [Effect; 20] = [
         Effect::SteerDamping,
         Effect::FrontMass,
         Effect::FrameMass,
@@ -173,6 +174,7 @@ impl Effect {
         Effect::SteerInertia,
         Effect::ControllerSpeedScale,
         Effect::ActuatorLag,
+        Effect::HeadAngle,
     ];
 
     /// The candidates for a bicycle with or without a controller: a steer motor's effects

@@ -649,6 +649,38 @@ pub fn measured_within_errors(
     b
 }
 
+/// The fork and handlebar turned about the front axle by `d` (rad) in the bicycle's plane,
+/// the top of the steer axis going back for `d > 0` (a slacker head angle): the axis, the
+/// front frame's centre of mass and its inertia tensor turn with the fork, the perpendicular
+/// from the axle to the axis (the fork's offset) with them, and the trail is where the turned
+/// axis meets the ground. The wheels, the wheelbase and the rear frame stay. Built from the
+/// geometry in three dimensions (x forward, z down, the front contact at (w, 0, 0)).
+pub fn turn_fork_about_axle(bike: &mut crate::model::Benchmark, d: f64) {
+    use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
+    let axis_up = |tilt: f64| Vector3::new(-tilt.sin(), 0.0, -tilt.cos());
+    let (old, new) = (axis_up(bike.lambda), axis_up(bike.lambda + d));
+    let turn = Rotation3::rotation_between(&old, &new).unwrap_or_else(Rotation3::identity);
+    let axle = Point3::new(bike.w, 0.0, -bike.r_f);
+    // The steer axis meets the ground `c` ahead of the contact; the foot of the perpendicular
+    // from the axle onto it turns with the fork.
+    let ground = Point3::new(bike.w + bike.c, 0.0, 0.0);
+    let foot = ground + old * (axle - ground).dot(&old);
+    let foot = axle + turn * (foot - axle);
+    let to_ground = -foot.z / new.z;
+    bike.c = foot.x + to_ground * new.x - bike.w;
+    let cg = axle + turn * (Point3::new(bike.x_h, 0.0, bike.z_h) - axle);
+    bike.x_h = cg.x;
+    bike.z_h = cg.z;
+    let inertia = Matrix3::new(
+        bike.i_hxx, 0.0, bike.i_hxz, 0.0, bike.i_hyy, 0.0, bike.i_hxz, 0.0, bike.i_hzz,
+    );
+    let turned = turn.matrix() * inertia * turn.matrix().transpose();
+    bike.i_hxx = turned[(0, 0)];
+    bike.i_hzz = turned[(2, 2)];
+    bike.i_hxz = turned[(0, 2)];
+    bike.lambda += d;
+}
+
 /// A factor off from 1 by `lo`–`hi`, either way (one draw for the size, one for the sign).
 fn off_by(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
     let size = rng.range(lo, hi);
@@ -698,6 +730,9 @@ pub enum Withheld {
     SteerSpring,
     /// Not in the diagnosis's library: Coulomb friction in the headset, 0.01–0.02 N·m.
     SteerFriction,
+    /// The head angle off by 1.5–2.5° either way ([`Draws::Broad`]: 0.75–2.5°): the fork and
+    /// handlebar turned about the front axle, the fork's offset kept ([`turn_fork_about_axle`]).
+    HeadAngle,
 }
 
 /// The sizes a blind campaign draws its withheld effect at.
@@ -712,8 +747,9 @@ pub enum Draws {
     /// relaxation 0.05–0.3 m, 1–3 kg at either frame's centre of mass, the wheels' spin
     /// inertia 1.1–1.4 ×, the front frame's I_xx 1.15–1.45 ×, its I_zz off by 0.2–0.5, the rear
     /// frame's I_xx off by 0.15–0.4, the trail off by 0.06–0.2, a speedometer 3–10 % off
-    /// either way; the clock and the effects outside the library as in `Suite`. The
-    /// calibration run (`bikeproc simulate gap-calibration`) draws these.
+    /// either way, the head angle off by 0.75–2.5° either way; the clock and the effects
+    /// outside the library as in `Suite`. The calibration run (`bikeproc simulate
+    /// gap-calibration`) draws these.
     Broad,
 }
 
@@ -753,7 +789,7 @@ impl BlindDesign {
 }
 
 impl Withheld {
-    pub const ALL: [Withheld; 14] = [
+    pub const ALL: [Withheld; 15] = [
         Withheld::None,
         Withheld::SteerDamping,
         Withheld::Tyres,
@@ -768,6 +804,7 @@ impl Withheld {
         Withheld::TimeScale,
         Withheld::SteerSpring,
         Withheld::SteerFriction,
+        Withheld::HeadAngle,
     ];
 
     /// The name the diagnosis uses for the effect ("none" for the control).
@@ -787,6 +824,7 @@ impl Withheld {
             Withheld::TimeScale => "time_scale",
             Withheld::SteerSpring => "steer_spring",
             Withheld::SteerFriction => "steer_friction",
+            Withheld::HeadAngle => "head_angle",
         }
     }
 
@@ -1003,6 +1041,17 @@ pub fn blind_campaign_plus(
             let f = rng.range(0.01, 0.02);
             effects.steer_coulomb_nm = f;
             vec![f]
+        }
+        Withheld::HeadAngle => {
+            let size_deg = if broad {
+                rng.range(0.75, 2.5)
+            } else {
+                rng.range(1.5, 2.5)
+            };
+            let sign = if rng.range(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+            let d = (sign * size_deg).to_radians();
+            turn_fork_about_axle(&mut bike, d);
+            vec![d]
         }
     };
     let mut files = Files::new();
