@@ -96,26 +96,14 @@ fn the_gap_calibration_meets_its_bars() {
             h.controls_fired,
             h.controls
         );
-        let beyond: Vec<&CaseResult> = added
-            .iter()
-            .filter(|c| c.design == design)
-            .filter(|c| {
-                c.detection_limit
-                    .zip(c.truth.first())
-                    .is_some_and(|(l, t)| t.abs() >= l)
-            })
-            .collect();
-        let significant = beyond.iter().filter(|c| c.significant).count();
-        let right = beyond.iter().filter(|c| c.right).count();
-        println!(
-            "{design:?} head_angle: beyond the limit {}, significant {significant}, right {right}",
-            beyond.len()
-        );
-        assert!(beyond.len() >= 30, "{design:?}: {} beyond", beyond.len());
+        let a = headline(&added, design);
+        println!("{design:?} head_angle: {a:?}");
+        assert!(a.beyond >= 30, "{design:?}: {} beyond", a.beyond);
         assert!(
-            significant * 10 >= 8 * beyond.len(),
-            "{design:?}: head_angle significant in {significant} of {} beyond its limit",
-            beyond.len()
+            a.significant_beyond * 10 >= 8 * a.beyond,
+            "{design:?}: head_angle significant in {} of {} beyond its limit",
+            a.significant_beyond,
+            a.beyond
         );
     }
 }

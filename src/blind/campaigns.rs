@@ -381,12 +381,13 @@ fn missed_sizes(md: &mut String, results: &[CaseResult]) {
 }
 
 /// A design's headline in the calibration, against issue 75's bars: its campaigns beyond
-/// their detection limit and those named at the right size there (the "**all**" row of
-/// [`markdown`]'s "Beyond the limit"), and its effect-free campaigns and those whose test
-/// fired (p < 0.01).
+/// their detection limit, those significant there (80 % or more when the limit is honest) and
+/// those named at the right size there (the "**all**" row of [`markdown`]'s "Beyond the
+/// limit"), and its effect-free campaigns and those whose test fired (p < 0.01).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Headline {
     pub beyond: usize,
+    pub significant_beyond: usize,
     pub right_beyond: usize,
     pub controls: usize,
     pub controls_fired: usize,
@@ -394,10 +395,11 @@ pub struct Headline {
 
 /// [`Headline`] of `design` over `results`.
 pub fn headline(results: &[CaseResult], design: BlindDesign) -> Headline {
-    let (mut beyond, mut right_beyond) = (0, 0);
+    let (mut beyond, mut significant_beyond, mut right_beyond) = (0, 0, 0);
     for (_, effect, cs) in library_rows(results, design) {
         let b = beyond_limit(&cs, effect, 1.0);
         beyond += b.len();
+        significant_beyond += b.iter().filter(|c| c.significant).count();
         right_beyond += b.iter().filter(|c| c.right).count();
     }
     let controls: Vec<&CaseResult> = results
@@ -406,6 +408,7 @@ pub fn headline(results: &[CaseResult], design: BlindDesign) -> Headline {
         .collect();
     Headline {
         beyond,
+        significant_beyond,
         right_beyond,
         controls: controls.len(),
         controls_fired: controls
