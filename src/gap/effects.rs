@@ -64,6 +64,8 @@ pub enum Effect {
     ControllerSpeedScale,
     ActuatorLag,
     HeadAngle,
+    FrameInertia,
+    FrontInertia,
 }
 
 /// The tyres' camber stiffness per unit load (1/rad): a typical bicycle tyre's (0.5–1 /rad in
@@ -154,7 +156,7 @@ pub enum Acts {
 
 impl Effect {
     /// Every candidate, in a fixed order.
-    pub const ALL: [Effect; 20] = [
+    pub const ALL: [Effect; 22] = [
         Effect::SteerDamping,
         Effect::FrontMass,
         Effect::FrameMass,
@@ -175,6 +177,8 @@ impl Effect {
         Effect::ControllerSpeedScale,
         Effect::ActuatorLag,
         Effect::HeadAngle,
+        Effect::FrameInertia,
+        Effect::FrontInertia,
     ];
 
     /// The candidates for a bicycle with or without a controller: a steer motor's effects

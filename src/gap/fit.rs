@@ -1096,7 +1096,7 @@ pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
 /// a parameter), Nelder–Mead from the best of those starts with the grid's steps. With "no
 /// effect" among the starts the fit is never worse than a smaller candidate's on `subset`.
 /// `None` without a smaller fit to start from. Every three effects of a bicycle with a
-/// controller are 1,140 fits; from their pairs each starts from 24 points instead of 7³.
+/// controller are 1,540 fits; from their pairs each starts from 24 points instead of 7³.
 pub fn fit_effects_from_smaller(
     subset: &Subset<'_, '_>,
     effects: &[Effect],

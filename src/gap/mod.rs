@@ -122,11 +122,11 @@ pub enum PairSearch {
     /// [`PAIR_POOL`]` − 1` among themselves and, in a study, the single of the lowest χ² with
     /// every other: 20–40 pairs.
     Screen,
-    /// Every pair of the library everywhere (20 effects with a controller: 190 pairs; 16
-    /// without: 120); three effects as [`PairSearch::Standard`] tries them.
+    /// Every pair of the library everywhere (22 effects with a controller: 231 pairs; 18
+    /// without: 153); three effects as [`PairSearch::Standard`] tries them.
     Every,
     /// Every pair, and in a study where no pair passes every three effects of the library
-    /// (1,140 with a controller): minutes where the standard search's 62 take seconds. On the
+    /// (1,540 with a controller): minutes where the standard search's 62 take seconds. On the
     /// balance-assist study it finds a first the screen misses (the record above).
     EveryTriple,
 }

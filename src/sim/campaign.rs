@@ -733,6 +733,12 @@ pub enum Withheld {
     /// The head angle off by 1.5–2.5° either way ([`Draws::Broad`]: 0.75–2.5°): the fork and
     /// handlebar turned about the front axle, the fork's offset kept ([`turn_fork_about_axle`]).
     HeadAngle,
+    /// The rear frame's I_xx, I_zz and I_xz together 0.6–0.75 or 1.25–1.4 times what was
+    /// measured (the body re-measured; [`Draws::Broad`]: off by 0.15–0.4).
+    FrameInertia,
+    /// The front frame's I_xx, I_zz and I_xz together 0.6–0.75 or 1.25–1.4 times what was
+    /// measured ([`Draws::Broad`]: off by 0.15–0.4).
+    FrontInertia,
 }
 
 /// The sizes a blind campaign draws its withheld effect at.
@@ -746,10 +752,10 @@ pub enum Draws {
     /// can be off both ways: steer damping 0.1–0.6 N·m·s/rad, cornering 6–16 /rad with a
     /// relaxation 0.05–0.3 m, 1–3 kg at either frame's centre of mass, the wheels' spin
     /// inertia 1.1–1.4 ×, the front frame's I_xx 1.15–1.45 ×, its I_zz off by 0.2–0.5, the rear
-    /// frame's I_xx off by 0.15–0.4, the trail off by 0.06–0.2, a speedometer 3–10 % off
-    /// either way, the head angle off by 0.75–2.5° either way; the clock and the effects
-    /// outside the library as in `Suite`. The calibration run (`bikeproc simulate
-    /// gap-calibration`) draws these.
+    /// frame's I_xx off by 0.15–0.4, either frame's in-plane inertia as a set off by 0.15–0.4,
+    /// the trail off by 0.06–0.2, a speedometer 3–10 % off either way, the head angle off by
+    /// 0.75–2.5° either way; the clock and the effects outside the library as in `Suite`. The
+    /// calibration run (`bikeproc simulate gap-calibration`) draws these.
     Broad,
 }
 
@@ -789,7 +795,7 @@ impl BlindDesign {
 }
 
 impl Withheld {
-    pub const ALL: [Withheld; 15] = [
+    pub const ALL: [Withheld; 17] = [
         Withheld::None,
         Withheld::SteerDamping,
         Withheld::Tyres,
@@ -805,6 +811,8 @@ impl Withheld {
         Withheld::SteerSpring,
         Withheld::SteerFriction,
         Withheld::HeadAngle,
+        Withheld::FrameInertia,
+        Withheld::FrontInertia,
     ];
 
     /// The name the diagnosis uses for the effect ("none" for the control).
@@ -825,6 +833,8 @@ impl Withheld {
             Withheld::SteerSpring => "steer_spring",
             Withheld::SteerFriction => "steer_friction",
             Withheld::HeadAngle => "head_angle",
+            Withheld::FrameInertia => "frame_inertia",
+            Withheld::FrontInertia => "front_inertia",
         }
     }
 
@@ -1052,6 +1062,23 @@ pub fn blind_campaign_plus(
             let d = (sign * size_deg).to_radians();
             turn_fork_about_axle(&mut bike, d);
             vec![d]
+        }
+        Withheld::FrameInertia | Withheld::FrontInertia => {
+            let k = if broad {
+                off_by(&mut rng, 0.15, 0.4)
+            } else {
+                off_by(&mut rng, 0.25, 0.4)
+            };
+            if withheld == Withheld::FrameInertia {
+                bike.i_bxx *= k;
+                bike.i_bzz *= k;
+                bike.i_bxz *= k;
+            } else {
+                bike.i_hxx *= k;
+                bike.i_hzz *= k;
+                bike.i_hxz *= k;
+            }
+            vec![k]
         }
     };
     let mut files = Files::new();

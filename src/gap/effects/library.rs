@@ -34,6 +34,8 @@ impl Effect {
             Effect::ControllerSpeedScale => &CONTROLLER_SPEED_SCALE,
             Effect::ActuatorLag => &ACTUATOR_LAG,
             Effect::HeadAngle => &HEAD_ANGLE,
+            Effect::FrameInertia => &FRAME_INERTIA,
+            Effect::FrontInertia => &FRONT_INERTIA,
         }
     }
 }
@@ -189,6 +191,44 @@ const FRONT_IZZ: Definition = Definition {
         "the front frame's I_zz off by a factor",
         &[INERTIA_FACTOR],
         Change::Bicycle(|b, k| b.i_hzz *= k),
+    )
+};
+
+/// The rear frame's inertia tensor in the bicycle's plane (I_xx, I_zz, I_xz) off by one
+/// factor, as a body re-measured (or a pendulum's stiffness misread) changes every moment it
+/// gave at once.
+const FRAME_INERTIA: Definition = Definition {
+    measured: Some(Quantity {
+        of: |b| b.i_bxx + b.i_bzz,
+        unit: "kg·m² (I_xx + I_zz)",
+    }),
+    ..bicycle(
+        "frame_inertia",
+        "the rear frame's inertia (I_xx, I_zz, I_xz together) off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| {
+            b.i_bxx *= k;
+            b.i_bzz *= k;
+            b.i_bxz *= k;
+        }),
+    )
+};
+
+/// The front frame's inertia tensor in the bicycle's plane off by one factor ([`FRAME_INERTIA`]).
+const FRONT_INERTIA: Definition = Definition {
+    measured: Some(Quantity {
+        of: |b| b.i_hxx + b.i_hzz,
+        unit: "kg·m² (I_xx + I_zz)",
+    }),
+    ..bicycle(
+        "front_inertia",
+        "the front frame's inertia (I_xx, I_zz, I_xz together) off by a factor",
+        &[INERTIA_FACTOR],
+        Change::Bicycle(|b, k| {
+            b.i_hxx *= k;
+            b.i_hzz *= k;
+            b.i_hxz *= k;
+        }),
     )
 };
 
