@@ -315,6 +315,13 @@ fn next_rides_text(d: &Diagnosis) -> String {
         .copied()
         .fold(f64::INFINITY, f64::min);
     let how_many = match next.rides_needed {
+        // The rides already set the pair's predictions apart by what the test needs, and the
+        // pair still ties: neither fits them better where they differ, and more of the same
+        // rides are not expected to change that.
+        Some(0) => format!(
+            "the rides so far already set the closest pair's predictions apart by more than the test needs (a squared separation of {least:.1} of {:.0}), yet neither fits them better where they differ, so more rides like these are not expected to tell them apart",
+            next.separation_needed
+        ),
         Some(n) => format!(
             "about {n} rides there, alternately, are expected to tell them apart (the rides so far give the closest pair a squared separation of {least:.1} of the {:.0} the test needs)",
             next.separation_needed
