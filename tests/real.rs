@@ -1352,7 +1352,7 @@ fn the_studys_screen_finds_the_first_five_of_every_pair() {
 
 /// Issue 76, item 1: the balance-assist study's screen of three effects (the best pair, the
 /// next three, the pair of the lowest χ², each with every other effect: about 70) names the
-/// first of every three effects of the library (1,540; `bikeproc gap --every-triple`), its
+/// first of every three effects of the library (1,771; `bikeproc gap --every-triple`), its
 /// values within a tenth of their standard errors (the two start their fits apart: the
 /// screen's triples from a grid, every triple from its pairs' fits). Kept out of the suite for
 /// its two minutes; measured: docs/decisions/2026-12-03-study-triples.md.

@@ -585,7 +585,7 @@ pub fn markdown(results: &[CaseResult], failures: &[String], command: &str) -> S
     let _ = writeln!(md, "## Effects outside the library\n");
     let _ = writeln!(
         md,
-        "A steer spring and headset friction are not in the library: a significant gap should be called unexplained, never attributed.\n\n| design | effect | campaigns | significant | unexplained | attributed |\n|---|---|---|---|---|---|"
+        "A steer spring is not in the library: a significant gap should be called unexplained, never attributed.\n\n| design | effect | campaigns | significant | unexplained | attributed |\n|---|---|---|---|---|---|"
     );
     for design in designs {
         for w in Withheld::ALL {

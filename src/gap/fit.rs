@@ -11,7 +11,8 @@
 
 use super::conditions::{ConditionModel, Layout};
 use super::effects::{
-    any_change, clock, linear_bike_assuming, specs, true_speed, Assumed, Change, Effect,
+    any_change, clock, for_ride, linear_bike_assuming, specs, steer_friction_nm, true_speed,
+    Assumed, Change, Effect,
 };
 use super::linear::LinearBike;
 use super::observe::{Observation, Parts};
@@ -243,8 +244,10 @@ impl<'a> Campaign<'a> {
                 .collect();
             let branches: Vec<Complex<f64>> = here.iter().map(|&k| guesses[rides[k]]).collect();
             let shape = here.iter().any(|&k| with_shape(rides[k]));
-            let grid = self
-                .speed_grid
+            // A dry friction acts on each ride by its own swing ([`effects::for_ride`]): no
+            // grid of one bicycle's speeds serves them.
+            let per_ride = steer_friction_nm(effects, &own) != 0.0;
+            let grid = (self.speed_grid && !per_ride)
                 .then(|| {
                     speed_grid::interpolate(&speeds, &branches, shape, &|v, guess| {
                         bike.weave_and_shape(v, guess, shape)
@@ -258,7 +261,8 @@ impl<'a> Campaign<'a> {
                 let i = rides[k];
                 let at_speed = match grid.as_ref().and_then(|g| g[n]) {
                     Some((w, s)) => Some((w, s.filter(|_| with_shape(i)))),
-                    None => bike.weave_and_shape(speeds[n], guesses[i], with_shape(i)),
+                    None => for_ride(&bike, effects, &own, &self.obs[i], guesses[i])
+                        .weave_and_shape(speeds[n], guesses[i], with_shape(i)),
                 };
                 out[k] = at_speed.map(|(w, s)| self.with_shift(effects, i, (w / clock, s)));
             }
@@ -1096,7 +1100,7 @@ pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
 /// a parameter), Nelder–Mead from the best of those starts with the grid's steps. With "no
 /// effect" among the starts the fit is never worse than a smaller candidate's on `subset`.
 /// `None` without a smaller fit to start from. Every three effects of a bicycle with a
-/// controller are 1,540 fits; from their pairs each starts from 24 points instead of 7³.
+/// controller are 1,771 fits; from their pairs each starts from 24 points instead of 7³.
 pub fn fit_effects_from_smaller(
     subset: &Subset<'_, '_>,
     effects: &[Effect],

@@ -122,11 +122,11 @@ pub enum PairSearch {
     /// [`PAIR_POOL`]` − 1` among themselves and, in a study, the single of the lowest χ² with
     /// every other: 20–40 pairs.
     Screen,
-    /// Every pair of the library everywhere (22 effects with a controller: 231 pairs; 18
-    /// without: 153); three effects as [`PairSearch::Standard`] tries them.
+    /// Every pair of the library everywhere (23 effects with a controller: 253 pairs; 19
+    /// without: 171); three effects as [`PairSearch::Standard`] tries them.
     Every,
     /// Every pair, and in a study where no pair passes every three effects of the library
-    /// (1,540 with a controller): minutes where the standard search's 62 take seconds. On the
+    /// (1,771 with a controller): minutes where the standard search's 62 take seconds. On the
     /// balance-assist study it finds a first the screen misses (the record above).
     EveryTriple,
 }
@@ -526,6 +526,7 @@ fn with_best(d: &mut Diagnosis, campaign: &Campaign<'_>, unextended: &[linear::L
                 let (dr, dp) = if parts.of(i) > 2 {
                     (r[at + 2], r[at + 3])
                 } else {
+                    let bike = effects::for_ride(&bike, &best.effects, &own, o, guesses[i]);
                     shape_residual(&bike, o, v, weave * clock)
                 };
                 // A candidate's coasting shift carries its own error (on the parts the

@@ -57,6 +57,11 @@ pub struct Observation {
     /// the small motion's; a larger one's differ by about this times coefficients the rides
     /// share ([`super::NONLINEAR_COMMON_FACTOR`]).
     pub motion_sq_rad2: f64,
+    /// The weave's steer amplitude where its eigenvalue applies (rad,
+    /// [`crate::ride::modal::ModalFit::weave_steer_amplitude_rad`]): where a dry steer
+    /// friction's equivalent damping is taken ([`super::effects::for_ride`]). `None` for a
+    /// decay fitted without a steer angle's shape.
+    pub steer_amplitude_rad: Option<f64>,
 }
 
 impl Observation {
@@ -96,6 +101,7 @@ impl Observation {
                     .collect();
                 (rows.len() >= 40).then(|| [0, 1, 2].map(|k| rows.iter().map(|r| r[k]).collect()))
             },
+            steer_amplitude_rad: Some(t.fit.weave_steer_amplitude_rad()),
         }
     }
 }
@@ -147,6 +153,7 @@ impl Observation {
             coasting: None,
             set_speed_mps: d.set_speed_mps,
             motion_sq_rad2: 0.0,
+            steer_amplitude_rad: d.decay.steer_amplitude_rad,
         })
     }
 }

@@ -204,6 +204,7 @@ pub(super) fn ride_vaf(
     guess: Complex<f64>,
 ) -> Option<f64> {
     let [t, roll, steer] = o.window.as_ref()?;
+    let bike = &effects::for_ride(bike, effects, params, o, guess);
     let v = effects::true_speed(effects, params, o);
     let clock = effects::clock(effects, params);
     let weave = bike.weave_near(v, guess)? / clock;

@@ -72,6 +72,10 @@ pub struct CsvDecay {
     /// ([`CsvDecay::fits_disagree`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub roll_and_steer_weave: Option<Eigenvalue>,
+    /// The weave's steer amplitude where its eigenvalue applies (rad), from the roll-and-steer
+    /// fit whose shape the decay carries ([`ModalFit::weave_steer_amplitude_rad`]).
+    #[serde(skip)]
+    pub steer_amplitude_rad: Option<f64>,
 }
 
 impl CsvDecay {
@@ -195,6 +199,7 @@ pub fn fit_decay(
         vaf: [vaf, vaf],
         wheel_speed_mps,
         roll_and_steer_weave: None,
+        steer_amplitude_rad: None,
     };
     let angles_decay = |fit: ModalFit| CsvDecay {
         window_s: (a, b),
@@ -203,6 +208,7 @@ pub fn fit_decay(
         fitted_from: FittedFrom::RollAndSteer,
         weave: fit.weave,
         shape: Some(fit.shape),
+        steer_amplitude_rad: Some(fit.weave_steer_amplitude_rad()),
         real_modes: fit.real_modes,
         vaf: fit.vaf,
         wheel_speed_mps,
@@ -218,6 +224,7 @@ pub fn fit_decay(
                     d.roll_and_steer_weave = Some(fit.weave);
                     if !d.fits_disagree() {
                         d.shape = Some(fit.shape);
+                        d.steer_amplitude_rad = Some(fit.weave_steer_amplitude_rad());
                     }
                 }
                 Ok(d)

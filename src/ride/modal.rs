@@ -173,6 +173,13 @@ impl ModalFit {
         Complex::new(p[l], -p[l + 1]) * Complex::new(e * cos, e * sin)
     }
 
+    /// The weave's steer amplitude (rad) where its eigenvalue applies, at the window's
+    /// amplitude-weighted time: |A(t_ref)|·|γ/θ|. Where a dry friction's equivalent damping is
+    /// taken (`gap::effects::for_ride`).
+    pub fn weave_steer_amplitude_rad(&self) -> f64 {
+        self.weave_roll_phasor(self.t_ref_s).norm() * self.shape.ratio.value
+    }
+
     /// The real modes' part of θ and γ at time `t`, and its rates: `[θ, γ, θ̇, γ̇]` (rad, rad/s).
     pub fn real_modes_state(&self, t: f64) -> [f64; 4] {
         let st = self.structure;

@@ -36,6 +36,7 @@ impl Effect {
             Effect::HeadAngle => &HEAD_ANGLE,
             Effect::FrameInertia => &FRAME_INERTIA,
             Effect::FrontInertia => &FRONT_INERTIA,
+            Effect::SteerFriction => &STEER_FRICTION,
         }
     }
 }
@@ -100,6 +101,25 @@ const STEER_DAMPING: Definition = bicycle(
         plausible: (0.0, 1.0),
     }],
     Change::SteerDamping,
+);
+
+/// Dry (Coulomb) friction in the steering head: a torque −F sign(δ̇), whose damping of a swing
+/// grows as the swing shrinks (a dead band), taken on each ride as the viscous damping of its
+/// size ([`super::for_ride`]). Plausibly up to 0.15 N·m, a headset's friction on a riderless
+/// bicycle with its bearings as built (the simulator's realistic value, `sim::ride`); the
+/// search to 0.5 N·m, where a weave of a few hundredths of a radian would stick.
+const STEER_FRICTION: Definition = bicycle(
+    "steer_friction",
+    "dry (Coulomb) steer friction",
+    &[ParamSpec {
+        name: "F",
+        unit: "N·m",
+        lo: 0.0,
+        hi: 0.5,
+        none: 0.0,
+        plausible: (0.0, 0.15),
+    }],
+    Change::SteerFriction,
 );
 
 /// An added point mass (a lock, a lamp, a bag, a sensor box: up to 5 kg).
