@@ -1355,9 +1355,9 @@ fn the_studys_screen_finds_the_first_five_of_every_pair() {
 /// first of every three effects of the library (1,771; `bikeproc gap --every-triple`), its
 /// values within a tenth of their standard errors (the two start their fits apart: the
 /// screen's triples from a grid, every triple from its pairs' fits). Kept out of the suite for
-/// its two minutes; measured: docs/decisions/2026-12-03-study-triples.md.
+/// its three minutes; measured: docs/decisions/2026-12-03-study-triples.md.
 #[test]
-#[ignore = "about 2 min on 2 cores: every three effects of the library"]
+#[ignore = "about 3 min on 2 cores: every three effects of the library"]
 fn the_studys_screen_finds_the_first_of_every_triple() {
     let screened = balance_assist_study();
     let every = balance_assist_study_with(bikeproc::gap::PairSearch::EveryTriple);
