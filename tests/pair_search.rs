@@ -45,25 +45,26 @@ fn lab() -> (LabBike, String) {
     )
 }
 
-/// The campaign where the screen's first pair was not the best: a headset's Coulomb friction
-/// (outside the library) on the noted design. Fitting every pair, the default in a campaign,
-/// finds `front_ixx + wheel_spin`, which predicts the rides left out better than the screen's
-/// first, `frame_ixx + wheel_spin` (the screen never fitted it: neither effect was the best
-/// single, and they were not both among the best four).
+/// A campaign where the screen's first pair is not the best: a spring on the steer (outside the
+/// library) on the varied design, seed 505. Fitting every pair, the default in a campaign,
+/// finds `wheel_spin + frame_inertia` (held out 1.586), which predicts the rides left out better
+/// than the screen's first, `front_ixx + wheel_spin` (1.709): the screen never fitted it. (Until
+/// the dry friction joined the library, its campaign on the noted design, seed 500, was this
+/// case; the library's friction now closes that gap alone.)
 #[test]
 fn a_campaign_fits_every_pair_and_finds_what_the_screen_missed() {
     let (lab, text) = lab();
     let (files, _) = blind_campaign_plus(
         &lab,
         "bike.toml",
-        Withheld::SteerFriction,
-        BlindDesign::Noted,
-        500,
+        Withheld::SteerSpring,
+        BlindDesign::Varied,
+        505,
         &[],
         Draws::Broad,
     )
     .unwrap();
-    let [standard, screen, every] = in_scratch("pairs_friction", &files, &text, &|dir| {
+    let [standard, screen, every] = in_scratch("pairs_spring", &files, &text, &|dir| {
         let manifest = RideManifest::load(&dir.join("rides.toml")).map_err(stage)?;
         let model = bikeproc::read::bicycle::load(&dir.join("bike.toml")).map_err(stage)?;
         let run = |p| {
