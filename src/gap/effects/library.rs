@@ -149,108 +149,89 @@ const FRAME_MASS: Definition = bicycle(
     Change::Bicycle(|b, m| b.m_b += m),
 );
 
-const FRAME_IXX: Definition = Definition {
-    measured: Some(Quantity {
-        of: |b| b.i_bxx,
-        unit: "kg·m²",
-    }),
-    ..bicycle(
-        "frame_ixx",
-        "the rear frame's I_xx off by a factor",
-        &[INERTIA_FACTOR],
-        Change::Bicycle(|b, k| b.i_bxx *= k),
-    )
-};
+/// A measured inertia off by a factor ([`INERTIA_FACTOR`]): `of` reads the measured quantity
+/// (in `unit`) that detection limits are given in, `change` scales the moments the factor
+/// multiplies.
+const fn inertia_off(
+    name: &'static str,
+    describe: &'static str,
+    of: fn(&Benchmark) -> f64,
+    unit: &'static str,
+    change: fn(&mut Benchmark, f64),
+) -> Definition {
+    Definition {
+        measured: Some(Quantity { of, unit }),
+        ..bicycle(name, describe, &[INERTIA_FACTOR], Change::Bicycle(change))
+    }
+}
 
-const FRAME_IZZ: Definition = Definition {
-    measured: Some(Quantity {
-        of: |b| b.i_bzz,
-        unit: "kg·m²",
-    }),
-    ..bicycle(
-        "frame_izz",
-        "the rear frame's I_zz off by a factor",
-        &[INERTIA_FACTOR],
-        Change::Bicycle(|b, k| b.i_bzz *= k),
-    )
-};
+const FRAME_IXX: Definition = inertia_off(
+    "frame_ixx",
+    "the rear frame's I_xx off by a factor",
+    |b| b.i_bxx,
+    "kg·m²",
+    |b, k| b.i_bxx *= k,
+);
 
-const FRAME_IXZ: Definition = Definition {
-    measured: Some(Quantity {
-        of: |b| b.i_bxz,
-        unit: "kg·m²",
-    }),
-    ..bicycle(
-        "frame_ixz",
-        "the rear frame's I_xz off by a factor",
-        &[INERTIA_FACTOR],
-        Change::Bicycle(|b, k| b.i_bxz *= k),
-    )
-};
+const FRAME_IZZ: Definition = inertia_off(
+    "frame_izz",
+    "the rear frame's I_zz off by a factor",
+    |b| b.i_bzz,
+    "kg·m²",
+    |b, k| b.i_bzz *= k,
+);
 
-const FRONT_IXX: Definition = Definition {
-    measured: Some(Quantity {
-        of: |b| b.i_hxx,
-        unit: "kg·m²",
-    }),
-    ..bicycle(
-        "front_ixx",
-        "the front frame's I_xx off by a factor",
-        &[INERTIA_FACTOR],
-        Change::Bicycle(|b, k| b.i_hxx *= k),
-    )
-};
+const FRAME_IXZ: Definition = inertia_off(
+    "frame_ixz",
+    "the rear frame's I_xz off by a factor",
+    |b| b.i_bxz,
+    "kg·m²",
+    |b, k| b.i_bxz *= k,
+);
 
-const FRONT_IZZ: Definition = Definition {
-    measured: Some(Quantity {
-        of: |b| b.i_hzz,
-        unit: "kg·m²",
-    }),
-    ..bicycle(
-        "front_izz",
-        "the front frame's I_zz off by a factor",
-        &[INERTIA_FACTOR],
-        Change::Bicycle(|b, k| b.i_hzz *= k),
-    )
-};
+const FRONT_IXX: Definition = inertia_off(
+    "front_ixx",
+    "the front frame's I_xx off by a factor",
+    |b| b.i_hxx,
+    "kg·m²",
+    |b, k| b.i_hxx *= k,
+);
+
+const FRONT_IZZ: Definition = inertia_off(
+    "front_izz",
+    "the front frame's I_zz off by a factor",
+    |b| b.i_hzz,
+    "kg·m²",
+    |b, k| b.i_hzz *= k,
+);
 
 /// The rear frame's inertia tensor in the bicycle's plane (I_xx, I_zz, I_xz) off by one
 /// factor, as a body re-measured (or a pendulum's stiffness misread) changes every moment it
 /// gave at once.
-const FRAME_INERTIA: Definition = Definition {
-    measured: Some(Quantity {
-        of: |b| b.i_bxx + b.i_bzz,
-        unit: "kg·m² (I_xx + I_zz)",
-    }),
-    ..bicycle(
-        "frame_inertia",
-        "the rear frame's inertia (I_xx, I_zz, I_xz together) off by a factor",
-        &[INERTIA_FACTOR],
-        Change::Bicycle(|b, k| {
-            b.i_bxx *= k;
-            b.i_bzz *= k;
-            b.i_bxz *= k;
-        }),
-    )
-};
+const FRAME_INERTIA: Definition = inertia_off(
+    "frame_inertia",
+    "the rear frame's inertia (I_xx, I_zz, I_xz together) off by a factor",
+    |b| b.i_bxx + b.i_bzz,
+    "kg·m² (I_xx + I_zz)",
+    |b, k| {
+        b.i_bxx *= k;
+        b.i_bzz *= k;
+        b.i_bxz *= k;
+    },
+);
 
 /// The front frame's inertia tensor in the bicycle's plane off by one factor ([`FRAME_INERTIA`]).
-const FRONT_INERTIA: Definition = Definition {
-    measured: Some(Quantity {
-        of: |b| b.i_hxx + b.i_hzz,
-        unit: "kg·m² (I_xx + I_zz)",
-    }),
-    ..bicycle(
-        "front_inertia",
-        "the front frame's inertia (I_xx, I_zz, I_xz together) off by a factor",
-        &[INERTIA_FACTOR],
-        Change::Bicycle(|b, k| {
-            b.i_hxx *= k;
-            b.i_hzz *= k;
-            b.i_hxz *= k;
-        }),
-    )
-};
+const FRONT_INERTIA: Definition = inertia_off(
+    "front_inertia",
+    "the front frame's inertia (I_xx, I_zz, I_xz together) off by a factor",
+    |b| b.i_hxx + b.i_hzz,
+    "kg·m² (I_xx + I_zz)",
+    |b, k| {
+        b.i_hxx *= k;
+        b.i_hzz *= k;
+        b.i_hxz *= k;
+    },
+);
 
 /// The trail, built from the head angle, the fork's offset and the wheel's radius: 1.5° of
 /// head angle and 5 mm of offset already make 20 %.
