@@ -351,29 +351,72 @@ impl LinearBike {
         guess: Complex<f64>,
         shape: bool,
     ) -> Option<(Complex<f64>, Option<Complex<f64>>)> {
-        use crate::model::eigenvector_near;
-        // The weave and, when asked, its eigenvector's roll and steer.
-        let (w, angles) = match self.tyres {
+        self.modes(v)?.weave_and_shape(guess, shape)
+    }
+
+    /// The state matrix at speed `v` and its eigenvalues: what every ride at that speed
+    /// shares, whatever branch it follows ([`Modes::weave_and_shape`]). `None` when the
+    /// matrix or its eigenvalues cannot be computed.
+    pub fn modes(&self, v: f64) -> Option<Modes> {
+        match self.tyres {
             None if !self.lags() => {
                 let a = self.rigid_state_matrix(v)?;
-                let w = nearest_oscillatory(crate::model::eigenvalues_of(&a)?.to_vec(), guess)?;
-                (
-                    w,
-                    shape.then(|| eigenvector_near(&a, w).map(|x| [x[0], x[1]])),
-                )
+                let eigenvalues = crate::model::eigenvalues_of(&a)?.to_vec();
+                Some(Modes {
+                    matrix: StateMatrix::Rigid(a),
+                    eigenvalues,
+                    angles: [0, 1],
+                })
             }
             _ => {
                 let a = self.state_matrix(v)?;
-                let w = nearest_oscillatory(crate::model::eigenvalues_dyn(&a)?, guess)?;
+                let eigenvalues = crate::model::eigenvalues_dyn(&a)?;
                 let [roll, steer, ..] = self.angle_states();
-                (
-                    w,
-                    shape.then(|| eigenvector_near(&a, w).map(|x| [x[roll], x[steer]])),
-                )
+                Some(Modes {
+                    matrix: StateMatrix::General(a),
+                    eigenvalues,
+                    angles: [roll, steer],
+                })
             }
-        };
-        let Some(angles) = angles else {
+        }
+    }
+}
+
+/// A bicycle's state matrix at one speed with its eigenvalues ([`LinearBike::modes`]).
+#[derive(Debug, Clone)]
+pub struct Modes {
+    matrix: StateMatrix,
+    eigenvalues: Vec<Complex<f64>>,
+    /// The roll and steer states.
+    angles: [usize; 2],
+}
+
+/// A rigid bicycle's fixed 4×4 state matrix, or any other's.
+#[derive(Debug, Clone)]
+enum StateMatrix {
+    Rigid(Matrix4<f64>),
+    General(DMatrix<f64>),
+}
+
+impl Modes {
+    /// The oscillatory eigenvalue nearest `guess` and, with `shape`, its mode's γ/θ (the
+    /// eigenvector's steer over its roll, by inverse iteration,
+    /// [`crate::model::eigenvector_near`]); `None` without such an eigenvalue, and no γ/θ
+    /// where the iteration fails or the ratio is not finite.
+    pub fn weave_and_shape(
+        &self,
+        guess: Complex<f64>,
+        shape: bool,
+    ) -> Option<(Complex<f64>, Option<Complex<f64>>)> {
+        use crate::model::eigenvector_near;
+        let w = nearest_oscillatory(self.eigenvalues.iter().copied(), guess)?;
+        if !shape {
             return Some((w, None));
+        }
+        let [roll, steer] = self.angles;
+        let angles = match &self.matrix {
+            StateMatrix::Rigid(a) => eigenvector_near(a, w).map(|x| [x[roll], x[steer]]),
+            StateMatrix::General(a) => eigenvector_near(a, w).map(|x| [x[roll], x[steer]]),
         };
         let [roll, steer] = angles?;
         let ratio = steer / roll;
@@ -383,7 +426,7 @@ impl LinearBike {
 
 /// The oscillatory eigenvalue (im > 0) of `eigenvalues` nearest `guess`.
 fn nearest_oscillatory(
-    eigenvalues: Vec<Complex<f64>>,
+    eigenvalues: impl IntoIterator<Item = Complex<f64>>,
     guess: Complex<f64>,
 ) -> Option<Complex<f64>> {
     eigenvalues
@@ -578,6 +621,38 @@ mod tests {
             let a = rigid.weave_near(v, Complex::new(-0.5, 4.0)).unwrap();
             let b = stiff.weave_near(v, a).unwrap();
             assert!((a - b).norm() < 1e-3 * a.norm(), "{v}: {a} vs {b}");
+        }
+    }
+
+    /// One speed's eigenproblem serves every ride at that speed, whatever branch each follows:
+    /// on tyres (several oscillatory modes) each guess gets from one [`Modes`] the eigenvalue
+    /// nearest it and that mode's γ/θ, bit for bit those of [`LinearBike::weave_near`] and
+    /// [`LinearBike::mode_shape`], which solve it again each.
+    #[test]
+    fn one_speeds_modes_serve_every_branch() {
+        let tyred = LinearBike {
+            tyres: Some(LinearTyres {
+                cornering_per_rad: 12.0,
+                camber_per_rad: 0.7,
+                relaxation_length_m: 0.05,
+            }),
+            ..LinearBike::whipple(&benchmark())
+        };
+        let v = 4.0;
+        let oscillatory: Vec<Complex<f64>> = tyred
+            .eigenvalues(v)
+            .unwrap()
+            .into_iter()
+            .filter(|z| z.im > 1e-9)
+            .collect();
+        assert!(oscillatory.len() >= 2, "{oscillatory:?}");
+        let modes = tyred.modes(v).unwrap();
+        for &z in &oscillatory {
+            let guess = z + Complex::new(1e-3, -1e-3);
+            let (w, s) = modes.weave_and_shape(guess, true).unwrap();
+            assert_eq!(w, z);
+            assert_eq!(w, tyred.weave_near(v, guess).unwrap());
+            assert_eq!(s.unwrap(), tyred.mode_shape(v, w).unwrap());
         }
     }
 }
