@@ -564,10 +564,39 @@ pub(super) fn rank(
     // PAIR_GAIN_CHI2 and by the BIC. Parsimony: such a candidate goes ahead of `against` only
     // when the rides left out tell them apart (the tie test); otherwise it is listed after it,
     // as not needed.
+    //
+    // In a study a larger candidate must also lower the χ² of every ride significantly below
+    // each candidate one effect smaller that it holds (of those ranked so far: every single,
+    // the pairs admitted): the likelihood ratio of the two fits to every ride (each χ² in its
+    // own covariance, as its BIC), over the larger one's Birge ratio where it still fails its
+    // χ² test (as the targeted test, [`super::significance::targeted_test`]), χ²-distributed
+    // with the added parameters' degrees of freedom, Bonferroni over the candidates tried. A
+    // study tries pairs even where its best single fails only the χ² test, and there an effect
+    // of the bicycle beside the right one can follow the measured parameters' correlated
+    // error: it buys held-out RMS (the conditions left out whitened ride by ride) that the χ²
+    // of every ride, which carries that error, does not grant. Measured in blind studies of a
+    // controller's speed sensor: docs/decisions/2026-12-03-study-admission.md.
+    let significant_over = |r: &Ranked, against: &Ranked, tried: usize| -> bool {
+        if !campaign.is_study() {
+            return true;
+        }
+        let added = r.params.len().saturating_sub(against.params.len()).max(1);
+        let birge = (r.chi2 / parts.saturating_sub(r.params.len()).max(1) as f64).max(1.0);
+        let lr = ((against.chi2 - r.chi2) / birge).max(0.0);
+        crate::stats::chi2_sf(lr, added) * tried.max(1) as f64 <= SIGNIFICANCE
+    };
     let admit = |larger: &[Vec<Effect>], against: &Ranked, ranked: &mut Vec<Ranked>| {
         for mut r in over(larger, against.bic, Some(against.heldout_chi2_after)) {
+            let nested_significant = ranked
+                .iter()
+                .filter(|s| {
+                    s.effects.len() + 1 == r.effects.len()
+                        && s.effects.iter().all(|e| r.effects.contains(e))
+                })
+                .all(|s| significant_over(&r, s, larger.len()));
             if against.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2
                 && r.bic < against.bic
+                && nested_significant
             {
                 r.not_needed = !distinguishable(&r, against);
                 ranked.push(r);
