@@ -232,7 +232,7 @@ pub enum Command {
         "ranks below; a condition's own equipment, as a gain its few rides barely tell, keeps ",
         "its place; a best fit outside its plausible range is shown and flagged in words), then by the ",
         "BIC of the fit to every ride (in a study, by the held-out RMS normalized residual of its ",
-        "conditions left out). Pairs are tried only when no single effect brings the held-out RMS ",
+        "conditions left out, those tied with the first by the BIC). Pairs are tried only when no single effect brings the held-out RMS ",
         "within 2: in a campaign every pair of the library (171; 253 with a controller), in a study the pairs a screen ",
         "chooses (the best single with every other effect, the next three among themselves, the ",
         "single of lowest χ² with every other; `--every-pair` for all of them), and where no pair ",

@@ -748,6 +748,7 @@ fn diagnose_pass(
         d.detection_limits = significance::detection_limits(&campaign, null);
     }
     if d.significant {
+        ties::break_ties_by_bic(&mut d.ranking);
         d.tied = tied(&d.ranking);
         d.next_rides = next_rides(&campaign, &exp_cov, model, &d.ranking, &d.tied);
         d.next_conditions = ties::next_conditions(&campaign, &d.ranking, &d.tied);

@@ -205,6 +205,32 @@ pub(super) fn tied(ranked: &[Ranked]) -> Vec<String> {
     }
 }
 
+/// In a study, the candidates tied with the first (the conditions left out cannot tell them
+/// apart, [`tied`]) ordered among themselves by the BIC of their fits to every ride, ahead of
+/// the rest: the held-out prediction ranks, and where it cannot tell, the χ² of every ride
+/// (which carries the measured parameters' error correlated across rides, as the conditions
+/// left out whitened ride by ride do not) breaks the tie. In blind studies a single whose fit
+/// to every ride gave χ² 15,376 on 160 came first, tied with the withheld effect's at 185.6
+/// (docs/decisions/2026-12-03-study-admission.md). A campaign's order is the BIC already.
+pub(super) fn break_ties_by_bic(ranking: &mut Vec<Ranked>) {
+    if !ranking.first().is_some_and(Ranked::in_study) {
+        return;
+    }
+    let t = tied(ranking);
+    if t.len() < 2 {
+        return;
+    }
+    let (mut front, rest): (Vec<Ranked>, Vec<Ranked>) =
+        ranking.drain(..).partition(|r| t.contains(&r.effect));
+    front.sort_by(|a, b| {
+        a.bic
+            .total_cmp(&b.bic)
+            .then_with(|| a.effect.cmp(&b.effect))
+    });
+    ranking.extend(front);
+    ranking.extend(rest);
+}
+
 /// The candidates tied with `best`, itself left out, in the order of `tied`.
 fn rivals_of<'r>(ranking: &'r [Ranked], tied: &[String], best: &Ranked) -> Vec<&'r Ranked> {
     tied.iter()
