@@ -328,12 +328,7 @@ impl LinearBike {
     /// Every eigenvalue of the state matrix at speed `v` (a rigid bicycle's without a lag
     /// through the fixed 4×4 decomposition, [`crate::model::eigenvalues_of`]).
     pub fn eigenvalues(&self, v: f64) -> Option<Vec<Complex<f64>>> {
-        match self.tyres {
-            None if !self.lags() => {
-                crate::model::eigenvalues_of(&self.rigid_state_matrix(v)?).map(|e| e.to_vec())
-            }
-            _ => crate::model::eigenvalues_dyn(&self.state_matrix(v)?),
-        }
+        self.modes(v).map(|m| m.eigenvalues)
     }
 
     /// The oscillatory eigenvalue (im > 0) nearest `guess` at speed `v`; `None` when there is
