@@ -1,5 +1,14 @@
 //! Statistics shared by the stages: the χ² distribution's upper tail (the inertia tensor's fit, the
-//! gap's campaign test; statrs) and how a p-value, or any number in a message, is written.
+//! gap's campaign test; statrs), the Birge-scaled likelihood ratio of two nested fits, and how a p-value, or any number in a message, is written.
+
+/// The likelihood ratio χ²_smaller − χ²_larger of a model against the model with more
+/// parameters (χ²_larger on `dof_larger` degrees of freedom), over the larger one's Birge ratio
+/// χ²/dof where it is above 1: where even the larger model leaves more scatter than its errors
+/// say, the ratio is judged in that scatter (Birge 1932). Never negative.
+pub fn birge_likelihood_ratio(chi2_smaller: f64, chi2_larger: f64, dof_larger: usize) -> f64 {
+    let birge = (chi2_larger / dof_larger.max(1) as f64).max(1.0);
+    ((chi2_smaller - chi2_larger) / birge).max(0.0)
+}
 
 /// P(χ²_k > x): the probability that a χ² variable with `k` degrees of freedom exceeds `x`.
 /// statrs' χ² distribution (its regularized upper incomplete gamma function); `NaN` for

@@ -569,7 +569,7 @@ pub(super) fn rank(
     // each candidate one effect smaller that it holds (of those ranked so far: every single,
     // the pairs admitted): the likelihood ratio of the two fits to every ride (each χ² in its
     // own covariance, as its BIC), over the larger one's Birge ratio where it still fails its
-    // χ² test ([`super::significance::birge_likelihood_ratio`], as the targeted test's), χ²-distributed
+    // χ² test ([`crate::stats::birge_likelihood_ratio`], as the targeted test's), χ²-distributed
     // with the added parameters' degrees of freedom, Bonferroni over the candidates tried. A
     // study tries pairs even where its best single fails only the χ² test, and there an effect
     // of the bicycle beside the right one can follow the measured parameters' correlated
@@ -582,7 +582,7 @@ pub(super) fn rank(
         }
         let added = r.params.len().saturating_sub(against.params.len()).max(1);
         let dof = parts.saturating_sub(r.params.len());
-        let lr = super::significance::birge_likelihood_ratio(against.chi2, r.chi2, dof);
+        let lr = crate::stats::birge_likelihood_ratio(against.chi2, r.chi2, dof);
         crate::stats::chi2_sf(lr, added) * tried.max(1) as f64 <= SIGNIFICANCE
     };
     let admit = |larger: &[Vec<Effect>], against: &Ranked, ranked: &mut Vec<Ranked>| {

@@ -365,19 +365,6 @@ fn orthonormal(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     (!keep.is_empty()).then(|| u.select_columns(keep.iter()))
 }
 
-/// The likelihood ratio χ²_smaller − χ²_larger of a model against the model with more
-/// parameters (χ²_larger on `dof_larger` degrees of freedom), over the larger one's Birge ratio
-/// χ²/dof where it is above 1: where even the larger model leaves more scatter than its errors
-/// say, the ratio is judged in that scatter (Birge 1932). Never negative.
-pub(super) fn birge_likelihood_ratio(
-    chi2_smaller: f64,
-    chi2_larger: f64,
-    dof_larger: usize,
-) -> f64 {
-    let birge = (chi2_larger / dof_larger.max(1) as f64).max(1.0);
-    ((chi2_smaller - chi2_larger) / birge).max(0.0)
-}
-
 /// The campaign's targeted test: among the single effects of the ranking, the one whose fit
 /// gives the smallest p-value (its likelihood ratio χ²-distributed with as many degrees of
 /// freedom as it has parameters when the model is right, Wilks; from its first fit, in the
@@ -404,7 +391,7 @@ pub(super) fn targeted_test(
         .iter()
         .map(|r| {
             let k = r.params.len();
-            let lr = birge_likelihood_ratio(chi2_before, r.chi2_test, dof.saturating_sub(k));
+            let lr = stats::birge_likelihood_ratio(chi2_before, r.chi2_test, dof.saturating_sub(k));
             (r.effect.clone(), lr, k, stats::chi2_sf(lr, k))
         })
         .min_by(|a, b| a.3.total_cmp(&b.3).then(b.1.total_cmp(&a.1)));
