@@ -594,6 +594,78 @@ impl<'a> Campaign<'a> {
         let r = self.residuals(effects, params, &[i])?;
         self.cov_block(i).cholesky()?.l().solve_lower_triangular(&r)
     }
+
+    /// The covariance of `rides`' residuals (their rows and columns of [`Campaign::cov`]),
+    /// always from its parts: the experiment's, the model's factor and the coasting shifts'
+    /// own errors.
+    fn cov_of(&self, rides: &[usize]) -> DMatrix<f64> {
+        let idx = self.indices(rides);
+        let exp = self
+            .exp_cov
+            .select_rows(idx.iter())
+            .select_columns(idx.iter());
+        let u = self.model_factor.select_rows(idx.iter());
+        let mut cov = exp + &u * u.transpose();
+        if let Some(d) = self.coasting_error() {
+            for (k, &i) in idx.iter().enumerate() {
+                cov[(k, k)] += d[i].powi(2);
+            }
+        }
+        cov
+    }
+
+    /// `rides`' residuals at `params` whitened together, `L⁻¹ r` with `L Lᵀ` their joint
+    /// covariance ([`Campaign::cov_of`]: the measured parameters' error, which moves every ride
+    /// of a condition alike, and each ride's own), split back ride by ride in `rides`' order
+    /// (the parts' squares summed over every ride are the rides' joint χ², rᵀ Σ⁻¹ r). A ride
+    /// whose prediction fails is empty and left out of the others' whitening; every ride is
+    /// empty when their covariance is singular.
+    pub fn rides_whitened(
+        &self,
+        effects: &[Effect],
+        params: &[f64],
+        rides: &[usize],
+    ) -> Vec<Vec<f64>> {
+        let each = self.residuals_each(effects, params, rides);
+        let ok: Vec<usize> = rides
+            .iter()
+            .zip(&each)
+            .filter_map(|(&i, r)| r.as_ref().map(|_| i))
+            .collect();
+        let r = DVector::from_iterator(
+            self.parts.count(&ok),
+            each.iter().flatten().flat_map(|r| r.iter().copied()),
+        );
+        let sizes: Vec<usize> = ok.iter().map(|&i| self.parts.of(i)).collect();
+        let mut whitened = whiten_jointly(&self.cov_of(&ok), &r, &sizes).into_iter();
+        each.iter()
+            .map(|r| match r {
+                Some(_) => whitened.next().unwrap_or_default(),
+                None => Vec::new(),
+            })
+            .collect()
+    }
+}
+
+/// `r` whitened by its covariance `cov` (`L⁻¹ r`, `cov = L Lᵀ`), split into consecutive pieces
+/// of `sizes`: the squares of every piece's elements sum to rᵀ cov⁻¹ r. Every piece is empty
+/// when `cov` is not positive definite.
+fn whiten_jointly(cov: &DMatrix<f64>, r: &DVector<f64>, sizes: &[usize]) -> Vec<Vec<f64>> {
+    let Some(w) = cov
+        .clone()
+        .cholesky()
+        .and_then(|c| c.l().solve_lower_triangular(r))
+    else {
+        return vec![Vec::new(); sizes.len()];
+    };
+    let mut at = 0;
+    sizes
+        .iter()
+        .map(|&p| {
+            at += p;
+            w.rows(at - p, p).iter().copied().collect()
+        })
+        .collect()
 }
 
 /// Each ride's residuals at the parameter sets already evaluated for one candidate. The
@@ -1550,6 +1622,47 @@ mod tests {
             (ours - dense).abs() < 1e-10 * dense,
             "{ours} against {dense}"
         );
+    }
+
+    /// Rides whitened together: their pieces' squares sum to rᵀ Σ⁻¹ r (nalgebra's inverse), and
+    /// a residual along the measured parameters' error, r = c u in Σ = s² I + u uᵀ, counts by
+    /// the Sherman–Morrison closed form c² |u|² / (s² + |u|²), where ride by ride (each ride's
+    /// own block) it counts as though every ride's share were independent.
+    #[test]
+    fn rides_whitened_together_discount_the_shared_error() {
+        let mut u01 = crate::testing::lcg_uniform(11);
+        let n = 12;
+        let u = DVector::from_fn(n, |_, _| 0.5 + u01());
+        let s2 = 0.3;
+        let cov = DMatrix::identity(n, n) * s2 + &u * u.transpose();
+        let sizes = [4, 2, 4, 2];
+        let c = 1.7;
+        let r = &u * c;
+        let pieces = whiten_jointly(&cov, &r, &sizes);
+        assert_eq!(pieces.iter().map(Vec::len).collect::<Vec<_>>(), sizes);
+        let joint: f64 = pieces.iter().flatten().map(|x| x * x).sum();
+        let closed = c * c * u.norm_squared() / (s2 + u.norm_squared());
+        assert!(
+            (joint - closed).abs() < 1e-12 * closed,
+            "{joint} vs {closed}"
+        );
+        let direct = r.dot(&(cov.clone().try_inverse().unwrap() * &r));
+        assert!((joint - direct).abs() < 1e-10 * direct);
+        // Ride by ride the same residual counts several times more.
+        let mut at = 0;
+        let by_ride: f64 = sizes
+            .iter()
+            .map(|&p| {
+                let block = cov.view((at, at), (p, p)).into_owned();
+                let ri = r.rows(at, p).into_owned();
+                at += p;
+                ri.dot(&(block.try_inverse().unwrap() * &ri))
+            })
+            .sum();
+        assert!(by_ride > 3.0 * joint, "{by_ride} vs {joint}");
+        // Not positive definite: every piece empty.
+        let bad = DMatrix::from_element(n, n, 1.0);
+        assert!(whiten_jointly(&bad, &r, &sizes).iter().all(Vec::is_empty));
     }
 
     /// The triangular inverse against nalgebra's general solve of the identity.

@@ -62,7 +62,8 @@ pub struct Ranked {
     #[serde(skip)]
     pub heldout_per_ride: Vec<f64>,
     /// Each held-out ride's residual whitened by its covariance (its z², summed, is
-    /// `heldout_per_ride`); empty where the prediction failed.
+    /// `heldout_per_ride`; in a study whitened with its condition's other rides,
+    /// [`Campaign::rides_whitened`]); empty where the prediction failed.
     #[serde(skip)]
     pub heldout_whitened: Vec<Vec<f64>>,
     /// The parameters fitted without each ride, in the campaign's order.
@@ -153,7 +154,11 @@ fn whitened(campaign: &Campaign<'_>, effects: &[Effect], params: &[f64], i: usiz
 /// [`heldout`] with whole conditions left out (a study): each condition's rides predicted by
 /// the candidate fitted to the other conditions (Newton from the fit to all, then
 /// Nelder–Mead: leaving a condition out moves the minimum further than leaving a ride out),
-/// the condition's own equipment at what the others say of it ([`Layout::predicting`]).
+/// the condition's own equipment at what the others say of it ([`Layout::predicting`]), and
+/// whitened together ([`Campaign::rides_whitened`]). Ride by ride, an effect that merely
+/// follows the measured parameters' error (which moves every ride of a condition alike) was
+/// credited once per ride: blind studies put first a single whose fit to every ride was tens
+/// of χ² worse than the truth's (docs/decisions/2026-12-04-study-joint-whitening.md).
 fn heldout_conditions(
     campaign: &Campaign<'_>,
     effects: &[Effect],
@@ -186,8 +191,12 @@ fn heldout_conditions(
         .collect();
     for (c, params) in refits.iter().enumerate() {
         let predicting = layout.predicting(params, c);
-        for i in campaign.rides_of(c) {
-            per_ride[i] = whitened(campaign, effects, &predicting, i);
+        let rides = campaign.rides_of(c);
+        for (&i, w) in rides
+            .iter()
+            .zip(campaign.rides_whitened(effects, &predicting, &rides))
+        {
+            per_ride[i] = w;
             fits[i] = predicting.clone();
         }
     }
@@ -367,9 +376,22 @@ pub(super) fn rank(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Vec<Ranked>, GapError> {
     let n = campaign.obs.len();
-    let before = (0..n)
-        .map(|i| campaign.ride_chi2(&[], &[], i).unwrap_or(f64::INFINITY))
-        .sum::<f64>();
+    let before = if campaign.is_study() {
+        (0..campaign.conditions.len())
+            .flat_map(|c| campaign.rides_whitened(&[], &[], &campaign.rides_of(c)))
+            .map(|w| {
+                if w.is_empty() {
+                    f64::INFINITY
+                } else {
+                    w.iter().map(|x| x * x).sum()
+                }
+            })
+            .sum::<f64>()
+    } else {
+        (0..n)
+            .map(|i| campaign.ride_chi2(&[], &[], i).unwrap_or(f64::INFINITY))
+            .sum::<f64>()
+    };
     let parts = campaign.parts.total();
     let rms = |s: f64| (s / parts as f64).sqrt();
     let library = campaign.library();
@@ -573,9 +595,10 @@ pub(super) fn rank(
     // with the added parameters' degrees of freedom, Bonferroni over the candidates tried. A
     // study tries pairs even where its best single fails only the χ² test, and there an effect
     // of the bicycle beside the right one can follow the measured parameters' correlated
-    // error: it buys held-out RMS (the conditions left out whitened ride by ride) that the χ²
-    // of every ride, which carries that error, does not grant. Measured in blind studies of a
-    // controller's speed sensor: docs/decisions/2026-12-03-study-admission.md.
+    // error: it bought held-out RMS (while the conditions left out were whitened ride by ride)
+    // that the χ² of every ride, which carries that error, does not grant. Measured in blind
+    // studies of a controller's speed sensor: docs/decisions/2026-12-03-study-admission.md;
+    // kept with the conditions whitened together (docs/decisions/2026-12-04-study-joint-whitening.md).
     let significant_over = |r: &Ranked, against: &Ranked, tried: usize| -> bool {
         if !campaign.is_study() {
             return true;
@@ -666,10 +689,11 @@ pub(super) fn rank(
             add(first, e);
         }
     }
-    // In a study, also the single that lowers the χ² of every ride most: the rides left out
-    // are whitened by their own errors alone, so an effect of one condition's equipment that
-    // leaves a shared part in the direction of the measured parameters' errors (which the χ²
-    // of every ride together absorbs) ranks low out of sample. In a blind study with a rotor
+    // In a study, also the single that lowers the χ² of every ride most: an effect of one
+    // condition's equipment that leaves a shared part in the direction of the measured
+    // parameters' errors (which the χ² of every ride together absorbs) can rank low out of
+    // sample (measured while the rides left out were whitened by their own errors alone; kept
+    // with them whitened together by condition). In a blind study with a rotor
     // of 0.033 kg·m² delivering 1.24 of its torque, actuator_gain took χ² from 1114 to 194
     // and ranked 16th, and the pair of the withheld motor was never tried (4 of 50 studies
     // named a pair or three effects of the bicycle instead).
