@@ -615,11 +615,12 @@ impl<'a> Campaign<'a> {
     }
 
     /// `rides`' residuals at `params` whitened together, `L⁻¹ r` with `L Lᵀ` their joint
-    /// covariance ([`Campaign::cov_of`]: the measured parameters' error, which moves every ride
-    /// of a condition alike, and each ride's own), split back ride by ride in `rides`' order
-    /// (the parts' squares summed over every ride are the rides' joint χ², rᵀ Σ⁻¹ r). A ride
-    /// whose prediction fails is empty and left out of the others' whitening; every ride is
-    /// empty when their covariance is singular.
+    /// covariance (their rows and columns of [`Campaign::cov`], made from its parts: the
+    /// measured parameters' error, which moves every ride of a condition alike, and each
+    /// ride's own), split back ride by ride in `rides`' order (the parts' squares summed over
+    /// every ride are the rides' joint χ², rᵀ Σ⁻¹ r). A ride whose prediction fails is empty
+    /// and left out of the others' whitening; every ride is empty when their covariance is
+    /// singular.
     pub fn rides_whitened(
         &self,
         effects: &[Effect],
