@@ -292,9 +292,10 @@ fn gap_campaign_16_rides(bencher: divan::Bencher) {
 }
 
 /// Issue 76, item 1: the real balance-assist study (`fixtures/real/balanceassist_study.toml`,
-/// four conditions, 66 kicks) as `bikeproc gap` runs it, with the pairs a study screens and
-/// with every pair of the library (`--every-pair`): the difference is the pairs' stage.
-#[divan::bench(sample_count = 2, args = ["screen", "every pair"])]
+/// four conditions, 66 kicks) as `bikeproc gap` runs it, with the pairs and triples a study
+/// screens, with every pair of the library (`--every-pair`) and with every three
+/// (`--every-triple`): the differences are the pairs' and the triples' stages.
+#[divan::bench(sample_count = 2, args = ["screen", "every pair", "every triple"])]
 fn gap_balance_assist_study_by_pair_search(bencher: divan::Bencher, pairs: &str) {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let study =
@@ -305,7 +306,8 @@ fn gap_balance_assist_study_by_pair_search(bencher: divan::Bencher, pairs: &str)
     let options = bikeproc::gap::GapOptions {
         pairs: match pairs {
             "screen" => bikeproc::gap::PairSearch::Screen,
-            _ => bikeproc::gap::PairSearch::Every,
+            "every pair" => bikeproc::gap::PairSearch::Every,
+            _ => bikeproc::gap::PairSearch::EveryTriple,
         },
         ..Default::default()
     };

@@ -243,7 +243,7 @@ pub enum Command {
         "when it beats the ",
         "best single on the rides left out by 6.63 in χ² and by the BIC (in a study, also where ",
         "it lowers the χ² of every ride significantly below each candidate one effect smaller ",
-        "that it holds, Bonferroni over those tried), and named ahead of the ",
+        "that it holds, Bonferroni over the effects that could extend it), and named ahead of the ",
         "single only when the tie test tells the two apart (the held-out χ² difference beyond ",
         "2 and beyond 2 of its standard deviations); otherwise it is listed after it, not needed. ",
         "A parameter within its standard error of its search's edge is shown as a bound, never as ",

@@ -592,21 +592,24 @@ pub(super) fn rank(
     // the pairs admitted): the likelihood ratio of the two fits to every ride (each χ² in its
     // own covariance, as its BIC), over the larger one's Birge ratio where it still fails its
     // χ² test ([`crate::stats::birge_likelihood_ratio`], as the targeted test's), χ²-distributed
-    // with the added parameters' degrees of freedom, Bonferroni over the candidates tried. A
-    // study tries pairs even where its best single fails only the χ² test, and there an effect
+    // with the added parameters' degrees of freedom, Bonferroni over the library's effects
+    // that could extend the smaller one (the step of a forward selection: whichever search
+    // tries them, a screened one and an exhaustive one then admit by the same bar;
+    // docs/decisions/2026-12-04-study-joint-whitening.md). A study tries pairs even where its best single fails only the χ² test, and there an effect
     // of the bicycle beside the right one can follow the measured parameters' correlated
     // error: it bought held-out RMS (while the conditions left out were whitened ride by ride)
     // that the χ² of every ride, which carries that error, does not grant. Measured in blind
     // studies of a controller's speed sensor: docs/decisions/2026-12-03-study-admission.md;
     // kept with the conditions whitened together (docs/decisions/2026-12-04-study-joint-whitening.md).
-    let significant_over = |r: &Ranked, against: &Ranked, tried: usize| -> bool {
+    let significant_over = |r: &Ranked, against: &Ranked| -> bool {
         if !campaign.is_study() {
             return true;
         }
         let added = r.params.len().saturating_sub(against.params.len()).max(1);
         let dof = parts.saturating_sub(r.params.len());
         let lr = crate::stats::birge_likelihood_ratio(against.chi2, r.chi2, dof);
-        crate::stats::chi2_sf(lr, added) * tried.max(1) as f64 <= SIGNIFICANCE
+        let extensions = library.len().saturating_sub(against.effects.len());
+        crate::stats::chi2_sf(lr, added) * extensions.max(1) as f64 <= SIGNIFICANCE
     };
     let admit = |larger: &[Vec<Effect>], against: &Ranked, ranked: &mut Vec<Ranked>| {
         for mut r in over(larger, against.bic, Some(against.heldout_chi2_after)) {
@@ -616,7 +619,7 @@ pub(super) fn rank(
                     s.effects.len() + 1 == r.effects.len()
                         && s.effects.iter().all(|e| r.effects.contains(e))
                 })
-                .all(|s| significant_over(&r, s, larger.len()));
+                .all(|s| significant_over(&r, s));
             if against.heldout_chi2_after - r.heldout_chi2_after > PAIR_GAIN_CHI2
                 && r.bic < against.bic
                 && nested_significant
