@@ -633,9 +633,8 @@ pub(super) fn rank(
     let mut ranked = over(&singles, f64::INFINITY, None);
     sort(&mut ranked);
     // The singles as the rides left out order them (a study's own order): whether one closes
-    // the gap, which are paired and what a pair must beat are questions of prediction. (Pairs
-    // built from the BIC's order instead paired data/rides.toml's tyres with every effect:
-    // `bikeproc gap` 0.73 → 1.12 s, the same best pair.)
+    // the gap, which are paired and what a pair must beat are questions of prediction. Each
+    // rule below and its measurements: docs/decisions/ranking-rules.md.
     let mut held = ranked.clone();
     sort_by(&mut held, |r| r.heldout_rms_after);
     let dof = parts.saturating_sub(1).max(1);
@@ -644,10 +643,8 @@ pub(super) fn rank(
             && (!campaign.is_study() || crate::stats::chi2_sf(b.chi2, dof) >= SIGNIFICANCE)
     };
     // A single campaign tries pairs only when no single effect passes: the rides left out
-    // further than CLOSED_RMS. (Failing the χ² test as a second reason lost its own blind
-    // suite more than it gained: 1,700 broad campaigns named the withheld effect in 4–8 %
-    // fewer of the steer damping, tyres and wheel-spin campaigns.) Pairs of the best singles,
-    // admitted against the best single (`admit`).
+    // further than CLOSED_RMS (a failed χ² test as a second reason lost more of its blind suite
+    // than it gained). Pairs of the best singles, admitted against the best single (`admit`).
     let single_passes = held.first().is_none_or(passes);
     if single_passes && !campaign.is_study() {
         return Ok(ranked);
@@ -655,13 +652,8 @@ pub(super) fn rank(
     // A study whose best single passes still tries it with each effect of the other kind (of a
     // condition's own equipment beside one of the bicycle, or the reverse): a motor's
     // delivered gain beside an effect on the bicycle is what a study is ridden to tell, and a
-    // single that passes on its conditions left out can hide it (in 5 of 50 blind studies,
-    // delivered 0.41–1.15 with a rotor of 0.081–0.088 kg·m², the rotor alone was named where
-    // the pair is within 1 SE of both truths; in 3, delivered 0.53–0.74 with a rotor of
-    // 0.012–0.023 kg·m², the gain alone where the pair's rotor is within 1 SE of its truth).
-    // Not with another effect of the same kind: with every pair tried, 4 of 20 studies whose
-    // motor delivered within 5 % of nominal named the rotor with frame_ixx, wheel_spin or
-    // trail.
+    // single that passes on its conditions left out can hide it. Not with another effect of
+    // the same kind, which named a rotor beside an effect of the bicycle where there was none.
     if single_passes {
         if let Some(best) = held.first().map(|r| r.effects[0]) {
             let pairs: Vec<Vec<Effect>> = library
@@ -693,13 +685,9 @@ pub(super) fn rank(
         }
     }
     // In a study, also the single that lowers the χ² of every ride most: an effect of one
-    // condition's equipment that leaves a shared part in the direction of the measured
-    // parameters' errors (which the χ² of every ride together absorbs) can rank low out of
-    // sample (measured while the rides left out were whitened by their own errors alone; kept
-    // with them whitened together by condition). In a blind study with a rotor
-    // of 0.033 kg·m² delivering 1.24 of its torque, actuator_gain took χ² from 1114 to 194
-    // and ranked 16th, and the pair of the withheld motor was never tried (4 of 50 studies
-    // named a pair or three effects of the bicycle instead).
+    // condition's equipment that leaves a shared part along the measured parameters' errors
+    // (which the χ² of every ride absorbs) can rank low out of sample, and its pair with the
+    // withheld effect would never be tried.
     if campaign.is_study() {
         let by_chi2 = ranked
             .iter()
@@ -731,11 +719,8 @@ pub(super) fn rank(
     // rule against the best pair. The screen: the best pair and the next PAIR_POOL − 1 pairs
     // admitted as the conditions left out rank them (in good standing or not), and the pair
     // fitted of the lowest χ² of every ride, each with every other effect (every three with
-    // `every_triple`). The best pair alone with each missed the two triples built on
-    // frame_cg_height + frame_cg_x, ranked below it as a bound; without the pair of the lowest
-    // χ² the screen missed every triple's first on the balance-assist study (steer_damping +
-    // frame_cg_height + actuator_lag, held-out RMS 1.81 against 2.53), whose pairs predict the
-    // conditions left out poorly; the record: docs/decisions/2026-12-03-study-triples.md.
+    // `every_triple`); with fewer bases the screen missed triples whose pairs predict the
+    // conditions left out poorly (docs/decisions/ranking-rules.md).
     if campaign.is_study() && ranked.first().is_some_and(|b| !passes(b)) {
         let best_pair = ranked
             .iter()
