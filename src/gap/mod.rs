@@ -112,22 +112,23 @@ impl Default for GapOptions {
 pub enum PairSearch {
     /// Every pair in a single campaign, the screen in a study: the screen missed the
     /// exhaustive search's first pair in 2 of the 4 blind campaigns that tried pairs, and
-    /// matched its first five on the real balance-assist study and every blind study checked,
-    /// where fitting every pair takes twice the time (`tests/pair_search.rs`). In a study where
+    /// matches its first five on the real balance-assist study and the 100 blind motor and
+    /// effect-free studies of the calibration's seeds, where fitting every pair takes twice the
+    /// time (`tests/pair_search.rs`). In a study where
     /// no pair passes, three effects: the best pair, the next three pairs admitted (held out)
     /// and the pair fitted of the lowest χ² of every ride, each with every other effect.
     #[default]
     Standard,
     /// The screen everywhere: the best single (held out) with every other effect, the next
     /// [`PAIR_POOL`]` − 1` among themselves and, in a study, the single of the lowest χ² with
-    /// every other: 20–40 pairs.
+    /// every other, then each effect of the best pair with every other: 20–70 pairs.
     Screen,
     /// Every pair of the library everywhere (23 effects with a controller: 253 pairs; 19
     /// without: 171); three effects as [`PairSearch::Standard`] tries them.
     Every,
     /// Every pair, and in a study where no pair passes every three effects of the library
-    /// (1,771 with a controller): minutes where the standard search's 62 take seconds. On the
-    /// balance-assist study it finds a first the screen misses (the record above).
+    /// (1,771 with a controller): 40 s where the standard search takes 5 s on the balance-assist
+    /// study, whose first five the screen returns (docs/decisions/2026-12-04-study-joint-whitening.md).
     EveryTriple,
 }
 

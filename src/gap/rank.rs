@@ -714,6 +714,27 @@ pub(super) fn rank(
     }
     if let Some(b) = held.first() {
         admit(&pairs, b, &mut ranked);
+        // In a study, the best pair's neighbours too: each of its effects with every other
+        // effect, against the same single. A pair whose effects neither predict the conditions
+        // left out best alone nor lower the χ² most alone is otherwise never fitted (blind seed
+        // 48's second of every pair: docs/decisions/2026-12-04-study-joint-whitening.md).
+        let best_pair = ranked
+            .iter()
+            .find(|r| r.effects.len() == 2 && !r.not_needed)
+            .map(|r| r.effects.clone());
+        if let (true, Some(best_pair)) = (campaign.is_study() && !campaign.every_pair, best_pair) {
+            let mut near: Vec<Vec<Effect>> = Vec::new();
+            for &a in &best_pair {
+                for &e in &library {
+                    let mut p = vec![a, e];
+                    p.sort();
+                    if a != e && !pairs.contains(&p) && !near.contains(&p) {
+                        near.push(p);
+                    }
+                }
+            }
+            admit(&near, b, &mut ranked);
+        }
     }
     // In a study, when no single effect or pair passes either: three effects, under the same
     // rule against the best pair. The screen: the best pair and the next PAIR_POOL − 1 pairs
