@@ -1,5 +1,6 @@
 //! Statistics shared by the stages: the χ² distribution's upper tail (the inertia tensor's fit, the
-//! gap's campaign test; statrs), the Birge-scaled likelihood ratio of two nested fits, and how a p-value, or any number in a message, is written.
+//! gap's campaign test; statrs), the Birge-scaled likelihood ratio of two nested fits, and how a
+//! p-value, or any number in a message, is written.
 
 /// The likelihood ratio χ²_smaller − χ²_larger of a model against the model with more
 /// parameters (χ²_larger on `dof_larger` degrees of freedom), over the larger one's Birge ratio

@@ -137,6 +137,33 @@ fn heldout(
     out.into_iter().unzip()
 }
 
+/// A held-out ride's z² from its whitened residual; infinite where it could not be predicted
+/// (empty).
+fn whitened_chi2(w: &[f64]) -> f64 {
+    if w.is_empty() {
+        f64::INFINITY
+    } else {
+        w.iter().map(|x| x * x).sum()
+    }
+}
+
+/// Pushes onto `pairs` each pair of `a` with another effect of `library`, sorted, that is in
+/// neither `pairs` nor `skip`.
+fn push_pairs_with(
+    pairs: &mut Vec<Vec<Effect>>,
+    a: Effect,
+    library: &[Effect],
+    skip: &[Vec<Effect>],
+) {
+    for &b in library.iter().filter(|&&b| b != a) {
+        let mut p = vec![a, b];
+        p.sort();
+        if !pairs.contains(&p) && !skip.contains(&p) {
+            pairs.push(p);
+        }
+    }
+}
+
 /// The initial steps of a refit: a twentieth of each element's range.
 fn steps(campaign: &Campaign<'_>, effects: &[Effect]) -> Vec<f64> {
     let (lo, hi) = campaign.layout(effects).bounds();
@@ -379,13 +406,7 @@ pub(super) fn rank(
     let before = if campaign.is_study() {
         (0..campaign.conditions.len())
             .flat_map(|c| campaign.rides_whitened(&[], &[], &campaign.rides_of(c)))
-            .map(|w| {
-                if w.is_empty() {
-                    f64::INFINITY
-                } else {
-                    w.iter().map(|x| x * x).sum()
-                }
-            })
+            .map(|w| whitened_chi2(&w))
             .sum::<f64>()
     } else {
         (0..n)
@@ -464,29 +485,22 @@ pub(super) fn rank(
             .zip(assumed_se(campaign, &effects, &f))
             .map(|(s, a)| s.hypot(a))
             .collect();
-        let chi2_of = |w: &Vec<f64>| -> f64 {
-            if w.is_empty() {
-                f64::INFINITY
-            } else {
-                w.iter().map(|x| x * x).sum()
-            }
-        };
         // In a study the conditions are left out: the ranking rests on predicting one from
         // the others; the rides left out one at a time are reported beside it.
         let (whitened, heldout_params, rides_out_rms) = if campaign.is_study() {
             let (w, p) = heldout_conditions(campaign, &effects, &f.params);
-            let held: f64 = w.iter().map(chi2_of).sum();
+            let held: f64 = w.iter().map(|w| whitened_chi2(w)).sum();
             let admissible = gain_over.is_none_or(|a| a - held > PAIR_GAIN_CHI2);
             let rides_out_rms = admissible.then(|| {
                 let (rides_out, _) = heldout(campaign, &effects, &f.params);
-                rms(rides_out.iter().map(chi2_of).sum())
+                rms(rides_out.iter().map(|w| whitened_chi2(w)).sum())
             });
             (w, p, rides_out_rms)
         } else {
             let (rides_out, rides_out_params) = heldout(campaign, &effects, &f.params);
             (rides_out, rides_out_params, None)
         };
-        let per_ride: Vec<f64> = whitened.iter().map(chi2_of).collect();
+        let per_ride: Vec<f64> = whitened.iter().map(|w| whitened_chi2(w)).collect();
         let held: f64 = per_ride.iter().sum();
         tick();
         let name = effects
@@ -595,7 +609,8 @@ pub(super) fn rank(
     // with the added parameters' degrees of freedom, Bonferroni over the library's effects
     // that could extend the smaller one (the step of a forward selection: whichever search
     // tries them, a screened one and an exhaustive one then admit by the same bar;
-    // docs/decisions/2026-12-04-study-joint-whitening.md). A study tries pairs even where its best single fails only the χ² test, and there an effect
+    // docs/decisions/2026-12-04-study-joint-whitening.md). A study tries pairs even where its
+    // best single fails only the χ² test, and there an effect
     // of the bicycle beside the right one can follow the measured parameters' correlated
     // error: it bought held-out RMS (while the conditions left out were whitened ride by ride)
     // that the χ² of every ride, which carries that error, does not grant. Measured in blind
@@ -672,17 +687,8 @@ pub(super) fn rank(
     let pool: Vec<Effect> = held.iter().take(PAIR_POOL).map(|r| r.effects[0]).collect();
     // The best single with every other effect, and the next best among themselves.
     let mut pairs: Vec<Vec<Effect>> = Vec::new();
-    let mut add = |a: Effect, b: Effect| {
-        let mut p = vec![a, b];
-        p.sort();
-        if a != b && !pairs.contains(&p) {
-            pairs.push(p);
-        }
-    };
     if let Some(&first) = pool.first() {
-        for &e in &library {
-            add(first, e);
-        }
+        push_pairs_with(&mut pairs, first, &library, &[]);
     }
     // In a study, also the single that lowers the χ² of every ride most: an effect of one
     // condition's equipment that leaves a shared part along the measured parameters' errors
@@ -695,21 +701,15 @@ pub(super) fn rank(
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
             .map(|r| r.effects[0]);
         if let Some(best) = by_chi2.filter(|b| Some(b) != pool.first()) {
-            for &e in &library {
-                add(best, e);
-            }
+            push_pairs_with(&mut pairs, best, &library, &[]);
         }
     }
     for a in 1..pool.len() {
-        for b in a + 1..pool.len() {
-            add(pool[a], pool[b]);
-        }
+        push_pairs_with(&mut pairs, pool[a], &pool[a + 1..], &[]);
     }
     if campaign.every_pair {
         for (k, &a) in library.iter().enumerate() {
-            for &b in &library[k + 1..] {
-                add(a, b);
-            }
+            push_pairs_with(&mut pairs, a, &library[k + 1..], &[]);
         }
     }
     if let Some(b) = held.first() {
@@ -725,13 +725,7 @@ pub(super) fn rank(
         if let (true, Some(best_pair)) = (campaign.is_study() && !campaign.every_pair, best_pair) {
             let mut near: Vec<Vec<Effect>> = Vec::new();
             for &a in &best_pair {
-                for &e in &library {
-                    let mut p = vec![a, e];
-                    p.sort();
-                    if a != e && !pairs.contains(&p) && !near.contains(&p) {
-                        near.push(p);
-                    }
-                }
+                push_pairs_with(&mut near, a, &library, &pairs);
             }
             admit(&near, b, &mut ranked);
         }
