@@ -97,19 +97,20 @@ fn a_campaign_fits_every_pair_and_finds_what_the_screen_missed() {
 }
 
 /// A blind study whose best single does not close the gap, so that the screen chooses its
-/// pairs (seed 1: 70 candidates set out for the screen, 276 for every pair; 28 ranked by
-/// each since the conditions left out are whitened together, 24 and 34 before): the first
+/// pairs: seed 2 (69 candidates fitted by the screen, 276 by every pair, 29 ranked by each;
+/// of seeds 1–10 the only one since the conditions left out are whitened together: the others'
+/// best single passes, and both searches then fit the same 26 or 43 candidates). The first
 /// five the same, in order, each needed or not alike.
 #[test]
 fn a_studys_screen_finds_the_first_five_of_every_pair() {
     let (lab, text) = lab();
-    let (files, _) = blind_study_with(&lab, "bike.toml", 1, StudyMotor::DRAWN).unwrap();
-    let [(standard, screened), (every, all)] = in_scratch("pairs_study_1", &files, &text, &|dir| {
+    let (files, _) = blind_study_with(&lab, "bike.toml", 2, StudyMotor::DRAWN).unwrap();
+    let [(standard, screened), (every, all)] = in_scratch("pairs_study_2", &files, &text, &|dir| {
         let study = Study::load(&dir.join("study.toml")).map_err(stage)?;
         let model =
             bikeproc::read::bicycle::load(&study.bike_path().map_err(stage)?).map_err(stage)?;
         let run = |p| {
-            // The candidates the search sets out to fit, as its progress counts them.
+            // The candidates the search fits, as its progress counts them.
             let total = std::sync::atomic::AtomicUsize::new(0);
             let d = diagnose_manifests_with(&study.conditions, &model, &options(p), &|s, _, n| {
                 if s == "candidates" {
@@ -125,7 +126,7 @@ fn a_studys_screen_finds_the_first_five_of_every_pair() {
     assert!(tried_pairs(&standard));
     assert!(
         screened < all,
-        "the screen set out to fit {screened} candidates, every pair {all}"
+        "the screen fitted {screened} candidates, every pair {all}"
     );
     assert_eq!(first(&standard, 5), first(&every, 5));
 }

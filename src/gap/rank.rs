@@ -416,22 +416,15 @@ pub(super) fn rank(
     let parts = campaign.parts.total();
     let rms = |s: f64| (s / parts as f64).sqrt();
     let library = campaign.library();
-    let total = if campaign.every_pair {
-        library.len() * (library.len() + 1) / 2
-    } else {
-        2 * library.len() - 1
-            + (PAIR_POOL - 1) * (PAIR_POOL - 2) / 2
-            + if campaign.is_study() {
-                library.len() - 1
-            } else {
-                0
-            }
-    };
+    // The candidates set out to fit, counted as each stage (singles, pairs, their neighbours,
+    // triples) sets out: the progress's total is then exact, never passed by its count, and
+    // grows as a later stage turns out to be needed.
+    let total = std::sync::atomic::AtomicUsize::new(0);
     let done = std::sync::atomic::AtomicUsize::new(0);
     let tick = || {
         progress(
             done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1,
-            total,
+            total.load(std::sync::atomic::Ordering::SeqCst),
         )
     };
     // Every pair fitted (admitted or not), its fit to every ride: the triples' screen takes the
@@ -590,6 +583,7 @@ pub(super) fn rank(
     let singles: Vec<Vec<Effect>> = library.iter().map(|&e| vec![e]).collect();
     let over = |list: &[Vec<Effect>], bic_below: f64, gain_over: Option<f64>| -> Vec<Ranked> {
         use rayon::prelude::*;
+        total.fetch_add(list.len(), std::sync::atomic::Ordering::SeqCst);
         let all: Vec<Option<Ranked>> = list
             .par_iter()
             .map(|e| evaluate(e, bic_below, gain_over))
