@@ -164,6 +164,13 @@ fn push_pairs_with(
     }
 }
 
+/// The first pair of a ranking that is needed (not listed after a smaller candidate).
+fn best_pair(ranked: &[Ranked]) -> Option<&Ranked> {
+    ranked
+        .iter()
+        .find(|r| r.effects.len() == 2 && !r.not_needed)
+}
+
 /// The initial steps of a refit: a twentieth of each element's range.
 fn steps(campaign: &Campaign<'_>, effects: &[Effect]) -> Vec<f64> {
     let (lo, hi) = campaign.layout(effects).bounds();
@@ -712,10 +719,7 @@ pub(super) fn rank(
         // effect, against the same single. A pair whose effects neither predict the conditions
         // left out best alone nor lower the χ² most alone is otherwise never fitted (blind seed
         // 48's second of every pair: docs/decisions/2026-12-04-study-joint-whitening.md).
-        let best_pair = ranked
-            .iter()
-            .find(|r| r.effects.len() == 2 && !r.not_needed)
-            .map(|r| r.effects.clone());
+        let best_pair = best_pair(&ranked).map(|r| r.effects.clone());
         if let (true, Some(best_pair)) = (campaign.is_study() && !campaign.every_pair, best_pair) {
             let mut near: Vec<Vec<Effect>> = Vec::new();
             for &a in &best_pair {
@@ -731,10 +735,7 @@ pub(super) fn rank(
     // `every_triple`); with fewer bases the screen missed triples whose pairs predict the
     // conditions left out poorly (docs/decisions/ranking-rules.md).
     if campaign.is_study() && ranked.first().is_some_and(|b| !passes(b)) {
-        let best_pair = ranked
-            .iter()
-            .find(|r| r.effects.len() == 2 && !r.not_needed)
-            .cloned();
+        let best_pair = best_pair(&ranked).cloned();
         if let Some(pair) = best_pair {
             let triples: Vec<Vec<Effect>> = if campaign.every_triple {
                 every_triple(&library)
