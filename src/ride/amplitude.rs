@@ -103,7 +103,7 @@ fn replay(
         weave: [fit.weave.re, fit.weave.im],
         real_rates: std::array::from_fn(|k| fit.real_modes.get(k).map_or(-1.0, |r| r.value)),
     };
-    let replayed = refit_as(&t, &roll, &steer, fit.structure, Some(start))?;
+    let replayed = refit_as(&t, &roll, &steer, fit.structure, Some(start), fit.estimator)?;
     // The speed where the fit applies: a line through the replay's speed over the window (the
     // rolling speed swings at twice the weave's frequency, by a part of the motion's size
     // squared, and a speedometer's or a reed switch's fit of a window averages the swing).

@@ -10,8 +10,8 @@
 //! a sensor that did not move, the two sensors swapped.
 
 use super::modal::{
-    fit_modes, refit_as, Eigenvalue, ModalError, ModalFit, ModalOptions, Start, Structure,
-    MAX_REAL_MODES,
+    fit_modes, refit_as, Eigenvalue, Estimator, ModalError, ModalFit, ModalOptions, Start,
+    Structure, MAX_REAL_MODES,
 };
 use super::model_weave::{model_weave_at, ModelWeave};
 use super::read::{read_ride, RideError, RideSignals};
@@ -613,6 +613,8 @@ pub struct CoastingWindow {
     pub t_ref_s: f64,
     pub rate_hz: f64,
     pub structure: Structure,
+    /// The fit's model and solver, which its replay's fit repeats.
+    pub estimator: Estimator,
     pub speed_mps: f64,
     pub accel_mps2: f64,
     /// The measured weave (1/s), which picks the model's branch.
@@ -652,6 +654,7 @@ impl CoastingWindow {
             t_ref_s: fit.t_ref_s,
             rate_hz,
             structure: fit.structure,
+            estimator: fit.estimator,
             speed_mps,
             accel_mps2,
             measured: Complex::new(fit.weave.re, fit.weave.im),
@@ -795,7 +798,7 @@ pub fn replay_coasting(
         weave: [start_weave.re, start_weave.im],
         real_rates: w.real_rates,
     });
-    let sim = refit_as(&ts, &roll, &steer, w.structure, start)?;
+    let sim = refit_as(&ts, &roll, &steer, w.structure, start, w.estimator)?;
     let v_ref = speed_at(sim.t_ref_s);
     let (frozen, ratio) = model.weave_shape(v_ref, w.measured)?;
     Some([
