@@ -446,6 +446,28 @@ impl Problem<'_> {
         ControlFlow::Continue(())
     }
 
+    /// How much of the fitted motion at `p` the weave carries over the window, per signal: the
+    /// variance of its part against that of the whole fitted curve (`[θ, γ]`, 0–1).
+    fn weave_share(&self, p: &[f64]) -> [f64; 2] {
+        let st = self.st;
+        let basis = self.basis(p);
+        let var = |x: &[f64]| {
+            let m = x.iter().sum::<f64>() / x.len().max(1) as f64;
+            x.iter().map(|v| (v - m).powi(2)).sum::<f64>()
+        };
+        [0, 1].map(|s| {
+            let l = st.nonlinear() + s * st.linear();
+            let (weave, all): (Vec<f64>, Vec<f64>) = (0..self.n())
+                .map(|i| {
+                    let wave = basis.wave[i];
+                    let v = combine_one(p, st, wave, &basis.real[i], self.t[i] - self.t_ref, s);
+                    (p[l] * wave[0] + p[l + 1] * wave[1], v)
+                })
+                .unzip();
+            var(&weave) / var(&all).max(1e-300)
+        })
+    }
+
     /// Per-signal residual sums of squares (unweighted, rad²).
     fn rss(&self, p: &[f64]) -> [f64; 2] {
         self.rss_within(p, f64::INFINITY)
@@ -862,6 +884,30 @@ pub enum Estimator {
     },
 }
 
+/// The least share of the fitted motion the weave must carry in θ or in γ
+/// ([`Problem::weave_share`]) for a structure of [`Estimator::Projected`] to be a candidate.
+/// Over a window of about half a weave cycle (a slow ride whose roll leaves the linear range
+/// soon after the kick) the polynomial and the castor can take the motion and leave a fast,
+/// faint oscillation as the "weave": of the 299 fits of tests/speed.rs's simulated rides, the
+/// six below a tenth (0.03–9 % of the motion) read ω at 1.3–3 times the truth, one of them 4.4
+/// of its errors off, the others within errors of 0.5–5 rad/s; the rest carried 20 % or more.
+/// The measurements:
+/// [docs/decisions/2026-12-02-ride-estimator.md](../../docs/decisions/2026-12-02-ride-estimator.md#2026-12-04-ninth-session-the-stated-model-on-main-beside-todays).
+pub const MIN_WEAVE_SHARE: f64 = 0.1;
+
+/// Whether the structure fitted at `p` is a weave fit: always for [`Estimator::Capped`] (its
+/// calibration is made without the test); for [`Estimator::Projected`] the weave carries at
+/// least [`MIN_WEAVE_SHARE`] of the fitted motion in θ or in γ.
+fn identifiable(problem: &Problem<'_>, p: &[f64]) -> bool {
+    match problem.estimator {
+        Estimator::Capped => true,
+        Estimator::Projected { .. } => {
+            let share = problem.weave_share(p);
+            share[0].max(share[1]) >= MIN_WEAVE_SHARE
+        }
+    }
+}
+
 /// The castor's rate (1/s) as [`Estimator::Projected`] holds it: slower than 1/s it is a slow
 /// mode the polynomial carries, and faster than 60/s it is gone within the first samples of a
 /// 100 Hz window.
@@ -1038,6 +1084,9 @@ pub fn fit_modes(
         ) else {
             continue;
         };
+        if !identifiable(&problem, &c.params) {
+            continue;
+        }
         if best.as_ref().is_none_or(|b| c.bic < b.bic) {
             best = Some(c);
         }
