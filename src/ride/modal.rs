@@ -515,21 +515,27 @@ impl Problem<'_> {
             }
         }
         let norms = norms.map(|v| v.sqrt().max(1e-300));
+        // The normal matrix is θ's and γ's alike: summed once (in fixed arrays, no bounds to
+        // check), factored once; each signal sums its own right-hand side.
+        let mut sums = [[0.0; MAX_LINEAR]; MAX_LINEAR];
+        for r in &rows {
+            for i in 0..nl {
+                let ri = r[i] / norms[i];
+                for j in 0..nl {
+                    sums[i][j] += ri * r[j] / norms[j];
+                }
+            }
+        }
+        let ata = DMatrix::<f64>::from_fn(nl, nl, |i, j| sums[i][j]);
+        let ch = ata.cholesky()?;
         for s in 0..2 {
-            // Summed in fixed arrays (no bounds to check), then handed to nalgebra.
-            let mut sums = [[0.0; MAX_LINEAR]; MAX_LINEAR];
             let mut atb = DVector::<f64>::zeros(nl);
             for (r, &x) in rows.iter().zip(self.x[s]) {
                 for i in 0..nl {
-                    let ri = r[i] / norms[i];
-                    atb[i] += ri * x;
-                    for j in 0..nl {
-                        sums[i][j] += ri * r[j] / norms[j];
-                    }
+                    atb[i] += r[i] / norms[i] * x;
                 }
             }
-            let ata = DMatrix::<f64>::from_fn(nl, nl, |i, j| sums[i][j]);
-            let sol = ata.cholesky()?.solve(&atb);
+            let sol = ch.solve(&atb);
             let l = st.nonlinear() + s * nl;
             for i in 0..nl {
                 p[l + i] = sol[i] / norms[i];
