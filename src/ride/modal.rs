@@ -877,10 +877,10 @@ pub enum Estimator {
     /// seconds, the sensors' offsets and drift) is a fixed polynomial basis to τ^(1 +
     /// `curve_terms`). With a single bounded real mode the least-squares problem has no valley:
     /// variable projection (the amplitudes solved exactly at every step, Golub and Pereyra
-    /// 1973; Kaufman's step from the full normal equations' Schur complement) converges, and
-    /// every solve is run to its convergence test (the Gauss–Newton step left below
-    /// `fit::CONVERGED_STEP_SE` of each error). Which of castor or none is chosen by the
-    /// information criterion. `iterations` bounds every solve ([`PROJECTED_ITERATIONS`] by
+    /// 1973; Newton's step on the reduced cost, `solve_projected`) converges, and every solve
+    /// is run to its convergence test (the step left below `fit::CONVERGED_STEP_SE` of each
+    /// error). Which of castor or none, and how many curve terms, the information criterion
+    /// chooses among the structures whose weave carries the motion ([`MIN_WEAVE_SHARE`]). `iterations` bounds every solve ([`PROJECTED_ITERATIONS`] by
     /// default): a guard for a pathological window, not a regulariser. Not yet the ride
     /// stage's: the measurements are in
     /// [docs/decisions/2026-12-02-ride-estimator.md](../../docs/decisions/2026-12-02-ride-estimator.md).
@@ -890,9 +890,9 @@ pub enum Estimator {
     },
 }
 
-/// The least share of the fitted motion the weave must carry in θ or in γ
-/// ([`Problem::weave_share`]) for a structure of [`Estimator::Projected`] to be a candidate.
-/// Over a window of about half a weave cycle (a slow ride whose roll leaves the linear range
+/// The least share of the fitted motion the weave must carry in θ or in γ (the variance of
+/// its part over that of the whole fitted curve) for a structure of [`Estimator::Projected`]
+/// to be a candidate. Over a window of about half a weave cycle (a slow ride whose roll leaves the linear range
 /// soon after the kick) the polynomial and the castor can take the motion and leave a fast,
 /// faint oscillation as the "weave": of the 299 fits of tests/speed.rs's simulated rides, the
 /// six below a tenth (0.03–9 % of the motion) read ω at 1.3–3 times the truth, one of them 4.4
@@ -920,8 +920,9 @@ fn identifiable(problem: &Problem<'_>, p: &[f64]) -> bool {
 pub const CASTOR_RATES: [f64; 2] = [-60.0, -1.0];
 
 /// The iterations a solve of [`Estimator::Projected`] may take by default: a bound for a
-/// pathological window, not a regulariser (its solves converged in a median of 4 iterations,
-/// the longest measured 165: docs/decisions/2026-12-02-ride-estimator.md).
+/// pathological window, not a regulariser (on data/ and the real decays of
+/// `../shared/reference` its solves converged within 15 iterations:
+/// docs/decisions/2026-12-02-ride-estimator.md).
 pub const PROJECTED_ITERATIONS: usize = 400;
 
 /// A fit's starting point ([`ModalOptions::start`]): the weave's `[σ, ω]` and the real modes'
@@ -1309,13 +1310,25 @@ fn solve_within(
         }
         Estimator::Projected { iterations, .. } => {
             let sol = solve_projected(problem, &p0, iterations)?;
-            solver.record(sol.iterations, sol.converged);
-            (sol.params, sol.cost)
+            let mut p = sol.params;
+            flip_omega(problem.st, &mut p);
+            // A search that lands on no oscillation (ω → 0, where the weave's columns become
+            // the offset's and the trend's and the cost has no minimum to converge to) is
+            // discarded by its caller and is no solve of the fit.
+            if plausible(&p) {
+                solver.record(sol.iterations, sol.converged);
+            }
+            (p, sol.cost)
         }
     };
+    flip_omega(problem.st, &mut p);
+    (p.iter().all(|v| v.is_finite()) && cost.is_finite()).then_some(p)
+}
+
+/// `p` (of structure `st`) with ω made positive: ω → −ω (and ω̇, each signal's b) is the same
+/// curve.
+fn flip_omega(st: Structure, p: &mut [f64]) {
     if p[1] < 0.0 {
-        // ω → −ω (and ω̇, b) is the same curve.
-        let st = problem.st;
         p[1] = -p[1];
         if st.drift {
             p[3] = -p[3];
@@ -1325,7 +1338,6 @@ fn solve_within(
             p[l + 1] = -p[l + 1];
         }
     }
-    (p.iter().all(|v| v.is_finite()) && cost.is_finite()).then_some(p)
 }
 
 /// The gain below which a cost of a few thousand squares is rounding (their sum's relative
@@ -1348,14 +1360,19 @@ struct Projected {
 
 /// Variable projection from `p0`'s nonlinear parameters (σ, ω, the drift's, the real modes'
 /// rates; Golub and Pereyra 1973): the amplitudes, offsets and trends are solved exactly for
-/// every trial ([`Problem::project`]), and the nonlinear step is Kaufman's, the Gauss–Newton
-/// step of the full problem's normal equations reduced to the nonlinear block by its Schur
-/// complement `S = H_nn − H_nl H_ll⁻¹ H_ln` (at projected amplitudes the full step's nonlinear
-/// part), damped by Levenberg–Marquardt and held to the problem's bounds (a rate at its bound
-/// whose step points out stays there). Converged when that undamped step moves no nonlinear
-/// parameter by more than `fit::CONVERGED_STEP_SE` of its error `√(s² S⁻¹ᵢᵢ)`; it also stops
-/// where no step lowers the cost (a minimum at rounding), which counts as converged when the
-/// step left is below the same test. `None` where the amplitudes cannot be solved at `p0`.
+/// every trial ([`Problem::project`]), so the cost is a function of the nonlinear parameters
+/// alone. Its gradient is the full problem's, reduced to the nonlinear block by the Schur
+/// complement of the normal equations ([`reduced_system`]; at projected amplitudes their own
+/// gradient is zero), and so is the Gauss–Newton matrix `S` (Kaufman's). The step is Newton's
+/// on that gradient, its Hessian by forward differences of it (a few nonlinear parameters:
+/// one projection and accumulation each), damped by Levenberg–Marquardt on `S`'s diagonal and
+/// held to the problem's bounds (a rate at its bound whose step points out stays there);
+/// Gauss–Newton's `S` where that Hessian is not positive definite. Gauss–Newton alone crawled
+/// for hundreds of iterations along a weakly determined castor rate, where its quadratic
+/// model is poor. Converged when the step left moves no nonlinear parameter by more than
+/// `fit::CONVERGED_STEP_SE` of its error `√(s² S⁻¹ᵢᵢ)`, or by [`ROUNDING_STEP`] of its size;
+/// where no step lowers the cost, converged if the step left promises no gain beyond the
+/// cost's rounding. `None` where the amplitudes cannot be solved at `p0`.
 fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> Option<Projected> {
     use crate::fit::CONVERGED_STEP_SE;
     let k = problem.st.nonlinear();
@@ -1368,27 +1385,30 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
     }
     let mut p = problem.project(&alpha)?;
     let mut cost = problem.cost(&p);
-    let (mut h, mut g) = (DMatrix::zeros(np, np), DVector::zeros(np));
-    let mut unused_jac = DMatrix::zeros(0, 0);
-    let mut r = DVector::zeros(rows);
     let s2 = |cost: f64| cost / rows.saturating_sub(np).max(1) as f64;
     let mut lambda = 1e-3;
     let mut iterations = 0;
     let mut converged = false;
     for it in 0..=max_iterations {
-        problem.accepted_normal_equations(&p, &mut unused_jac, &mut r, &mut h, &mut g);
-        let (sys, grad) = reduced_system(problem, &alpha, &h, &g)?;
-        let Some(ch) = sys.clone().cholesky() else {
+        let (sys, raw_grad) = reduced_system(problem, &p, k)?;
+        let (sys, grad) = hold_bounds(problem, &alpha, sys, raw_grad.clone());
+        let Some(gn) = sys.clone().cholesky() else {
             break;
         };
-        // The step left, in the nonlinear parameters' own errors.
-        let step = ch.solve(&(-&grad));
-        let inv = ch.inverse();
+        let inv = gn.inverse();
+        let se: Vec<f64> = (0..k)
+            .map(|i| (s2(cost) * inv[(i, i)]).max(1e-300).sqrt())
+            .collect();
+        let hessian = newton_hessian(problem, &alpha, &raw_grad, &se)
+            .map(|h| hold_bounds(problem, &alpha, h, raw_grad.clone()).0)
+            .unwrap_or_else(|| sys.clone());
+        // The step left (Newton's, or Gauss–Newton's where the Hessian is not positive
+        // definite), in the nonlinear parameters' own errors.
+        let step = hessian.clone().cholesky().unwrap_or(gn).solve(&(-&grad));
         let worst = (0..k)
             .map(|i| {
                 let (lo, hi) = problem.bounds(i);
-                let moved = (alpha[i] + step[i]).clamp(lo, hi) - alpha[i];
-                moved.abs() / (s2(cost) * inv[(i, i)]).max(1e-300).sqrt()
+                ((alpha[i] + step[i]).clamp(lo, hi) - alpha[i]).abs() / se[i]
             })
             .fold(0.0, f64::max);
         // Or the step left is rounding of the parameters themselves (a curve fitted exactly,
@@ -1406,7 +1426,7 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
         iterations = it + 1;
         let mut improved = false;
         while lambda < 1e16 {
-            let mut a = sys.clone();
+            let mut a = hessian.clone();
             for d in 0..k {
                 a[(d, d)] += lambda * sys[(d, d)].max(1e-300);
             }
@@ -1437,8 +1457,8 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
         }
         if !improved {
             // No step lowers the cost: a minimum to rounding where the undamped step's
-            // predicted gain `gᵀS⁻¹g` is within the cost's rounding (on a curve fitted
-            // exactly, whose errors are themselves rounding, the test above cannot hold).
+            // predicted gain is within the cost's rounding (on a curve fitted exactly, whose
+            // errors are themselves rounding, the test above cannot hold).
             converged = grad.dot(&(-&step)) <= ROUNDING_GAIN * cost;
             break;
         }
@@ -1451,25 +1471,71 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
     })
 }
 
-/// The nonlinear block of the normal equations `h`, `g` (its first `alpha.len()` parameters)
-/// with the linear ones eliminated (Schur complement), and a parameter at its bound whose
-/// descent points out of it held there (its row and column the identity's, its gradient 0).
+/// The Hessian of half the projected cost at `alpha` (whose reduced gradient is `grad`), by
+/// forward differences of the reduced gradient, each step a ten-thousandth of the
+/// parameter's error `se` (backward where a bound is in the way); symmetrized. `None` where a
+/// projection fails.
+fn newton_hessian(
+    problem: &Problem<'_>,
+    alpha: &[f64],
+    grad: &DVector<f64>,
+    se: &[f64],
+) -> Option<DMatrix<f64>> {
+    let k = alpha.len();
+    let mut hess = DMatrix::zeros(k, k);
+    for j in 0..k {
+        let (lo, hi) = problem.bounds(j);
+        let mut h = 1e-4 * se[j];
+        if alpha[j] + h > hi {
+            h = -h;
+        }
+        if alpha[j] + h < lo {
+            return None;
+        }
+        let mut moved = alpha.to_vec();
+        moved[j] += h;
+        let p = problem.project(&moved)?;
+        let (_, g) = reduced_system(problem, &p, k)?;
+        for i in 0..k {
+            hess[(i, j)] = (g[i] - grad[i]) / h;
+        }
+    }
+    let sym = (&hess + hess.transpose()) * 0.5;
+    sym.iter().all(|v| v.is_finite()).then_some(sym)
+}
+
+/// The projected problem at `p` (amplitudes solved for its first `k`, nonlinear, parameters):
+/// the Gauss–Newton matrix and the gradient of half the cost in the nonlinear parameters,
+/// `S = H_nn − H_nl H_ll⁻¹ H_ln` and `g_n − H_nl H_ll⁻¹ g_l` from the full normal equations.
 /// `None` when the linear block is singular.
 fn reduced_system(
     problem: &Problem<'_>,
-    alpha: &[f64],
-    h: &DMatrix<f64>,
-    g: &DVector<f64>,
+    p: &[f64],
+    k: usize,
 ) -> Option<(DMatrix<f64>, DVector<f64>)> {
-    let k = alpha.len();
-    let m = h.nrows() - k;
+    let np = p.len();
+    let (mut h, mut g) = (DMatrix::zeros(np, np), DVector::zeros(np));
+    let mut unused_jac = DMatrix::zeros(0, 0);
+    let mut r = DVector::zeros(2 * problem.n());
+    problem.accepted_normal_equations(p, &mut unused_jac, &mut r, &mut h, &mut g);
+    let m = np - k;
     let h_nn = h.view((0, 0), (k, k));
     let h_nl = h.view((0, k), (k, m));
     let h_ll = h.view((k, k), (m, m)).clone_owned();
-    let ch = h_ll.cholesky()?;
-    let x = ch.solve(&h_nl.transpose());
-    let mut sys = h_nn - h_nl * &x;
-    let mut grad = g.rows(0, k) - x.transpose() * g.rows(k, m);
+    let x = h_ll.cholesky()?.solve(&h_nl.transpose());
+    let sys = h_nn - h_nl * &x;
+    let grad = g.rows(0, k) - x.transpose() * g.rows(k, m);
+    Some((sys, grad))
+}
+
+/// `sys`, `grad` with every parameter at its bound whose descent points out of it held there
+/// (its row and column the identity's, its gradient 0).
+fn hold_bounds(
+    problem: &Problem<'_>,
+    alpha: &[f64],
+    mut sys: DMatrix<f64>,
+    mut grad: DVector<f64>,
+) -> (DMatrix<f64>, DVector<f64>) {
     for (i, &v) in alpha.iter().enumerate() {
         let (lo, hi) = problem.bounds(i);
         if (v <= lo && grad[i] > 0.0) || (v >= hi && grad[i] < 0.0) {
@@ -1479,7 +1545,7 @@ fn reduced_system(
             grad[i] = 0.0;
         }
     }
-    Some((sys, grad))
+    (sys, grad)
 }
 
 /// An oscillation that is one: 0.5 ≤ ω ≤ 40 rad/s, |σ| ≤ ω (less than critically damped-ish).
