@@ -759,7 +759,7 @@ fn clamp(problem: &dyn LeastSquares, p: &mut [f64]) {
 /// and column of `h` the identity's, its gradient 0): a parameter at a bound that the descent
 /// direction −g would push beyond it stays there, and the step is the other parameters'
 /// (a projected Gauss–Newton step).
-fn free_system(
+pub(crate) fn free_system(
     problem: &dyn LeastSquares,
     p: &[f64],
     h: &DMatrix<f64>,
@@ -776,6 +776,22 @@ fn free_system(
         }
     }
     (h, g)
+}
+
+/// The damped step `δ = −(H + λ diag(D))⁻¹ g` (Marquardt's scaling by the diagonal of `d`, each
+/// entry at least 1e-300); `None` where that matrix is not positive definite (a larger λ is
+/// the caller's next try).
+pub(crate) fn marquardt_step(
+    h: &DMatrix<f64>,
+    d: &DMatrix<f64>,
+    g: &DVector<f64>,
+    lambda: f64,
+) -> Option<DVector<f64>> {
+    let mut a = h.clone();
+    for k in 0..h.nrows() {
+        a[(k, k)] += lambda * d[(k, k)].max(1e-300);
+    }
+    Some(a.cholesky()?.solve(&(-g)))
 }
 
 /// Levenberg–Marquardt on all parameters from `p0` (`n` residuals), with Marquardt's diagonal
@@ -824,15 +840,10 @@ pub(crate) fn levenberg_marquardt(
         // The parameters held at their bounds out of the step (none without bounds).
         let (h_free, g_free) = free_system(problem, &p, &h, &g);
         while lambda < 1e16 {
-            let mut a = h_free.clone();
-            for k in 0..np {
-                a[(k, k)] += lambda * h_free[(k, k)].max(1e-300);
-            }
-            let Some(ch) = a.cholesky() else {
+            let Some(delta) = marquardt_step(&h_free, &h_free, &g_free, lambda) else {
                 lambda *= 10.0;
                 continue;
             };
-            let delta = ch.solve(&(-&g_free));
             // The reduction the quadratic model predicts: −(2 δᵀg + δᵀHδ).
             let predicted = -(2.0 * delta.dot(&g_free) + delta.dot(&(&h_free * &delta)));
             if predicted <= 1e-15 * cost {

@@ -25,7 +25,7 @@
 //! and are checked by a moving-block bootstrap of the residuals (one Gauss–Newton step per
 //! resample).
 
-use crate::fit::{levenberg_marquardt, Estimate, LeastSquares};
+use crate::fit::{free_system, levenberg_marquardt, Estimate, LeastSquares};
 use nalgebra::{Complex, DMatrix, DVector};
 use std::ops::ControlFlow;
 
@@ -1391,7 +1391,8 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
     let mut converged = false;
     for it in 0..=max_iterations {
         let (sys, raw_grad) = reduced_system(problem, &p, k)?;
-        let (sys, grad) = hold_bounds(problem, &alpha, sys, raw_grad.clone());
+        // The parameters held at their bounds out of the step (`fit::free_system`).
+        let (sys, grad) = free_system(problem, &alpha, &sys, &raw_grad);
         let Some(gn) = sys.clone().cholesky() else {
             break;
         };
@@ -1400,7 +1401,7 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
             .map(|i| (s2(cost) * inv[(i, i)]).max(1e-300).sqrt())
             .collect();
         let hessian = newton_hessian(problem, &alpha, &raw_grad, &se)
-            .map(|h| hold_bounds(problem, &alpha, h, raw_grad.clone()).0)
+            .map(|h| free_system(problem, &alpha, &h, &raw_grad).0)
             .unwrap_or_else(|| sys.clone());
         // The step left (Newton's, or Gauss–Newton's where the Hessian is not positive
         // definite), in the nonlinear parameters' own errors.
@@ -1426,15 +1427,10 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
         iterations = it + 1;
         let mut improved = false;
         while lambda < 1e16 {
-            let mut a = hessian.clone();
-            for d in 0..k {
-                a[(d, d)] += lambda * sys[(d, d)].max(1e-300);
-            }
-            let Some(cha) = a.cholesky() else {
+            let Some(delta) = crate::fit::marquardt_step(&hessian, &sys, &grad, lambda) else {
                 lambda *= 10.0;
                 continue;
             };
-            let delta = cha.solve(&(-&grad));
             let trial: Vec<f64> = (0..k)
                 .map(|i| {
                     let (lo, hi) = problem.bounds(i);
@@ -1526,26 +1522,6 @@ fn reduced_system(
     let sys = h_nn - h_nl * &x;
     let grad = g.rows(0, k) - x.transpose() * g.rows(k, m);
     Some((sys, grad))
-}
-
-/// `sys`, `grad` with every parameter at its bound whose descent points out of it held there
-/// (its row and column the identity's, its gradient 0).
-fn hold_bounds(
-    problem: &Problem<'_>,
-    alpha: &[f64],
-    mut sys: DMatrix<f64>,
-    mut grad: DVector<f64>,
-) -> (DMatrix<f64>, DVector<f64>) {
-    for (i, &v) in alpha.iter().enumerate() {
-        let (lo, hi) = problem.bounds(i);
-        if (v <= lo && grad[i] > 0.0) || (v >= hi && grad[i] < 0.0) {
-            sys.row_mut(i).fill(0.0);
-            sys.column_mut(i).fill(0.0);
-            sys[(i, i)] = 1.0;
-            grad[i] = 0.0;
-        }
-    }
-    (sys, grad)
 }
 
 /// An oscillation that is one: 0.5 ≤ ω ≤ 40 rad/s, |σ| ≤ ω (less than critically damped-ish).
@@ -1850,6 +1826,13 @@ mod tests {
         (t, roll, steer)
     }
 
+    /// Asserts that `fit`'s weave lies within three of its errors of `σ + iω`.
+    fn assert_weave_within_3_se(fit: &ModalFit, sigma: f64, omega: f64) {
+        let w = &fit.weave;
+        assert!((w.re - sigma).abs() < 3.0 * w.re_se, "{w:?}");
+        assert!((w.im - omega).abs() < 3.0 * w.im_se, "{w:?}");
+    }
+
     /// The projected estimator with τ² and τ³ beside the trend, without resampling.
     fn projected(iterations: usize) -> ModalOptions {
         ModalOptions {
@@ -1909,16 +1892,7 @@ mod tests {
                 "{:?}",
                 fit.solver
             );
-            assert!(
-                (fit.weave.re + 0.7).abs() < 3.0 * fit.weave.re_se,
-                "{:?}",
-                fit.weave
-            );
-            assert!(
-                (fit.weave.im - 5.3).abs() < 3.0 * fit.weave.im_se,
-                "{:?}",
-                fit.weave
-            );
+            assert_weave_within_3_se(&fit, -0.7, 5.3);
             let doubled = fit_modes(&t, &roll, &steer, &projected(2 * PROJECTED_ITERATIONS))
                 .expect("a weave");
             let parts = |f: &ModalFit| {
@@ -1948,16 +1922,7 @@ mod tests {
         let fit = fit_modes(&t, &roll, &steer, &options).expect("a weave");
         assert!(fit.solver.converged, "{:?}", fit.solver);
         assert!(fit.solver.iterations < 50, "{:?}", fit.solver);
-        assert!(
-            (fit.weave.re + 0.9).abs() < 3.0 * fit.weave.re_se,
-            "{:?}",
-            fit.weave
-        );
-        assert!(
-            (fit.weave.im - 5.1).abs() < 3.0 * fit.weave.im_se,
-            "{:?}",
-            fit.weave
-        );
+        assert_weave_within_3_se(&fit, -0.9, 5.1);
         // From a start far from the truth (no search), one iteration cannot get there.
         let cut = ModalOptions {
             search_iterations: 1,
