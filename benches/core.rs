@@ -458,6 +458,18 @@ fn modal_fit_marked_decay(bencher: divan::Bencher, k: usize) {
     });
 }
 
+/// The same fits with the stated model of issue 75 (`Estimator::Projected`, τ² and τ³).
+#[divan::bench(args = [0, 1, 2], sample_count = 20)]
+fn modal_fit_marked_decay_projected(bencher: divan::Bencher, k: usize) {
+    use bikeproc::ride::modal::{fit_modes, ModalOptions};
+    let (t, roll, steer) = &marked_decays()[k];
+    let options = ModalOptions {
+        estimator: estimator("projected"),
+        ..ModalOptions::default()
+    };
+    bencher.bench(|| fit_modes(divan::black_box(t), roll, steer, &options).expect("fits"));
+}
+
 /// Issue 34: `bikeproc sensitivity` on a real bicycle: the characteristic speeds (0–10 m/s
 /// in steps of 0.01 m/s, refined), every parameter's derivatives and the variance budget
 /// (acceptance: under 10 ms).
@@ -469,14 +481,29 @@ fn sensitivity_rigid(bencher: divan::Bencher) {
     bencher.bench(|| bikeproc::model::sensitivity::sensitivity(&model, &[5.0], 10.0).unwrap());
 }
 
+/// The estimators a bench compares: today's default and the stated model of issue 75.
+fn estimator(name: &str) -> bikeproc::ride::modal::Estimator {
+    use bikeproc::ride::modal::{Estimator, MAX_CURVE_TERMS, PROJECTED_ITERATIONS};
+    match name {
+        "projected" => Estimator::Projected {
+            curve_terms: MAX_CURVE_TERMS,
+            iterations: PROJECTED_ITERATIONS,
+        },
+        _ => Estimator::Capped,
+    }
+}
+
 /// Issue 75: the ride stage's CPU per ride: the 16 rides of `data/rides.toml` (read both
 /// files, find the window, fit, resample, the model's weave) on one thread, so that the time
-/// over 16 is one ride's CPU (the issue's bound: 5 ms).
-#[divan::bench(sample_count = 10)]
-fn ride_stage_16_rides_one_thread(bencher: divan::Bencher) {
+/// over 16 is one ride's CPU (the issue's bound: 5 ms), with each estimator.
+#[divan::bench(sample_count = 10, args = ["capped", "projected"])]
+fn ride_stage_16_rides_one_thread(bencher: divan::Bencher, name: &str) {
     use bikeproc::ride::dynamic::run_campaign;
     let (manifest, model) = data_campaign();
-    let modal = bikeproc::ride::modal::ModalOptions::default();
+    let modal = bikeproc::ride::modal::ModalOptions {
+        estimator: estimator(name),
+        ..Default::default()
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
