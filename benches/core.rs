@@ -483,12 +483,9 @@ fn sensitivity_rigid(bencher: divan::Bencher) {
 
 /// The estimators a bench compares: today's default and the stated model of issue 75.
 fn estimator(name: &str) -> bikeproc::ride::modal::Estimator {
-    use bikeproc::ride::modal::{Estimator, MAX_CURVE_TERMS, PROJECTED_ITERATIONS};
+    use bikeproc::ride::modal::Estimator;
     match name {
-        "projected" => Estimator::Projected {
-            curve_terms: MAX_CURVE_TERMS,
-            iterations: PROJECTED_ITERATIONS,
-        },
+        "projected" => Estimator::PROJECTED,
         _ => Estimator::Capped,
     }
 }

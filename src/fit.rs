@@ -748,7 +748,7 @@ pub(crate) fn gauss_newton_step_in_se(
 }
 
 /// `p` held within the problem's bounds ([`LeastSquares::bounds`]).
-fn clamp(problem: &dyn LeastSquares, p: &mut [f64]) {
+pub(crate) fn clamp(problem: &dyn LeastSquares, p: &mut [f64]) {
     for (i, v) in p.iter_mut().enumerate() {
         let (lo, hi) = problem.bounds(i);
         *v = v.clamp(lo, hi);

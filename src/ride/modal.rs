@@ -25,7 +25,7 @@
 //! and are checked by a moving-block bootstrap of the residuals (one Gauss–Newton step per
 //! resample).
 
-use crate::fit::{free_system, levenberg_marquardt, Estimate, LeastSquares};
+use crate::fit::{clamp, free_system, levenberg_marquardt, marquardt_step, Estimate, LeastSquares};
 use nalgebra::{Complex, DMatrix, DVector};
 use std::ops::ControlFlow;
 
@@ -880,9 +880,10 @@ pub enum Estimator {
     /// 1973; Newton's step on the reduced cost, `solve_projected`) converges, and every solve
     /// is run to its convergence test (the step left below `fit::CONVERGED_STEP_SE` of each
     /// error). Which of castor or none, and how many curve terms, the information criterion
-    /// chooses among the structures whose weave carries the motion ([`MIN_WEAVE_SHARE`]). `iterations` bounds every solve ([`PROJECTED_ITERATIONS`] by
-    /// default): a guard for a pathological window, not a regulariser. Not yet the ride
-    /// stage's: the measurements are in
+    /// chooses among the structures whose weave carries the motion ([`MIN_WEAVE_SHARE`]).
+    /// `iterations` bounds every solve ([`PROJECTED_ITERATIONS`] by default): a guard for a
+    /// pathological window, not a regulariser. Not yet the ride stage's: the measurements are
+    /// in
     /// [docs/decisions/2026-12-02-ride-estimator.md](../../docs/decisions/2026-12-02-ride-estimator.md).
     Projected {
         curve_terms: usize,
@@ -892,12 +893,12 @@ pub enum Estimator {
 
 /// The least share of the fitted motion the weave must carry in θ or in γ (the variance of
 /// its part over that of the whole fitted curve) for a structure of [`Estimator::Projected`]
-/// to be a candidate. Over a window of about half a weave cycle (a slow ride whose roll leaves the linear range
-/// soon after the kick) the polynomial and the castor can take the motion and leave a fast,
-/// faint oscillation as the "weave": of the 299 fits of tests/speed.rs's simulated rides, the
-/// six below a tenth (0.03–9 % of the motion) read ω at 1.3–3 times the truth, one of them 4.4
-/// of its errors off, the others within errors of 0.5–5 rad/s; the rest carried 20 % or more.
-/// The measurements:
+/// to be a candidate. Over a window of about half a weave cycle (a slow ride whose roll leaves
+/// the linear range soon after the kick) the polynomial and the castor can take the motion and
+/// leave a fast, faint oscillation as the "weave": of the 299 fits of tests/speed.rs's
+/// simulated rides, the six below a tenth (0.03–9 % of the motion) read ω at 1.3–3 times the
+/// truth, one of them 4.4 of its errors off, the others within errors of 0.5–5 rad/s; the rest
+/// carried 20 % or more. The measurements:
 /// [docs/decisions/2026-12-02-ride-estimator.md](../../docs/decisions/2026-12-02-ride-estimator.md#2026-12-04-ninth-session-the-stated-model-on-main-beside-todays).
 pub const MIN_WEAVE_SHARE: f64 = 0.1;
 
@@ -912,6 +913,14 @@ fn identifiable(problem: &Problem<'_>, p: &[f64]) -> bool {
             share[0].max(share[1]) >= MIN_WEAVE_SHARE
         }
     }
+}
+
+impl Estimator {
+    /// [`Estimator::Projected`] with τ² and τ³ allowed and its default iteration bound.
+    pub const PROJECTED: Estimator = Estimator::Projected {
+        curve_terms: MAX_CURVE_TERMS,
+        iterations: PROJECTED_ITERATIONS,
+    };
 }
 
 /// The castor's rate (1/s) as [`Estimator::Projected`] holds it: slower than 1/s it is a slow
@@ -933,9 +942,9 @@ pub struct Start {
     pub real_rates: [f64; MAX_REAL_MODES],
 }
 
-/// A replay fitted as the ride was (by `estimator`): the structure `st` only, from `start`, without resampling;
-/// where the replayed motion makes that fit fail (a model's weave alone excites no real mode),
-/// the same without real modes. `None` when both fail.
+/// A replay fitted as the ride was (by `estimator`): the structure `st` only, from `start`,
+/// without resampling; where the replayed motion makes that fit fail (a model's weave alone
+/// excites no real mode), the same without real modes. `None` when both fail.
 pub fn refit_as(
     t_s: &[f64],
     roll_rad: &[f64],
@@ -1013,12 +1022,7 @@ pub fn fit_modes(
         t_ref: t0,
         t0,
         estimator: options.estimator,
-        st: Structure {
-            real_modes: 0,
-            drift: false,
-            trend: true,
-            curve_terms: 0,
-        },
+        st: Structure::WEAVE_AND_TRENDS,
     };
     let mut solver = Solver::default();
     // Starting point: ω from the periodogram, σ by a search (variable projection); or the
@@ -1310,25 +1314,19 @@ fn solve_within(
         }
         Estimator::Projected { iterations, .. } => {
             let sol = solve_projected(problem, &p0, iterations)?;
-            let mut p = sol.params;
-            flip_omega(problem.st, &mut p);
             // A search that lands on no oscillation (ω → 0, where the weave's columns become
             // the offset's and the trend's and the cost has no minimum to converge to) is
-            // discarded by its caller and is no solve of the fit.
-            if plausible(&p) {
+            // discarded by its caller and is no solve of the fit (ω's sign is no matter).
+            let omega = sol.params[1].abs();
+            if plausible(&[sol.params[0], omega]) {
                 solver.record(sol.iterations, sol.converged);
             }
-            (p, sol.cost)
+            (sol.params, sol.cost)
         }
     };
-    flip_omega(problem.st, &mut p);
-    (p.iter().all(|v| v.is_finite()) && cost.is_finite()).then_some(p)
-}
-
-/// `p` (of structure `st`) with ω made positive: ω → −ω (and ω̇, each signal's b) is the same
-/// curve.
-fn flip_omega(st: Structure, p: &mut [f64]) {
     if p[1] < 0.0 {
+        // ω → −ω (and ω̇, b) is the same curve.
+        let st = problem.st;
         p[1] = -p[1];
         if st.drift {
             p[3] = -p[3];
@@ -1338,6 +1336,7 @@ fn flip_omega(st: Structure, p: &mut [f64]) {
             p[l + 1] = -p[l + 1];
         }
     }
+    (p.iter().all(|v| v.is_finite()) && cost.is_finite()).then_some(p)
 }
 
 /// The gain below which a cost of a few thousand squares is rounding (their sum's relative
@@ -1379,10 +1378,7 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
     let np = problem.st.params();
     let rows = 2 * problem.n();
     let mut alpha: Vec<f64> = p0[..k].to_vec();
-    for (i, a) in alpha.iter_mut().enumerate() {
-        let (lo, hi) = problem.bounds(i);
-        *a = a.clamp(lo, hi);
-    }
+    clamp(problem, &mut alpha);
     let mut p = problem.project(&alpha)?;
     let mut cost = problem.cost(&p);
     let s2 = |cost: f64| cost / rows.saturating_sub(np).max(1) as f64;
@@ -1427,16 +1423,12 @@ fn solve_projected(problem: &Problem<'_>, p0: &[f64], max_iterations: usize) -> 
         iterations = it + 1;
         let mut improved = false;
         while lambda < 1e16 {
-            let Some(delta) = crate::fit::marquardt_step(&hessian, &sys, &grad, lambda) else {
+            let Some(delta) = marquardt_step(&hessian, &sys, &grad, lambda) else {
                 lambda *= 10.0;
                 continue;
             };
-            let trial: Vec<f64> = (0..k)
-                .map(|i| {
-                    let (lo, hi) = problem.bounds(i);
-                    (alpha[i] + delta[i]).clamp(lo, hi)
-                })
-                .collect();
+            let mut trial: Vec<f64> = alpha.iter().zip(delta.iter()).map(|(a, d)| a + d).collect();
+            clamp(problem, &mut trial);
             let trial_p = problem.project(&trial);
             let trial_cost = trial_p
                 .as_ref()
@@ -1838,7 +1830,7 @@ mod tests {
         ModalOptions {
             resamples: 0,
             estimator: Estimator::Projected {
-                curve_terms: 2,
+                curve_terms: MAX_CURVE_TERMS,
                 iterations,
             },
             ..ModalOptions::default()
