@@ -4,16 +4,15 @@
 //! uncontrolled decays of `../shared/reference/rides`, and doubling its iteration limit moves
 //! no ride's eigenvalue or mode shape by more than 0.05 of its standard error.
 
+mod common;
+
 use bikeproc::read::rides::RideManifest;
 use bikeproc::ride::dynamic::{run_campaign, Analysed};
 use bikeproc::ride::modal::{
     fit_modes, Estimator, ModalFit, ModalOptions, MAX_CURVE_TERMS, PROJECTED_ITERATIONS,
 };
-use std::path::{Path, PathBuf};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+use common::root;
+use std::path::Path;
 
 /// The projected estimator with τ² and τ³ beside the trend, `iterations` per solve.
 fn projected(iterations: usize) -> ModalOptions {
