@@ -451,20 +451,21 @@ fn marked_decays() -> &'static Vec<Window> {
 /// fast a long recording with angles is analysed (3,348 such fits in the 10-million-row one).
 #[divan::bench(args = [0, 1, 2], sample_count = 20)]
 fn modal_fit_marked_decay(bencher: divan::Bencher, k: usize) {
-    use bikeproc::ride::modal::{fit_modes, ModalOptions};
-    let (t, roll, steer) = &marked_decays()[k];
-    bencher.bench(|| {
-        fit_modes(divan::black_box(t), roll, steer, &ModalOptions::default()).expect("fits")
-    });
+    bench_marked_decay(bencher, k, "capped");
 }
 
 /// The same fits with the stated model of issue 75 (`Estimator::Projected`, τ² and τ³).
 #[divan::bench(args = [0, 1, 2], sample_count = 20)]
 fn modal_fit_marked_decay_projected(bencher: divan::Bencher, k: usize) {
+    bench_marked_decay(bencher, k, "projected");
+}
+
+/// The modal fit of marked decay `k` with the estimator `name` ([`estimator`]).
+fn bench_marked_decay(bencher: divan::Bencher, k: usize, name: &str) {
     use bikeproc::ride::modal::{fit_modes, ModalOptions};
     let (t, roll, steer) = &marked_decays()[k];
     let options = ModalOptions {
-        estimator: estimator("projected"),
+        estimator: estimator(name),
         ..ModalOptions::default()
     };
     bencher.bench(|| fit_modes(divan::black_box(t), roll, steer, &options).expect("fits"));
@@ -485,8 +486,9 @@ fn sensitivity_rigid(bencher: divan::Bencher) {
 fn estimator(name: &str) -> bikeproc::ride::modal::Estimator {
     use bikeproc::ride::modal::Estimator;
     match name {
+        "capped" => Estimator::Capped,
         "projected" => Estimator::PROJECTED,
-        _ => Estimator::Capped,
+        other => panic!("no estimator named {other}"),
     }
 }
 
