@@ -168,14 +168,20 @@ impl Layout {
     }
 
     /// `params` with the elements of condition `c` (fitted on the others, which do not
-    /// constrain them) replaced by what the others say of the same parameter: the mean of their
-    /// copies, or "no effect" when no other condition has one. The prediction of a condition
-    /// left out.
-    pub fn predicting(&self, params: &[f64], c: usize) -> Vec<f64> {
+    /// constrain them) replaced by what the others say of the same parameter, or "no effect"
+    /// when no other condition has one. The prediction of a condition left out.
+    ///
+    /// What the others say: their copies' common value, each weighted by its inverse variance
+    /// (`se`, the elements' standard errors; the maximum-likelihood common value of copies
+    /// with independent errors), or their plain mean where some copy has no finite positive
+    /// error or `se` is `None`: a copy its condition hardly determines would otherwise move
+    /// every other condition's prediction as much as a well-measured one
+    /// ([docs/decisions/ranking-rules.md](../../docs/decisions/ranking-rules.md#a-condition-left-out-its-equipment-as-the-others-copies-weigh)).
+    pub fn predicting(&self, params: &[f64], c: usize, se: Option<&[f64]>) -> Vec<f64> {
         let mut out = params.to_vec();
         for k in self.own(c) {
             out[k] = self
-                .mean_of_copies(params, self.compact[k], Some(c))
+                .mean_of_copies(params, se, self.compact[k], Some(c))
                 .unwrap_or(self.specs[k].none);
         }
         out
@@ -187,27 +193,56 @@ impl Layout {
     pub fn new_condition(&self, params: &[f64], compact_len: usize) -> Vec<f64> {
         (0..compact_len)
             .map(|k| {
-                self.mean_of_copies(params, k, None).unwrap_or_else(|| {
-                    // No fitted copy: every condition holds it at "no effect".
-                    match self.slots.first().and_then(|s| s.get(k)) {
-                        Some(Slot::Fixed(v)) => *v,
-                        _ => f64::NAN,
-                    }
-                })
+                self.mean_of_copies(params, None, k, None)
+                    .unwrap_or_else(|| {
+                        // No fitted copy: every condition holds it at "no effect".
+                        match self.slots.first().and_then(|s| s.get(k)) {
+                            Some(Slot::Fixed(v)) => *v,
+                            _ => f64::NAN,
+                        }
+                    })
             })
             .collect()
     }
 
     /// The mean of the fitted copies of the effects' parameter `compact` outside condition
-    /// `except`; `None` when there is none.
-    fn mean_of_copies(&self, params: &[f64], compact: usize, except: Option<usize>) -> Option<f64> {
-        let copies: Vec<f64> = (0..self.len())
+    /// `except`, weighted by their inverse variances where `se` gives every one of them a
+    /// finite positive error ([`Layout::predicting`]); `None` when there is none.
+    fn mean_of_copies(
+        &self,
+        params: &[f64],
+        se: Option<&[f64]>,
+        compact: usize,
+        except: Option<usize>,
+    ) -> Option<f64> {
+        let copies: Vec<usize> = (0..self.len())
             .filter(|&j| {
                 self.compact[j] == compact && (except.is_none() || self.condition[j] != except)
             })
-            .map(|j| params[j])
             .collect();
-        (!copies.is_empty()).then(|| copies.iter().sum::<f64>() / copies.len() as f64)
+        if copies.is_empty() {
+            return None;
+        }
+        let weights: Option<Vec<f64>> = se.and_then(|se| {
+            copies
+                .iter()
+                .map(|&j| {
+                    se.get(j)
+                        .filter(|s| s.is_finite() && **s > 0.0)
+                        .map(|s| s.powi(-2))
+                })
+                .collect()
+        });
+        let weights = weights.unwrap_or_else(|| vec![1.0; copies.len()]);
+        let total: f64 = weights.iter().sum();
+        Some(
+            copies
+                .iter()
+                .zip(&weights)
+                .map(|(&j, w)| w * params[j])
+                .sum::<f64>()
+                / total,
+        )
     }
 
     /// The fitted elements that condition `c`'s rides do not see (its own copies of the
@@ -260,6 +295,32 @@ mod tests {
         }
     }
 
+    /// A condition left out takes its equipment's parameter from the others' copies weighted
+    /// by their inverse variances: copies 0.5 ± 0.1 and 0.9 ± 0.3 say
+    /// (0.5/0.01 + 0.9/0.09) / (1/0.01 + 1/0.09) = 0.54; without errors, their mean 0.7.
+    #[test]
+    fn a_condition_left_out_takes_the_others_copies_by_their_errors() {
+        let conds = [
+            condition("u", false, true),
+            condition("g1", true, true),
+            condition("g2", true, true),
+            condition("g3", true, true),
+        ];
+        let l = Layout::new(&[Effect::ActuatorGain], &conds);
+        assert_eq!(l.condition, vec![Some(1), Some(2), Some(3)]);
+        let p = [0.5, 0.9, 0.8];
+        let weighted = l.predicting(&p, 3, Some(&[0.1, 0.3, 0.2]));
+        assert!(
+            (weighted[2] - 60.0 / (100.0 + 1.0 / 0.09)).abs() < 1e-12,
+            "{weighted:?}"
+        );
+        assert_eq!(&weighted[..2], &p[..2]);
+        assert!((l.predicting(&p, 3, None)[2] - 0.7).abs() < 1e-12);
+        // A copy without a finite error: the plain mean.
+        let unweighted = l.predicting(&p, 3, Some(&[0.1, f64::NAN, 0.2]));
+        assert!((unweighted[2] - 0.7).abs() < 1e-12);
+    }
+
     /// Uncontrolled, then two gains: the actuator's gain is fitted twice (once per controller)
     /// and fixed at 1 without one; the trail once for all; predicting the second gain from the
     /// others takes the first gain's value.
@@ -277,8 +338,8 @@ mod tests {
         assert_eq!(l.condition_params(&p, 0), vec![1.1, 1.0]);
         assert_eq!(l.condition_params(&p, 1), vec![1.1, 0.6]);
         assert_eq!(l.condition_params(&p, 2), vec![1.1, 0.8]);
-        assert_eq!(l.predicting(&p, 2), vec![1.1, 0.6, 0.6]);
-        assert_eq!(l.predicting(&p, 0), p.to_vec());
+        assert_eq!(l.predicting(&p, 2, None), vec![1.1, 0.6, 0.6]);
+        assert_eq!(l.predicting(&p, 0, None), p.to_vec());
         assert_eq!(l.expand(&[1.2, 0.7]), vec![1.2, 0.7, 0.7]);
         // A pair's fit with the third effect inserted: the trail and the damper kept in order,
         // the actuator's gain at its compact value in each controlled condition.

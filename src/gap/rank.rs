@@ -189,7 +189,8 @@ fn whitened(campaign: &Campaign<'_>, effects: &[Effect], params: &[f64], i: usiz
 /// the candidate fitted to the other conditions (Newton from the fit to all, then
 /// Nelder–Mead: leaving a condition out moves the minimum further than leaving a ride out),
 /// the condition's own equipment at what the others say of it ([`Layout::predicting`]), and
-/// whitened together ([`Campaign::rides_whitened`]). Ride by ride, an effect that merely
+/// whitened together ([`Campaign::rides_whitened`]); `full_se`, the fit to all's errors, weigh
+/// the copies the others say it with. Ride by ride, an effect that merely
 /// follows the measured parameters' error (which moves every ride of a condition alike) was
 /// credited once per ride: blind studies put first a single whose fit to every ride was tens
 /// of χ² worse than the truth's (docs/decisions/2026-12-04-study-joint-whitening.md).
@@ -197,6 +198,7 @@ fn heldout_conditions(
     campaign: &Campaign<'_>,
     effects: &[Effect],
     full_fit: &[f64],
+    full_se: &[f64],
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     use rayon::prelude::*;
     let n = campaign.obs.len();
@@ -224,7 +226,7 @@ fn heldout_conditions(
         .map(refit)
         .collect();
     for (c, params) in refits.iter().enumerate() {
-        let predicting = layout.predicting(params, c);
+        let predicting = layout.predicting(params, c, Some(full_se));
         let rides = campaign.rides_of(c);
         for (&i, w) in rides
             .iter()
@@ -488,7 +490,7 @@ pub(super) fn rank(
         // In a study the conditions are left out: the ranking rests on predicting one from
         // the others; the rides left out one at a time are reported beside it.
         let (whitened, heldout_params, rides_out_rms) = if campaign.is_study() {
-            let (w, p) = heldout_conditions(campaign, &effects, &f.params);
+            let (w, p) = heldout_conditions(campaign, &effects, &f.params, &se);
             let held: f64 = w.iter().map(|w| whitened_chi2(w)).sum();
             let admissible = gain_over.is_none_or(|a| a - held > PAIR_GAIN_CHI2);
             let rides_out_rms = admissible.then(|| {
