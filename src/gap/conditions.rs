@@ -223,26 +223,18 @@ impl Layout {
         if copies.is_empty() {
             return None;
         }
-        let weights: Option<Vec<f64>> = se.and_then(|se| {
+        let errors: Option<Vec<f64>> = se.and_then(|se| {
             copies
                 .iter()
-                .map(|&j| {
-                    se.get(j)
-                        .filter(|s| s.is_finite() && **s > 0.0)
-                        .map(|s| s.powi(-2))
-                })
+                .map(|&j| se.get(j).copied().filter(|s| s.is_finite() && *s > 0.0))
                 .collect()
         });
-        let weights = weights.unwrap_or_else(|| vec![1.0; copies.len()]);
-        let total: f64 = weights.iter().sum();
-        Some(
-            copies
-                .iter()
-                .zip(&weights)
-                .map(|(&j, w)| w * params[j])
-                .sum::<f64>()
-                / total,
-        )
+        Some(match errors {
+            Some(errors) => {
+                super::observe::weighted_mean(copies.iter().map(|&j| params[j]).zip(errors)).value
+            }
+            None => copies.iter().map(|&j| params[j]).sum::<f64>() / copies.len() as f64,
+        })
     }
 
     /// The fitted elements that condition `c`'s rides do not see (its own copies of the
