@@ -55,7 +55,8 @@ fn diagnose(s: &Study) -> Diagnosis {
 }
 
 /// The diagnosis's first candidate is the steer motor's pair — three gains (one per powered
-/// condition), then the inertia — each value within 2 of its standard errors of the truth.
+/// condition with rides), then the inertia — each value within 2 of its standard errors of
+/// the truth.
 fn names_the_motor<'d>(seed: u64, d: &'d Diagnosis, truth: &StudyTruth) -> &'d Ranked {
     let best = &d.ranking[0];
     assert_eq!(
@@ -63,10 +64,14 @@ fn names_the_motor<'d>(seed: u64, d: &'d Diagnosis, truth: &StudyTruth) -> &'d R
         "seed {seed}: truth {truth:?}\n{}",
         d.verdict
     );
-    assert_eq!(best.params.len(), 4, "{:?}", best.params);
-    let truths = [truth.delivered; 3]
-        .into_iter()
-        .chain([truth.reflected_inertia_kgm2]);
+    let powered = d
+        .conditions
+        .iter()
+        .filter(|c| c.controlled && c.rides_used > 0)
+        .count();
+    assert_eq!(best.params.len(), powered + 1, "{:?}", best.params);
+    let truths =
+        std::iter::repeat_n(truth.delivered, powered).chain([truth.reflected_inertia_kgm2]);
     for ((value, se), t) in best.params.iter().zip(&best.params_se).zip(truths) {
         let z = (value - t) / se;
         assert!(
@@ -83,7 +88,7 @@ fn names_the_motor<'d>(seed: u64, d: &'d Diagnosis, truth: &StudyTruth) -> &'d R
 /// study's JSON (`params_by_condition`, `heldout_rms_by_condition`, `conditions`).
 ///
 /// The values against their standard errors: each within 2 of them, as the blind
-/// study asks (over 50 studies, docs/study-calibration.md: 45 of 50 name the pair with every
+/// study asks (over 50 studies, docs/study-calibration.md: 47 of 50 name the pair with every
 /// value within 2). Measured on seeds 1–3 (the draws with the delivered gain a tenth or more
 /// from nominal, one coefficient of the motion's size per condition): the gains at +0.62,
 /// +0.55, +0.99; +1.34, +0.11, +0.13; +1.18, +0.42, +0.25 and the inertia at −1.24, +1.10,
@@ -197,8 +202,11 @@ fn a_motor_whose_torque_lags_is_named_at_its_size() {
 /// steer_inertia` (1.83) and `frame_ixx + speed_scale + steer_inertia` (1.49). A study holds
 /// a candidate back only where its search's edge holds the fit back (the χ²'s minimum more
 /// than 2 SE beyond it: seed 37's lies 1.4 beyond). Where no ride of a condition was usable
-/// (seed 7, G = 1), that condition's gain has no standard error and the others keep theirs
-/// (they had none: the whole curvature matrix was singular).
+/// (seed 7, G = 1: every ride falls within a cycle), the condition is left out of the
+/// likelihood and said so. Kept in, its gain entered every candidate as a parameter no ride
+/// constrained: it was printed at 0.672 with no standard error and counted in the BIC, and
+/// `steer_inertia` alone ranked first (BIC 51.5). Left out, the pair is first (BIC 40.9, held
+/// out 0.51 against 0.72) with every value within 2 SE of the truth.
 #[test]
 fn a_gain_its_rides_barely_tell_does_not_hide_the_motor() {
     for seed in [6, 37] {
@@ -207,29 +215,20 @@ fn a_gain_its_rides_barely_tell_does_not_hide_the_motor() {
         std::fs::remove_dir_all(&dir).ok();
         names_the_motor(seed, &d, &truth);
     }
-    let (dir, s, _) = study(7, None);
+    let (dir, s, truth) = study(7, None);
     let d = diagnose(&s);
     std::fs::remove_dir_all(&dir).ok();
-    assert_eq!(
-        d.conditions
-            .iter()
-            .find(|c| c.name == "gain_1")
-            .map(|c| c.rides_used),
-        Some(0)
-    );
-    let gain = d
-        .ranking
-        .iter()
-        .find(|r| r.effect == "actuator_gain")
-        .expect("actuator_gain is ranked");
-    assert!(gain.params_se[0].is_nan(), "{:?}", gain.params_se);
+    let gain_1 = d.conditions.iter().find(|c| c.name == "gain_1").unwrap();
+    assert_eq!((gain_1.rides_used, gain_1.rides_failed.len()), (0, 10));
     assert!(
-        gain.params_se[1..]
-            .iter()
-            .all(|s| s.is_finite() && *s > 0.0),
-        "{:?}",
-        gain.params_se
+        d.verdict
+            .contains("Left out: condition gain_1 (10 rides, none usable)"),
+        "{}",
+        d.verdict
     );
+    let best = names_the_motor(7, &d, &truth);
+    assert!(!best.params_by_condition.contains_key("gain_1"));
+    assert!(best.params_se.iter().all(|s| s.is_finite() && *s > 0.0));
 }
 
 /// The real balance-assist study from the command line (the acceptance command): one

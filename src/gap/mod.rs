@@ -278,7 +278,60 @@ pub fn study_conditions(
 /// The instrument is checked first ([`instrument`]): a condition whose mode shape misses
 /// every candidate by a common factor is diagnosed again on its eigenvalue alone, and the
 /// diagnosis says why ([`Diagnosis::instrument`]).
+///
+/// A condition none of whose rides gave an eigenvalue is left out while two or more others
+/// have rides: it tells nothing of the bicycle, and its own equipment (a controller's
+/// delivered gain) would enter every candidate as a parameter no ride constrains, counted in
+/// the BIC and printed with a value and no error (blind study 7, its G = 1 rides all falling
+/// within a cycle). It stays listed among the conditions with its failures, and the verdict
+/// says so.
 pub fn diagnose_study(
+    study: &[StudyCondition],
+    model: &Parametrized,
+    options: &GapOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Diagnosis, GapError> {
+    let kept: Vec<StudyCondition> = study
+        .iter()
+        .filter(|c| !c.rides.is_empty())
+        .cloned()
+        .collect();
+    if kept.len() == study.len() || kept.len() < 2 {
+        return diagnose_conditions(study, model, options, progress);
+    }
+    let mut d = diagnose_conditions(&kept, model, options, progress)?;
+    let mut left_out = Vec::new();
+    for (at, c) in study.iter().enumerate().filter(|(_, c)| c.rides.is_empty()) {
+        d.conditions.insert(
+            at.min(d.conditions.len()),
+            ConditionSummary {
+                name: c.name.clone(),
+                controlled: !c.control.is_none(),
+                rides_used: 0,
+                rides_failed: c.failed.clone(),
+                chi2: 0.0,
+                dof: 0,
+                scatter_alone: Vec::new(),
+            },
+        );
+        left_out.push(format!(
+            "{} ({} rides, none usable)",
+            c.name,
+            c.failed.len()
+        ));
+    }
+    d.rides_failed = pooled(study).2;
+    d.verdict.push_str(&format!(
+        "\nLeft out: condition{} {}: without an eigenvalue it tells nothing of the bicycle, \
+         and its own equipment is not fitted.",
+        if left_out.len() > 1 { "s" } else { "" },
+        left_out.join(", ")
+    ));
+    Ok(d)
+}
+
+/// [`diagnose_study`] on conditions that each have rides (or all of them, as given).
+fn diagnose_conditions(
     study: &[StudyCondition],
     model: &Parametrized,
     options: &GapOptions,
