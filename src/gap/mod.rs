@@ -291,14 +291,15 @@ pub fn diagnose_study(
     options: &GapOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
+    let with_rides = study.iter().filter(|c| !c.rides.is_empty()).count();
+    if with_rides == study.len() || with_rides < 2 {
+        return diagnose_conditions(study, model, options, progress);
+    }
     let kept: Vec<StudyCondition> = study
         .iter()
         .filter(|c| !c.rides.is_empty())
         .cloned()
         .collect();
-    if kept.len() == study.len() || kept.len() < 2 {
-        return diagnose_conditions(study, model, options, progress);
-    }
     let mut d = diagnose_conditions(&kept, model, options, progress)?;
     let mut left_out = Vec::new();
     for (at, c) in study.iter().enumerate().filter(|(_, c)| c.rides.is_empty()) {
