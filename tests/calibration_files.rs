@@ -67,8 +67,9 @@ fn records<T: serde::de::DeserializeOwned>(json: &str) -> Vec<T> {
 /// ≥ 91 % of the noted and varied ones, and the effect-free campaigns' test firing (p < 0.01)
 /// in ≤ 2 % of each design's. A hypothesis added later ([`ADDED`]) is scored on its own rows:
 /// its detection limit must hold its promise (significant in ≥ 80 % of the campaigns beyond
-/// it); its right sizes are printed against issue 76's 90 %, not asserted (the head angle's
-/// were 88, 74 and 65 %: docs/decisions/2026-12-03-head-angle.md). These are the statistical
+/// it); its right sizes are held at issue 76's 90 % where they reach it
+/// ([`MEETS_ISSUE_76_BAR`]) and printed elsewhere (the head angle's 95, 83 and 76 %:
+/// docs/decisions/2026-12-06-plausibility-prior.md). These are the statistical
 /// runs the suite does not repeat; the smaller blind runs of tests/gap.rs that scored the same
 /// before the calibration existed are kept out of the suite (`--ignored`).
 #[test]
@@ -113,7 +114,10 @@ fn the_gap_calibration_meets_its_bars() {
                 a.significant_beyond,
                 a.beyond
             );
-            if MEETS_ISSUE_76_BAR.contains(&effect) {
+            if MEETS_ISSUE_76_BAR
+                .iter()
+                .any(|&(e, designs)| e == effect && designs.contains(&design))
+            {
                 assert!(
                     a.right_beyond * 10 >= 9 * a.beyond,
                     "{design:?}: {effect} right in {} of {} beyond its limit",
@@ -125,9 +129,20 @@ fn the_gap_calibration_meets_its_bars() {
     }
 }
 
-/// Of [`ADDED`], those named at the right size in ≥ 90 % of the campaigns beyond their limit in
-/// every design (issue 76's bar), held there: the dry friction (98, 98 and 94 %).
-const MEETS_ISSUE_76_BAR: [&str; 1] = ["steer_friction"];
+/// Of [`ADDED`], those named at the right size in ≥ 90 % of the campaigns beyond their limit
+/// (issue 76's bar), and the designs where they are, held there: the dry friction in every
+/// design (98, 98 and 94 %); on the steady rides the head angle (95 %), the rear frame's
+/// inertia as a set (90 %) and the front frame's (95 %). On the coasting designs the slowing
+/// rides' bias keeps those three at 76–86 % (docs/decisions/2026-12-04-coasting-and-new-hypotheses.md).
+const MEETS_ISSUE_76_BAR: [(&str, &[bikeproc::sim::campaign::BlindDesign]); 4] = {
+    use bikeproc::sim::campaign::BlindDesign::{Noted, Sync, Varied};
+    [
+        ("steer_friction", &[Sync, Noted, Varied]),
+        ("head_angle", &[Sync]),
+        ("frame_inertia", &[Sync]),
+        ("front_inertia", &[Sync]),
+    ]
+};
 
 /// Issue 76's hypotheses, added to the library after issue 75's bars were set.
 const ADDED: [&str; 4] = [

@@ -453,6 +453,7 @@ fn gap_json_has_the_documented_keys() {
         "heldout_rms_before",
         "heldout_rms_after",
         "plausible",
+        "prior_penalty",
     ] {
         assert!(!first[key].is_null(), "ranking[0].{key} missing");
     }
@@ -924,6 +925,43 @@ fn named_at_its_size(w: Withheld) -> usize {
 fn a_head_angle_off_is_named_at_its_size() {
     let right = named_at_its_size(Withheld::HeadAngle);
     assert!(right >= 8, "{right} of 9 named at their size");
+}
+
+/// Issue 76, item 2: plausibility is a prior in the evidence, not a reordering. A head angle
+/// 2.4° off (blind sync campaign 1010 of the calibration's broad draws), beyond the ±2° the
+/// library takes as plausible, is named at its size: its fit (0.051 ± 0.005 rad) is flagged
+/// outside the plausible range and pays the prior's penalty in the order, its closed form
+/// d²/(s² + SE²), and still comes first. Set behind every plausible candidate (before
+/// 2026-12-06) it ranked 16th, after front_mass.
+#[test]
+fn a_head_angle_beyond_its_plausible_range_pays_its_prior_and_is_named() {
+    let bike_path = root().join("data/lab_bike.toml");
+    let lab = LabBike::load(&bike_path).unwrap();
+    let text = std::fs::read_to_string(&bike_path).unwrap();
+    let case = Case {
+        withheld: Withheld::HeadAngle,
+        design: BlindDesign::Sync,
+        seed: 1010,
+    };
+    let (d, truth) = diagnose_blind(&lab, &text, case, &[], Draws::Broad).unwrap();
+    let best = &d.ranking[0];
+    let (fit, se, dl) = (best.params[0], best.params_se[0], truth.params[0]);
+    println!(
+        "best {} {fit:.4} ± {se:.4} rad (truth {dl:.4}), prior {:.2}, BIC {:.1}",
+        best.effect, best.prior_penalty, best.bic
+    );
+    assert!(d.significant, "p {}", d.campaign_p_value);
+    assert_eq!(best.effect, "head_angle");
+    assert!(!best.plausible, "{fit} ± {se} rad flagged as plausible");
+    let s = 0.25 * 0.07;
+    let d_out = fit.abs() - 0.035;
+    let want = d_out * d_out / (s * s + se * se);
+    assert!(want > 0.0 && (best.prior_penalty - want).abs() < 1e-9 * want.max(1.0));
+    assert!((fit - dl).abs() <= 0.3 * dl.abs(), "{fit} rad for {dl} rad");
+    assert!(
+        (fit - dl).abs() <= 3.0 * se,
+        "{fit} ± {se} rad for {dl} rad"
+    );
 }
 
 /// Issue 76, item 3: a body's inertia in the bicycle's plane off by one factor (0.6–0.75 or

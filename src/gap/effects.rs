@@ -37,7 +37,35 @@ impl ParamSpec {
             (above, false)
         }
     }
+
+    /// The plausibility prior's penalty on a fitted value `p` with standard error `se`, in the
+    /// units of χ² (−2 ln of the prior's density there against its plateau): 0 inside the
+    /// plausible range, `d² / (s² + se²)` at a distance `d` outside it. The prior is flat over
+    /// the plausible range (its source, in each effect's doc, names no value inside it above
+    /// another) and falls beyond it as a Gaussian of scale `s` = [`PRIOR_TAIL_FRACTION`] of the
+    /// range's width; the fit's own Gaussian of width `se` convolved with that tail gives the
+    /// quadratic form (its normalising log-ratio, under ln 2 where `se ≤ s`, left out). A value
+    /// one tail scale out costs 1, as much as one standard error of the fit to every ride.
+    /// Without a finite error, the prior's tail alone. The record:
+    /// [docs/decisions/2026-12-06-plausibility-prior.md](../../docs/decisions/2026-12-06-plausibility-prior.md).
+    pub fn prior_penalty(&self, p: f64, se: f64) -> f64 {
+        let (lo, hi) = self.plausible;
+        let d = (lo - p).max(p - hi).max(0.0);
+        if d == 0.0 {
+            return 0.0;
+        }
+        let s = PRIOR_TAIL_FRACTION * (hi - lo);
+        let var = s * s + if se.is_finite() { se * se } else { 0.0 };
+        d * d / var
+    }
 }
+
+/// The scale of the plausibility prior's Gaussian tails beyond the plausible range, as a
+/// fraction of the range's width ([`ParamSpec::prior_penalty`]): a quarter, the margin the
+/// plausible flag already grants a fit that barely tells its value
+/// (`gap::rank::plausible`). For the head angle (±2° plausible) a fit at 3° costs 1 in χ²,
+/// at 4° 4; for an inertia factor (0.6–1.5) one at 2.0 costs 4.9.
+pub const PRIOR_TAIL_FRACTION: f64 = 0.25;
 
 /// An effect the Whipple model of the measured bicycle leaves out: its identity. What it is
 /// and does is its [`Definition`], in [`library`].

@@ -72,6 +72,11 @@ pub struct Ranked {
     /// Every fitted value inside its plausible range, or within [`PLAUSIBLE_SE`] of its
     /// standard errors of it, and none at a bound.
     pub plausible: bool,
+    /// The plausibility prior's penalty on the fitted values, summed
+    /// ([`effects::ParamSpec::prior_penalty`]: 0 inside every plausible range): in a campaign
+    /// the order is by `bic + prior_penalty`, so a value outside its range pays in the
+    /// evidence, visibly, instead of being set behind every plausible candidate.
+    pub prior_penalty: f64,
     /// Each fitted element's spec and, in a study, its condition (`None`: shared by all).
     #[serde(skip)]
     pub specs: Vec<effects::ParamSpec>,
@@ -302,7 +307,7 @@ fn by_condition(
 pub(super) fn plausible(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
     let width = spec.plausible.1 - spec.plausible.0;
     let margin = if se.is_finite() {
-        (PLAUSIBLE_SE * se).min(0.25 * width)
+        (PLAUSIBLE_SE * se).min(effects::PRIOR_TAIL_FRACTION * width)
     } else {
         0.0
     };
@@ -343,17 +348,19 @@ impl Ranked {
         !self.heldout_rms_by_condition.is_empty()
     }
 
-    /// Whether it ranks among the first: in a single campaign, a plausible candidate (a value
-    /// no real bicycle or lab would have explains nothing, however well it fits); in a study,
-    /// one with no parameter of the bicycle at its search's edge or within its standard error
-    /// of it ([`Ranked::bicycle_at_edge`]) — there the conditions, not a prior, decide, and a
-    /// best fit outside its plausible range is shown first and flagged, but a bicycle the rides
-    /// bound on one side only is no estimate to rank above one they bound on both.
+    /// Whether it ranks among the first: in a single campaign, a candidate with no parameter
+    /// at its search's bound or within its standard error of it (a value the rides bound on
+    /// one side only is no estimate to rank above one they bound on both; a value outside
+    /// its plausible range pays the prior's penalty in the order instead,
+    /// [`Ranked::prior_penalty`]); in a study, one with no parameter of the bicycle at its
+    /// search's edge or within its standard error of it ([`Ranked::bicycle_at_edge`]) —
+    /// there the conditions, not a prior, decide, and a best fit outside its plausible range
+    /// is shown first and flagged.
     pub fn standing(&self) -> bool {
         if self.in_study() {
             !self.bicycle_at_edge()
         } else {
-            self.plausible
+            !self.at_bound.contains(&true)
         }
     }
 
@@ -549,6 +556,11 @@ pub(super) fn rank(
                     .iter()
                     .zip(f.params.iter().zip(&se))
                     .all(|(spec, (&p, &se))| plausible(spec, p, se)),
+            prior_penalty: specs
+                .iter()
+                .zip(f.params.iter().zip(&se))
+                .map(|(spec, (&p, &se))| spec.prior_penalty(p, se))
+                .sum(),
             at_bound: bounded,
             not_needed: false,
             units: specs.iter().map(|p| p.unit).collect(),
@@ -808,8 +820,8 @@ fn every_triple(library: &[Effect]) -> Vec<Vec<Effect>> {
 }
 
 /// Candidates in good standing first ([`Ranked::standing`]), pairs not needed after the rest;
-/// within each group, in a campaign by the BIC of the fit to every ride, in a study by the
-/// held-out RMS of its conditions left out ([`order_key`]).
+/// within each group, in a campaign by the BIC of the fit to every ride plus the plausibility
+/// prior's penalty, in a study by the held-out RMS of its conditions left out ([`order_key`]).
 fn sort(ranked: &mut [Ranked]) {
     sort_by(ranked, order_key);
 }
@@ -827,7 +839,9 @@ fn sort_by(ranked: &mut [Ranked], key: impl Fn(&Ranked) -> f64) {
 
 /// What orders candidates of one standing. In a campaign, the BIC of the fit to every ride
 /// (χ² in the campaign's full covariance plus k ln 2N): the likelihood the fit maximizes, which
-/// sees a pattern across rides that the rides left out one at a time miss. The held-out
+/// sees a pattern across rides that the rides left out one at a time miss; plus the
+/// plausibility prior's penalty ([`Ranked::prior_penalty`]), so that the prior enters the
+/// evidence by the amount the output shows (as −2 ln of a probability, as the BIC is). The held-out
 /// prediction still decides whether a pair is needed, whether the best explains the gap and
 /// which are tied with it. In a study the conditions left out carry the known change between
 /// them, which a fit to every ride weighs no more than a ride: there the held-out RMS orders.
@@ -836,7 +850,7 @@ fn order_key(r: &Ranked) -> f64 {
     if r.in_study() {
         r.heldout_rms_after
     } else {
-        r.bic
+        r.bic + r.prior_penalty
     }
 }
 
@@ -918,5 +932,25 @@ mod tests {
         // A value the rides barely tell is bounded by the search, not past its other edge.
         let text = super::super::effects::bound_text(&spec, 2.2, 5.0);
         assert!(text.starts_with("≥ 0.250 × measured"), "{text}");
+    }
+
+    /// The plausibility prior's penalty against its closed form: 0 inside the range; one tail
+    /// scale (a quarter of the width) outside with no error, 1; with an error equal to the
+    /// scale, half of it; the head angle (±0.035 rad plausible, s = 0.0175 rad) at 0.0875 rad
+    /// (3 scales out), 9.
+    #[test]
+    fn the_prior_costs_its_closed_form() {
+        let head = Effect::HeadAngle.params()[0];
+        let s = 0.25 * 0.07;
+        assert_eq!(head.prior_penalty(0.0349, 0.01), 0.0);
+        assert_eq!(head.prior_penalty(-0.035, f64::NAN), 0.0);
+        assert!((head.prior_penalty(0.035 + s, 0.0) - 1.0).abs() < 1e-12);
+        assert!((head.prior_penalty(-0.035 - s, f64::INFINITY) - 1.0).abs() < 1e-12);
+        assert!((head.prior_penalty(0.035 + s, s) - 0.5).abs() < 1e-12);
+        assert!((head.prior_penalty(0.0875, 0.0) - 9.0).abs() < 1e-9);
+        // An inertia factor (plausible 0.6–1.5, s = 0.225) at 2.0 with an error of 0.1.
+        let inertia = Effect::FrameIzz.params()[0];
+        let want = 0.5f64.powi(2) / (0.225f64.powi(2) + 0.01);
+        assert!((inertia.prior_penalty(2.0, 0.1) - want).abs() < 1e-12);
     }
 }

@@ -467,16 +467,21 @@ impl Diagnosis {
         let order = if self.ranking.first().is_some_and(|r| r.in_study()) {
             "the held-out RMS normalized residual of the conditions left out"
         } else {
-            "the BIC of the fit to every ride (χ² + k ln 2N)"
+            "the BIC of the fit to every ride (χ² + k ln 2N) plus the prior's penalty"
+        };
+        let first = if self.ranking.first().is_some_and(|r| r.in_study()) {
+            "the bicycle fitted inside its search's ranges first"
+        } else {
+            "no parameter at a search's bound first"
         };
         let _ = writeln!(
             out,
-            "Which: candidates fitted on {}, plausible first, then by {order};\n  pairs of effects are listed only where they beat the best single one on the rides left out,\n  and named ahead of it only where the tie test tells them apart; otherwise after it",
+            "Which: candidates fitted on {}, {first}, then by {order};\n  pairs of effects are listed only where they beat the best single one on the rides left out,\n  and named ahead of it only where the tie test tells them apart; otherwise after it",
             decided_on(self.parts_per_ride)
         );
         let _ = writeln!(
             out,
-            "  (before/after: the rides left out, predicted without and with the candidate, RMS in\n  their standard errors, about 1 where the model holds; plausible: every parameter where a\n  real bicycle's can be)"
+            "  (before/after: the rides left out, predicted without and with the candidate, RMS in\n  their standard errors, about 1 where the model holds; plausible: every parameter where a\n  real bicycle's can be; prior: what the values outside their plausible ranges cost, in χ²)"
         );
         let rows: Vec<(String, String)> = self
             .ranking
@@ -492,14 +497,15 @@ impl Diagnosis {
         );
         let _ = writeln!(
             out,
-            "  {:<we$}  {:<wp$} {:>8} {:>8} {:>8} {:>9}",
-            "effect", "parameters", "BIC", "before", "after", "plausible"
+            "  {:<we$}  {:<wp$} {:>8} {:>6} {:>8} {:>8} {:>9}",
+            "effect", "parameters", "BIC", "prior", "before", "after", "plausible"
         );
         for (r, (effect, params)) in self.ranking.iter().zip(&rows) {
             let _ = writeln!(
                 out,
-                "  {effect:<we$}  {params:<wp$} {:>8.1} {:>8.2} {:>8.2} {:>9}",
+                "  {effect:<we$}  {params:<wp$} {:>8.1} {:>6.1} {:>8.2} {:>8.2} {:>9}",
                 r.bic,
+                r.prior_penalty,
                 r.heldout_rms_before,
                 r.heldout_rms_after,
                 if r.plausible { "yes" } else { "no" }

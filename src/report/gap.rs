@@ -30,9 +30,10 @@ pub(super) fn gap_report(
          counted, so a trail and a frame's inertia that move the weave alike count once). **Which**: every candidate effect (a linear extension of the model\n\
          with physical parameters and bounds) fitted to all rides by generalized least squares on the\n\
          eigenvalue *and* the mode shape, then each ride predicted by the effect refitted without it (leave one\n\
-         ride out); plausible values first, then by the BIC of the fit to every ride (the likelihood the fit\n\
+         ride out); a parameter at its search's bound last, then by the BIC of the fit to every ride (the likelihood the fit\n\
          maximizes: the held-out RMS weighs each ride alone and misses a pattern across rides that the model's\n\
-         correlated error makes telling); pairs when no single\n\
+         correlated error makes telling) plus the plausibility prior's penalty (0 inside every plausible range,\n\
+         d²/(s² + SE²) at a distance d outside it, s a quarter of the range's width); pairs when no single\n\
          effect brings the held-out residual within 2, named ahead of the best single only when the tie test tells\n\
          them apart (otherwise listed after it, not needed); a parameter within its standard error of its search's\n\
          edge shown as a bound; ties when, ride by ride, the best is not better by 2\n\
@@ -168,12 +169,12 @@ pub(super) fn gap_report(
             }
         );
     }
-    md.push_str("\n## Which\n\n| rank | effect | what | parameters | plausible | BIC | held-out RMS before | after |\n|---|---|---|---|---|---|---|---|\n");
+    md.push_str("\n## Which\n\n| rank | effect | what | parameters | plausible | BIC | prior | held-out RMS before | after |\n|---|---|---|---|---|---|---|---|---|\n");
     for (k, r) in d.ranking.iter().enumerate() {
         let params: Vec<String> = r.param_texts();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {:.1} | {:.2} | {:.2} |",
+            "| {} | {} | {} | {} | {} | {:.1} | {:.1} | {:.2} | {:.2} |",
             k + 1,
             r.effect,
             r.effects
@@ -184,6 +185,7 @@ pub(super) fn gap_report(
             params.join(", "),
             if r.plausible { "yes" } else { "no" },
             r.bic,
+            r.prior_penalty,
             r.heldout_rms_before,
             r.heldout_rms_after
         );
