@@ -466,3 +466,134 @@ fn a_controller_from_a_file_is_the_inline_one() {
     let err = RideManifest::load(&outside).unwrap_err().to_string();
     assert!(err.contains("outside the manifest's folder"), "{err}");
 }
+
+/// Issue 76, item 2: ranges belong to the bicycle. A manifest's `[steer_motor]` (the rotor's
+/// inertia and the gear ratio) sets the plausible range of the inertia the motor adds about the
+/// steer axis to 0.8–2 times `J_r N²`: the balance-assist gain-6 campaign's `steer_inertia`
+/// (0.144 ± 0.027 kg·m²) is plausible for a 1e-4 kg·m² rotor through 32:1 (0.102 kg·m²) and
+/// pays the prior's closed form d²/(s² + SE²), s a quarter of the range's width, for a 1e-5
+/// kg·m² rotor through 10:1 (0.001 kg·m²). A bicycle without a controller that declares its
+/// motor has the rotor's inertia among its candidates. Values outside their ranges, an unknown
+/// key, and two conditions of a study declaring different motors are refused, the file named.
+#[test]
+fn a_declared_steer_motor_sets_its_inertias_range() {
+    let real = root().join("fixtures/real");
+    let pid = std::process::id();
+    let written = std::cell::RefCell::new(Vec::<PathBuf>::new());
+    let with_motor = |stem: &str, name: &str, table: &str| -> PathBuf {
+        let text = std::fs::read_to_string(real.join(format!("{stem}.toml"))).unwrap();
+        let path = real.join(format!("{name}_{pid}.toml"));
+        std::fs::write(&path, format!("{text}\n[steer_motor]\n{table}\n")).unwrap();
+        written.borrow_mut().push(path.clone());
+        path
+    };
+    let single = |v: &serde_json::Value, effect: &str| -> Option<serde_json::Value> {
+        v["ranking"]
+            .as_array()?
+            .iter()
+            .find(|r| r["effect"] == effect)
+            .cloned()
+    };
+    let fitting = with_motor(
+        "balanceassist_gain6",
+        "motor_fits",
+        "rotor_inertia_kg_m2 = 1e-4\ngear_ratio = 32",
+    );
+    let small = with_motor(
+        "balanceassist_gain6",
+        "motor_small",
+        "rotor_inertia_kg_m2 = 1e-5\ngear_ratio = 10",
+    );
+    // An uncontrolled campaign of enough rides to be ranked: data/'s, its paths absolute.
+    let uncontrolled = {
+        let data = root().join("data");
+        let text = std::fs::read_to_string(data.join("rides.toml"))
+            .unwrap()
+            .replace(
+                "bike = \"lab_bike.toml\"",
+                &format!(
+                    "bike = \"{}\"\nallow_outside_folder = true",
+                    data.join("lab_bike.toml").display()
+                ),
+            )
+            .replace("log = \"", &format!("log = \"{}/", data.display()));
+        let path = std::env::temp_dir().join(format!("bikeproc_motor_off_{pid}.toml"));
+        std::fs::write(
+            &path,
+            format!("{text}\n[steer_motor]\nrotor_inertia_kg_m2 = 1e-4\ngear_ratio = 32\n"),
+        )
+        .unwrap();
+        written.borrow_mut().push(path.clone());
+        path
+    };
+    let bad = [
+        (
+            "rotor_inertia_kg_m2 = 5.0\ngear_ratio = 32",
+            "rotor_inertia_kg_m2",
+        ),
+        ("rotor_inertia_kg_m2 = 1e-4\ngear_ratio = 0.5", "gear_ratio"),
+        ("rotor_inertia_kg_m2 = 1e-4\ngear_ratio = nan", "gear_ratio"),
+        (
+            "rotor_inertia_kg_m2 = 1e-4\ngear_ratio = 32\nratio = 3",
+            "ratio",
+        ),
+    ]
+    .iter()
+    .enumerate()
+    .map(|(k, (table, words))| {
+        (
+            with_motor("balanceassist_gain6", &format!("motor_bad{k}"), table),
+            *words,
+        )
+    })
+    .collect::<Vec<_>>();
+    let outcome = std::panic::catch_unwind(|| {
+        let fits = common::run_json(["gap", "--json", fitting.to_str().unwrap()]);
+        let pays = common::run_json(["gap", "--json", small.to_str().unwrap()]);
+        let off = common::run_json(["gap", "--json", uncontrolled.to_str().unwrap()]);
+        let r = single(&fits, "steer_inertia").expect("steer_inertia ranked");
+        assert_eq!(r["plausible"], true, "{r}");
+        assert_eq!(r["prior_penalty"].as_f64(), Some(0.0), "{r}");
+        let r = single(&pays, "steer_inertia").expect("steer_inertia ranked");
+        let (p, se) = (
+            r["params"][0].as_f64().unwrap(),
+            r["params_se"][0].as_f64().unwrap(),
+        );
+        let j = 1e-5 * 10.0 * 10.0;
+        let (lo, hi) = (0.8 * j, 2.0 * j);
+        let s = 0.25 * (hi - lo);
+        let d = (p - hi).max(lo - p).max(0.0);
+        let want = d * d / (s * s + se * se);
+        let got = r["prior_penalty"].as_f64().unwrap();
+        println!("steer_inertia {p:.4} ± {se:.4} kg·m²: prior {got:.2} (closed form {want:.2})");
+        assert_eq!(r["plausible"], false, "{r}");
+        assert!(
+            want > 1.0 && (got - want).abs() <= 1e-9 * want,
+            "{got} against {want}"
+        );
+        assert!(
+            single(&off, "steer_inertia").is_some(),
+            "no steer_inertia among an uncontrolled bicycle's candidates with its motor declared"
+        );
+        for (file, words) in &bad {
+            let out = common::run(["gap", file.to_str().unwrap()]);
+            let err = String::from_utf8_lossy(&out.stderr);
+            let name = file.file_name().unwrap().to_str().unwrap();
+            assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+            assert!(err.contains(name) && err.contains(words), "{name}: {err}");
+        }
+        let out = common::run(["gap", fitting.to_str().unwrap(), small.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("[steer_motor]") && err.contains(&format!("motor_fits_{pid}")),
+            "{err}"
+        );
+    });
+    for f in written.borrow().iter() {
+        let _ = std::fs::remove_file(f);
+    }
+    if let Err(e) = outcome {
+        std::panic::resume_unwind(e);
+    }
+}

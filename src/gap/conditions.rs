@@ -20,6 +20,8 @@ pub struct ConditionModel {
     /// The measured bicycle with the condition's known changes.
     pub base: Benchmark,
     pub control: SteerControl,
+    /// The bicycle's steer motor as declared ([`crate::model::control::SteerMotorSpec`]).
+    pub steer_motor: Option<crate::model::control::SteerMotorSpec>,
     /// Some of its rides' speeds are a reading or another instrument's wheel sensor (what a
     /// speedometer's scale acts on).
     pub read_speeds: bool,
@@ -66,7 +68,8 @@ impl Layout {
     /// The layout of `effects` over `conditions`. With one condition every parameter is
     /// fitted once (the single campaign's layout); with more, an equipment effect's parameters
     /// are fitted once per condition it acts on ([`ConditionModel::acts`]) and fixed at "no
-    /// effect" in the others, the bicycle's shared.
+    /// effect" in the others, the bicycle's shared. A steer motor declared by a condition
+    /// sets the ranges of the inertia it adds ([`super::effects::library::steer_inertia_of`]).
     pub fn new(effects: &[Effect], conditions: &[ConditionModel]) -> Layout {
         let mut layout = Layout {
             specs: Vec::new(),
@@ -77,7 +80,7 @@ impl Layout {
         };
         let mut at = 0;
         for (j, &e) in effects.iter().enumerate() {
-            for &spec in e.params() {
+            for spec in specs_of(&[e], conditions) {
                 let study = conditions.len() > 1 && e.per_condition();
                 if study {
                     for (c, cond) in conditions.iter().enumerate() {
@@ -246,12 +249,32 @@ impl Layout {
     }
 }
 
+/// The parameters of `effects` ([`super::effects::specs`] order) on the bicycle of
+/// `conditions`: the library's, but for the inertia a steer motor adds where a condition
+/// declares the motor ([`super::effects::library::steer_inertia_of`]).
+pub fn specs_of(effects: &[Effect], conditions: &[ConditionModel]) -> Vec<ParamSpec> {
+    let motor = conditions.iter().find_map(|c| c.steer_motor);
+    effects
+        .iter()
+        .flat_map(|&e| {
+            e.params().iter().map(move |&spec| match (e, motor) {
+                (Effect::SteerInertia, Some(m)) => {
+                    super::effects::library::steer_inertia_of(spec, &m)
+                }
+                _ => spec,
+            })
+        })
+        .collect()
+}
+
 /// The effects of the library that a study of `conditions` can fit: the steer motor's only
-/// where a condition carries a controller, an equipment effect only where it acts on some
-/// condition.
+/// where a condition carries a controller (its rotor's inertia also where a condition declares
+/// the motor: powered or not, it turns with the steer), an equipment effect only where it
+/// acts on some condition.
 pub fn library(conditions: &[ConditionModel]) -> Vec<Effect> {
     let controlled = conditions.iter().any(|c| !c.control.is_none());
-    Effect::library(controlled)
+    let motor = conditions.iter().any(|c| c.steer_motor.is_some());
+    Effect::library(controlled, motor)
         .into_iter()
         .filter(|&e| {
             conditions.len() < 2 || !e.per_condition() || conditions.iter().any(|c| c.acts(e))
@@ -283,6 +306,7 @@ mod tests {
             name: name.into(),
             base: Benchmark::load(&path).unwrap(),
             control,
+            steer_motor: None,
             read_speeds: read,
         }
     }

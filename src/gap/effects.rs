@@ -215,11 +215,16 @@ impl Effect {
     ];
 
     /// The candidates for a bicycle with or without a controller: a steer motor's effects
-    /// only with one.
-    pub fn library(controlled: bool) -> Vec<Effect> {
+    /// only with one, but the inertia its rotor adds also where a motor is declared
+    /// (`motor`): powered or not, the rotor turns with the steer.
+    pub fn library(controlled: bool, motor: bool) -> Vec<Effect> {
         Effect::ALL
             .into_iter()
-            .filter(|&e| controlled || !e.definition().needs_controller)
+            .filter(|&e| {
+                controlled
+                    || !e.definition().needs_controller
+                    || (motor && e == Effect::SteerInertia)
+            })
             .collect()
     }
 

@@ -11,8 +11,8 @@
 
 use super::conditions::{ConditionModel, Layout};
 use super::effects::{
-    any_change, clock, for_ride, linear_bike_assuming, specs, steer_friction_nm, true_speed,
-    Assumed, Change, Effect,
+    any_change, clock, for_ride, linear_bike_assuming, steer_friction_nm, true_speed, Assumed,
+    Change, Effect,
 };
 use super::linear::{LinearBike, Modes};
 use super::observe::{Observation, Parts};
@@ -1139,7 +1139,7 @@ const GRID_PER_PARAMETER: usize = 7;
 /// every fitted element.
 pub fn fit_effects(subset: &Subset<'_, '_>, effects: &[Effect]) -> EffectFit {
     let layout = subset.campaign.layout(effects);
-    let compact = specs(effects);
+    let compact = super::conditions::specs_of(effects, subset.campaign.conditions);
     let lo: Vec<f64> = compact.iter().map(|p| p.lo).collect();
     let hi: Vec<f64> = compact.iter().map(|p| p.hi).collect();
     let np = lo.len();
@@ -1191,7 +1191,7 @@ pub fn fit_effects_from_smaller(
 ) -> Option<EffectFit> {
     const PER: usize = GRID_PER_PARAMETER;
     let layout = subset.campaign.layout(effects);
-    let compact = specs(effects);
+    let compact = super::conditions::specs_of(effects, subset.campaign.conditions);
     let none: Vec<f64> = compact.iter().map(|p| p.none).collect();
     let mut starts: Vec<Vec<f64>> = Vec::new();
     for m in 0..effects.len() {

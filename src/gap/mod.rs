@@ -168,7 +168,11 @@ pub fn diagnose_campaign_with(
         &|done, total| progress("rides", done, total),
     );
     let (rides, failed) = observations(&results);
-    diagnose(&rides, &failed, model, options, &|done, total| {
+    let one = [StudyCondition {
+        steer_motor: manifest.steer_motor,
+        ..StudyCondition::of_model(model, rides, failed)
+    }];
+    diagnose_study(&one, model, options, &|done, total| {
         progress("candidates", done, total)
     })
 }
@@ -193,13 +197,11 @@ pub fn diagnose(
     options: &GapOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Diagnosis, GapError> {
-    let one = [StudyCondition {
-        name: model.name.clone(),
-        control: model.control,
-        masses: Vec::new(),
-        rides: rides.to_vec(),
-        failed: failed.to_vec(),
-    }];
+    let one = [StudyCondition::of_model(
+        model,
+        rides.to_vec(),
+        failed.to_vec(),
+    )];
     diagnose_study(&one, model, options, progress)
 }
 
@@ -213,6 +215,24 @@ pub struct StudyCondition {
     pub masses: Vec<crate::model::params::PointMass>,
     pub rides: Vec<Observation>,
     pub failed: Vec<String>,
+    /// The bicycle's steer motor as its manifest declares it (`[steer_motor]`): the range of
+    /// the inertia it adds about the steer axis follows from it ([`conditions::Layout::new`]).
+    pub steer_motor: Option<crate::model::control::SteerMotorSpec>,
+}
+
+impl StudyCondition {
+    /// A single campaign's one condition: named after `model`, with its controller, no known
+    /// mass and no motor declared.
+    pub fn of_model(model: &Parametrized, rides: Vec<Observation>, failed: Vec<String>) -> Self {
+        StudyCondition {
+            name: model.name.clone(),
+            control: model.control,
+            masses: Vec::new(),
+            rides,
+            failed,
+            steer_motor: None,
+        }
+    }
 }
 
 /// Runs the dynamic test of every ride of each manifest (a condition each, named by its
@@ -267,6 +287,7 @@ pub fn study_conditions(
                 masses: manifest.known_masses.clone(),
                 rides,
                 failed,
+                steer_motor: manifest.steer_motor,
             }
         })
         .collect()
@@ -438,6 +459,7 @@ fn condition_models(
                 ..m.benchmark_at(m.inputs.values())
             },
             control: c.control,
+            steer_motor: c.steer_motor,
             read_speeds: c.rides.iter().any(|o| {
                 matches!(
                     o.speed_source,

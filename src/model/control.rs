@@ -243,6 +243,58 @@ impl Default for SteerControl {
     }
 }
 
+/// A geared steer motor as a manifest declares it (`[steer_motor]`): its rotor's inertia from
+/// the motor's data sheet and the gearbox's ratio. Powered or not, the rotor turns `gear_ratio`
+/// times as fast as the steer, so it adds its inertia times the ratio squared about the steer
+/// axis ([`SteerMotorSpec::reflected_inertia_kg_m2`]), which the gap diagnosis's
+/// `steer_inertia` then takes as its plausible range's centre instead of the library's
+/// catalogue-wide one.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SteerMotorSpec {
+    /// The rotor's moment of inertia about its own axis (kg·m²): a data sheet's, 1e-6 to
+    /// 1e-3 for the motors that steer a bicycle.
+    pub rotor_inertia_kg_m2: f64,
+    /// Rotor turns per steer turn (a 10–50:1 planetary or worm stage, or a belt).
+    pub gear_ratio: f64,
+}
+
+/// The largest rotor inertia a declared steer motor may have (kg·m²): ten times a 200 W
+/// servo motor's (about 1e-3); a larger value is a unit slip (g·cm² read as kg·m² is 1e7 too
+/// large).
+pub const MAX_ROTOR_INERTIA_KG_M2: f64 = 0.01;
+
+/// The largest gear ratio a declared steer motor may have: a two-stage worm gear's; beyond
+/// it the reflected inertia of even a small rotor exceeds a bicycle's front frame many times.
+pub const MAX_GEAR_RATIO: f64 = 1000.0;
+
+impl SteerMotorSpec {
+    /// The inertia the motor adds about the steer axis: `J_r N²` (the rotor's kinetic energy
+    /// ½ J_r (N δ̇)² seen as ½ J δ̇² at the steer), without the gearbox's own stages.
+    pub fn reflected_inertia_kg_m2(&self) -> f64 {
+        self.rotor_inertia_kg_m2 * self.gear_ratio * self.gear_ratio
+    }
+
+    /// Checks the declared values: the rotor's inertia positive and at most
+    /// [`MAX_ROTOR_INERTIA_KG_M2`], the ratio from 1 to [`MAX_GEAR_RATIO`]; the message names
+    /// the key.
+    pub fn check(&self) -> Result<(), String> {
+        let (j, n) = (self.rotor_inertia_kg_m2, self.gear_ratio);
+        if !(j.is_finite() && j > 0.0 && j <= MAX_ROTOR_INERTIA_KG_M2) {
+            return Err(format!(
+                "rotor_inertia_kg_m2 = {j} is outside (0, {MAX_ROTOR_INERTIA_KG_M2}] kg·m² \
+                 (a data sheet's g·cm² is 1e-7 kg·m²)"
+            ));
+        }
+        if !(n.is_finite() && (1.0..=MAX_GEAR_RATIO).contains(&n)) {
+            return Err(format!(
+                "gear_ratio = {n} is outside [1, {MAX_GEAR_RATIO}] (rotor turns per steer turn)"
+            ));
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -40,6 +40,11 @@ pub struct RideManifest {
     /// benchmark's axes, x forward and z down from the rear contact).
     #[serde(default, rename = "known_mass")]
     pub known_masses: Vec<crate::model::params::PointMass>,
+    /// The bicycle's geared steer motor, if the lab declares it (`[steer_motor]`:
+    /// `rotor_inertia_kg_m2`, `gear_ratio`): the gap diagnosis takes the inertia it adds about
+    /// the steer axis from it.
+    #[serde(default)]
+    pub steer_motor: Option<crate::model::control::SteerMotorSpec>,
     /// The rides' files may lie outside the manifest's folder (refused unless set: a
     /// manifest from elsewhere cannot make bikeproc read any file on the machine).
     #[serde(default)]
@@ -152,6 +157,16 @@ impl RideManifest {
         }
         if m.rides.is_empty() {
             return Err(err("", "no [[ride]] in the manifest".into()));
+        }
+        if let Some(motor) = &m.steer_motor {
+            if let Err(e) = motor.check() {
+                let key = if e.starts_with("gear_ratio") {
+                    "gear_ratio"
+                } else {
+                    "rotor_inertia_kg_m2"
+                };
+                return Err(err(key, format!("[steer_motor]: {e}")));
+            }
         }
         for r in &m.rides {
             let name = r.log.display().to_string();

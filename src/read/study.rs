@@ -103,6 +103,27 @@ impl Study {
                 });
             }
             let manifest = RideManifest::load(p)?;
+            // One bicycle, one steer motor: conditions that declare it must agree.
+            if let Some(motor) = manifest.steer_motor {
+                let differing = conditions.iter().find_map(|(other, m)| {
+                    m.steer_motor.filter(|o| *o != motor).map(|o| (other, o))
+                });
+                if let Some((other, theirs)) = differing {
+                    return Err(ManifestError {
+                        path: p.clone(),
+                        line: None,
+                        message: format!(
+                            "[steer_motor] (rotor {} kg·m², ratio {}) differs from the \
+                             condition \"{other}\"'s (rotor {} kg·m², ratio {}): a study is one \
+                             bicycle, with one motor",
+                            motor.rotor_inertia_kg_m2,
+                            motor.gear_ratio,
+                            theirs.rotor_inertia_kg_m2,
+                            theirs.gear_ratio
+                        ),
+                    });
+                }
+            }
             // The same ride (its file, and its window where it has one) in two conditions
             // would be counted twice, and its repeat taken for a second observation.
             for ride in &manifest.rides {

@@ -435,7 +435,8 @@ const ACTUATOR_GAIN: Definition = Definition {
 };
 
 /// Inertia `J` added about the steer axis: a steer motor's rotor and gears, reflected through
-/// the gear ratio, powered or not (bicycles that carry a controller).
+/// the gear ratio, powered or not (bicycles that carry a controller, or declare the motor:
+/// then its range is the motor's, [`steer_inertia_of`]).
 const STEER_INERTIA: Definition = Definition {
     needs_controller: true,
     ..bicycle(
@@ -454,6 +455,37 @@ const STEER_INERTIA: Definition = Definition {
         Change::Bicycle(add_steer_inertia),
     )
 };
+
+/// How far below the declared motor's reflected inertia (`J_r N²`, a fraction of it) the added
+/// inertia is plausible: a rotor's data-sheet value is its nominal, made to within about
+/// ten per cent, and a ratio may be given rounded.
+pub const DECLARED_MOTOR_LOW: f64 = 0.8;
+
+/// How far above the declared motor's reflected inertia (a multiple of it) the added inertia
+/// is plausible: the gearbox's own stages, reflected to the steer, an encoder's disc, a brake
+/// and the coupling add to the rotor's — planetary gearheads' catalogues list a few per cent
+/// to about the whole of a small motor's rotor at their input — so up to as much again.
+pub const DECLARED_MOTOR_HIGH: f64 = 2.0;
+
+/// The `steer_inertia` parameter for a bicycle whose manifest declares its steer motor
+/// (`[steer_motor]`): plausible from [`DECLARED_MOTOR_LOW`] to [`DECLARED_MOTOR_HIGH`] times the
+/// rotor's inertia reflected through the ratio, `J_r N²` (the rotor turns N times as fast as
+/// the steer: ½ J_r (N δ̇)² = ½ (J_r N²) δ̇²), in place of the catalogue-wide 0–0.5 kg·m²; the
+/// search reaches at least twice the plausible range's top. Issue 76: "ranges belong to the
+/// bicycle … a steer motor: gear ratio and rotor inertia … the ranges follow from the
+/// physics".
+pub fn steer_inertia_of(
+    spec: ParamSpec,
+    motor: &crate::model::control::SteerMotorSpec,
+) -> ParamSpec {
+    let j = motor.reflected_inertia_kg_m2();
+    let plausible = (DECLARED_MOTOR_LOW * j, DECLARED_MOTOR_HIGH * j);
+    ParamSpec {
+        plausible,
+        hi: spec.hi.max(2.0 * plausible.1),
+        ..spec
+    }
+}
 
 /// The speed a controller schedules its gains on is `k` times the bicycle's: its own speed
 /// sensor (a wheel magnet's count or circumference set for another wheel, a hub motor's
