@@ -31,6 +31,17 @@ fn blind_plus(
     seed: u64,
     extra: &[f64],
 ) -> (Diagnosis, BlindTruth) {
+    blind_drawn(withheld, design, seed, extra, Draws::Suite)
+}
+
+/// [`blind_plus`] with the effect's size from `draws` (the calibration's are `Draws::Broad`).
+fn blind_drawn(
+    withheld: Withheld,
+    design: BlindDesign,
+    seed: u64,
+    extra: &[f64],
+    draws: Draws,
+) -> (Diagnosis, BlindTruth) {
     let bike_path = root().join("data/lab_bike.toml");
     let lab = LabBike::load(&bike_path).unwrap();
     let text = std::fs::read_to_string(&bike_path).unwrap();
@@ -39,7 +50,7 @@ fn blind_plus(
         design,
         seed,
     };
-    diagnose_blind(&lab, &text, case, extra, Draws::Suite).unwrap()
+    diagnose_blind(&lab, &text, case, extra, draws).unwrap()
 }
 
 /// The diagnosis found the withheld effect: a significant gap, and the effect first or among
@@ -659,15 +670,13 @@ fn eigenvalue_only_rides_take_their_own_coasting_errors() {
 /// (the generator's sealed size) and within two of its standard errors.
 #[test]
 fn a_mass_seen_across_rides_is_named_first_at_its_size() {
-    let bike_path = root().join("data/lab_bike.toml");
-    let lab = LabBike::load(&bike_path).unwrap();
-    let text = std::fs::read_to_string(&bike_path).unwrap();
-    let case = Case {
-        withheld: Withheld::FrameMass,
-        design: BlindDesign::Noted,
-        seed: 1012,
-    };
-    let (d, truth) = diagnose_blind(&lab, &text, case, &[], Draws::Broad).unwrap();
+    let (d, truth) = blind_drawn(
+        Withheld::FrameMass,
+        BlindDesign::Noted,
+        1012,
+        &[],
+        Draws::Broad,
+    );
     let best = &d.ranking[0];
     let lowest = d
         .ranking
@@ -935,15 +944,13 @@ fn a_head_angle_off_is_named_at_its_size() {
 /// 2026-12-06) it ranked 16th, after front_mass.
 #[test]
 fn a_head_angle_beyond_its_plausible_range_pays_its_prior_and_is_named() {
-    let bike_path = root().join("data/lab_bike.toml");
-    let lab = LabBike::load(&bike_path).unwrap();
-    let text = std::fs::read_to_string(&bike_path).unwrap();
-    let case = Case {
-        withheld: Withheld::HeadAngle,
-        design: BlindDesign::Sync,
-        seed: 1010,
-    };
-    let (d, truth) = diagnose_blind(&lab, &text, case, &[], Draws::Broad).unwrap();
+    let (d, truth) = blind_drawn(
+        Withheld::HeadAngle,
+        BlindDesign::Sync,
+        1010,
+        &[],
+        Draws::Broad,
+    );
     let best = &d.ranking[0];
     let (fit, se, dl) = (best.params[0], best.params_se[0], truth.params[0]);
     println!(
