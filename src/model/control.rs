@@ -276,19 +276,26 @@ impl SteerMotorSpec {
     }
 
     /// Checks the declared values: the rotor's inertia positive and at most
-    /// [`MAX_ROTOR_INERTIA_KG_M2`], the ratio from 1 to [`MAX_GEAR_RATIO`]; the message names
-    /// the key.
-    pub fn check(&self) -> Result<(), String> {
+    /// [`MAX_ROTOR_INERTIA_KG_M2`], the ratio from 1 to [`MAX_GEAR_RATIO`]; an error gives the
+    /// key at fault and a message naming it.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
         let (j, n) = (self.rotor_inertia_kg_m2, self.gear_ratio);
         if !(j.is_finite() && j > 0.0 && j <= MAX_ROTOR_INERTIA_KG_M2) {
-            return Err(format!(
-                "rotor_inertia_kg_m2 = {j} is outside (0, {MAX_ROTOR_INERTIA_KG_M2}] kg·m² \
+            return Err((
+                "rotor_inertia_kg_m2",
+                format!(
+                    "rotor_inertia_kg_m2 = {j} is outside (0, {MAX_ROTOR_INERTIA_KG_M2}] kg·m² \
                  (a data sheet's g·cm² is 1e-7 kg·m²)"
+                ),
             ));
         }
         if !(n.is_finite() && (1.0..=MAX_GEAR_RATIO).contains(&n)) {
-            return Err(format!(
-                "gear_ratio = {n} is outside [1, {MAX_GEAR_RATIO}] (rotor turns per steer turn)"
+            return Err((
+                "gear_ratio",
+                format!(
+                    "gear_ratio = {n} is outside [1, {MAX_GEAR_RATIO}] (rotor turns per steer \
+                     turn)"
+                ),
             ));
         }
         Ok(())

@@ -159,12 +159,7 @@ impl RideManifest {
             return Err(err("", "no [[ride]] in the manifest".into()));
         }
         if let Some(motor) = &m.steer_motor {
-            if let Err(e) = motor.check() {
-                let key = if e.starts_with("gear_ratio") {
-                    "gear_ratio"
-                } else {
-                    "rotor_inertia_kg_m2"
-                };
+            if let Err((key, e)) = motor.check() {
                 return Err(err(key, format!("[steer_motor]: {e}")));
             }
         }
