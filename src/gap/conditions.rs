@@ -69,7 +69,7 @@ impl Layout {
     /// fitted once (the single campaign's layout); with more, an equipment effect's parameters
     /// are fitted once per condition it acts on ([`ConditionModel::acts`]) and fixed at "no
     /// effect" in the others, the bicycle's shared. A steer motor declared by a condition
-    /// sets the ranges of the inertia it adds ([`super::effects::library::steer_inertia_of`]).
+    /// sets the ranges of its own effects ([`specs_of`]).
     pub fn new(effects: &[Effect], conditions: &[ConditionModel]) -> Layout {
         let mut layout = Layout {
             specs: Vec::new(),
@@ -250,18 +250,17 @@ impl Layout {
 }
 
 /// The parameters of `effects` ([`super::effects::specs`] order) on the bicycle of
-/// `conditions`: the library's, but for the inertia a steer motor adds where a condition
-/// declares the motor ([`super::effects::library::steer_inertia_of`]).
+/// `conditions`: the library's, but for an effect of the steer motor itself where a condition
+/// declares the motor ([`super::effects::Definition::of_declared_motor`]).
 pub fn specs_of(effects: &[Effect], conditions: &[ConditionModel]) -> Vec<ParamSpec> {
     let motor = conditions.iter().find_map(|c| c.steer_motor);
     effects
         .iter()
         .flat_map(|&e| {
-            e.params().iter().map(move |&spec| match (e, motor) {
-                (Effect::SteerInertia, Some(m)) => {
-                    super::effects::library::steer_inertia_of(spec, &m)
-                }
-                _ => spec,
+            let declared = e.definition().of_declared_motor.zip(motor);
+            e.params().iter().map(move |&spec| match declared {
+                Some((of, m)) => of(spec, &m),
+                None => spec,
             })
         })
         .collect()

@@ -38,6 +38,15 @@ impl ParamSpec {
         }
     }
 
+    /// How far `p` lies outside the plausible range (0 inside it; NaN for a NaN).
+    pub fn outside_plausible(&self, p: f64) -> f64 {
+        let (lo, hi) = self.plausible;
+        if p.is_nan() {
+            return f64::NAN;
+        }
+        (lo - p).max(p - hi).max(0.0)
+    }
+
     /// The plausibility prior's penalty on a fitted value `p` with standard error `se`, in the
     /// units of χ² (−2 ln of the prior's density there against its plateau): 0 inside the
     /// plausible range, `d² / (s² + se²)` at a distance `d` outside it. The prior is flat over
@@ -49,12 +58,11 @@ impl ParamSpec {
     /// Without a finite error, the prior's tail alone. The record:
     /// [docs/decisions/2026-12-06-plausibility-prior.md](../../docs/decisions/2026-12-06-plausibility-prior.md).
     pub fn prior_penalty(&self, p: f64, se: f64) -> f64 {
-        let (lo, hi) = self.plausible;
-        let d = (lo - p).max(p - hi).max(0.0);
-        if d == 0.0 {
+        let d = self.outside_plausible(p);
+        if d.is_nan() || d == 0.0 {
             return 0.0;
         }
-        let s = PRIOR_TAIL_FRACTION * (hi - lo);
+        let s = PRIOR_TAIL_FRACTION * (self.plausible.1 - self.plausible.0);
         let var = s * s + if se.is_finite() { se * se } else { 0.0 };
         d * d / var
     }
@@ -139,6 +147,11 @@ pub struct Definition {
     pub per_condition: bool,
     /// It belongs to a steer motor: in the library only for a bicycle that carries one.
     pub needs_controller: bool,
+    /// Its parameters where a manifest declares the bicycle's steer motor (`[steer_motor]`),
+    /// for an effect of the motor itself: their ranges follow from it, and the effect is in
+    /// the library with or without a controller ([`super::conditions::specs_of`]).
+    pub of_declared_motor:
+        Option<fn(ParamSpec, &crate::model::control::SteerMotorSpec) -> ParamSpec>,
     /// The measured quantity a factor multiplies and its unit, for detection limits in that
     /// unit; `None` for an effect that is not a factor on one.
     pub measured: Option<Quantity>,
@@ -215,15 +228,14 @@ impl Effect {
     ];
 
     /// The candidates for a bicycle with or without a controller: a steer motor's effects
-    /// only with one, but the inertia its rotor adds also where a motor is declared
-    /// (`motor`): powered or not, the rotor turns with the steer.
+    /// only with one, but those of the motor itself also where a motor is declared (`motor`;
+    /// [`Definition::of_declared_motor`]): powered or not, its rotor turns with the steer.
     pub fn library(controlled: bool, motor: bool) -> Vec<Effect> {
         Effect::ALL
             .into_iter()
             .filter(|&e| {
-                controlled
-                    || !e.definition().needs_controller
-                    || (motor && e == Effect::SteerInertia)
+                let d = e.definition();
+                controlled || !d.needs_controller || (motor && d.of_declared_motor.is_some())
             })
             .collect()
     }

@@ -311,7 +311,7 @@ pub(super) fn plausible(spec: &effects::ParamSpec, p: f64, se: f64) -> bool {
     } else {
         0.0
     };
-    p + margin >= spec.plausible.0 && p - margin <= spec.plausible.1
+    spec.outside_plausible(p) <= margin
 }
 
 /// How close to its search's edge (a fraction of the range) a fit counts as stopped there: the

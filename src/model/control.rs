@@ -246,8 +246,8 @@ impl Default for SteerControl {
 /// A geared steer motor as a manifest declares it (`[steer_motor]`): its rotor's inertia from
 /// the motor's data sheet and the gearbox's ratio. Powered or not, the rotor turns `gear_ratio`
 /// times as fast as the steer, so it adds its inertia times the ratio squared about the steer
-/// axis ([`SteerMotorSpec::reflected_inertia_kg_m2`]), which the gap diagnosis's
-/// `steer_inertia` then takes as its plausible range's centre instead of the library's
+/// axis ([`SteerMotorSpec::reflected_inertia_kg_m2`]), from which the gap diagnosis's
+/// `steer_inertia` then takes its plausible range (0.8–2 times it) instead of the library's
 /// catalogue-wide one.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -59,6 +59,7 @@ const fn bicycle(
         acts: Acts::Always,
         per_condition: false,
         needs_controller: false,
+        of_declared_motor: None,
         measured: None,
     }
 }
@@ -436,9 +437,10 @@ const ACTUATOR_GAIN: Definition = Definition {
 
 /// Inertia `J` added about the steer axis: a steer motor's rotor and gears, reflected through
 /// the gear ratio, powered or not (bicycles that carry a controller, or declare the motor:
-/// then its range is the motor's, [`steer_inertia_of`]).
+/// then its range is the motor's, `steer_inertia_of`).
 const STEER_INERTIA: Definition = Definition {
     needs_controller: true,
+    of_declared_motor: Some(steer_inertia_of),
     ..bicycle(
         "steer_inertia",
         "inertia added about the steer axis (a steer motor's rotor)",
@@ -474,10 +476,7 @@ pub const DECLARED_MOTOR_HIGH: f64 = 2.0;
 /// search reaches at least twice the plausible range's top. Issue 76: "ranges belong to the
 /// bicycle … a steer motor: gear ratio and rotor inertia … the ranges follow from the
 /// physics".
-pub fn steer_inertia_of(
-    spec: ParamSpec,
-    motor: &crate::model::control::SteerMotorSpec,
-) -> ParamSpec {
+fn steer_inertia_of(spec: ParamSpec, motor: &crate::model::control::SteerMotorSpec) -> ParamSpec {
     let j = motor.reflected_inertia_kg_m2();
     let plausible = (DECLARED_MOTOR_LOW * j, DECLARED_MOTOR_HIGH * j);
     ParamSpec {
